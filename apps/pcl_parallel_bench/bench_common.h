@@ -1,0 +1,91 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * Shared pieces of the benchmark: timing with medians over repeats, and a plain table.
+ */
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pcl_parallel {
+namespace bench {
+
+/** Options every sub-benchmark understands. */
+struct Options {
+  std::string data_dir;          ///< reference data (3dtk_dat, stanford_bunny, ...)
+  int repeats = 5;               ///< timed repeats per cell; the median is reported
+  std::vector<unsigned> threads; ///< thread counts to compare (default 1 and all cores)
+};
+
+/** Median wall time in seconds of `repeats` runs of fn (after one untimed warm-up). */
+inline double
+medianSeconds(int repeats, const std::function<void()>& fn)
+{
+  fn();
+  std::vector<double> t;
+  for (int r = 0; r < std::max(1, repeats); ++r) {
+    const auto start = std::chrono::steady_clock::now();
+    fn();
+    t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
+  return t[t.size() / 2];
+}
+
+/** A markdown table printed to stdout, so the output pastes into docs/benchmarks.md. */
+class Table {
+public:
+  explicit Table(std::vector<std::string> header) : header_(std::move(header)) {}
+  void
+  addRow(std::vector<std::string> row)
+  {
+    rows_.push_back(std::move(row));
+  }
+  void
+  print() const
+  {
+    printRow(header_);
+    std::string rule = "|";
+    for (std::size_t i = 0; i < header_.size(); ++i)
+      rule += "---|";
+    std::printf("%s\n", rule.c_str());
+    for (const auto& r : rows_)
+      printRow(r);
+    std::printf("\n");
+    std::fflush(stdout);
+  }
+
+private:
+  static void
+  printRow(const std::vector<std::string>& row)
+  {
+    std::string line = "|";
+    for (const auto& c : row)
+      line += " " + c + " |";
+    std::printf("%s\n", line.c_str());
+  }
+  std::vector<std::string> header_;
+  std::vector<std::vector<std::string>> rows_;
+};
+
+/** printf-style formatting into a std::string. */
+template <typename... Args>
+std::string
+fmt(const char* format, Args... args)
+{
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), format, args...);
+  return buf;
+}
+
+int
+runKdTree(const Options& opt);
+
+} // namespace bench
+} // namespace pcl_parallel

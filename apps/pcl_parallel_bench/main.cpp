@@ -1,0 +1,87 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * pcl_parallel_bench: side-by-side timings (ours vs PCL, 1 vs N threads), medians over
+ * repeats, printed as markdown tables for docs/benchmarks.md. Not a test: it asserts
+ * nothing about time.
+ */
+#include "bench_common.h"
+
+#include <pcl_parallel/parallel.h>
+
+#include <pcl/console/print.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <sstream>
+
+namespace {
+
+void
+usage()
+{
+  std::printf(
+      "usage: pcl_parallel_bench <what> [--data DIR] [--repeats N] [--threads 1,2,...]\n"
+      "  what: kdtree | all\n"
+      "  --data     reference data directory (default: the build's PCL_PARALLEL_DATA_DIR)\n"
+      "  --repeats  timed repeats per cell, median reported (default 5)\n"
+      "  --threads  thread counts to compare (default: 1 and all cores)\n");
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  using namespace pcl_parallel::bench;
+  if (argc < 2) {
+    usage();
+    return 2;
+  }
+  pcl::console::setVerbosityLevel(pcl::console::L_ERROR);
+  const std::string what = argv[1];
+  Options opt;
+  opt.data_dir = PCL_PARALLEL_DATA_DIR;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (i + 1 >= argc) {
+      usage();
+      return 2;
+    }
+    if (a == "--data")
+      opt.data_dir = argv[++i];
+    else if (a == "--repeats")
+      opt.repeats = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--threads") {
+      std::stringstream ss(argv[++i]);
+      std::string tok;
+      while (std::getline(ss, tok, ','))
+        opt.threads.push_back(static_cast<unsigned>(std::atoi(tok.c_str())));
+    }
+    else {
+      usage();
+      return 2;
+    }
+  }
+  if (opt.threads.empty()) {
+    opt.threads.push_back(1);
+    if (pcl_parallel::hardwareThreads() > 1)
+      opt.threads.push_back(pcl_parallel::hardwareThreads());
+  }
+
+  const std::map<std::string, int (*)(const Options&)> benches = {{"kdtree", runKdTree}};
+  if (what == "all") {
+    int rc = 0;
+    for (const auto& b : benches)
+      rc |= b.second(opt);
+    return rc;
+  }
+  const auto it = benches.find(what);
+  if (it == benches.end()) {
+    usage();
+    return 2;
+  }
+  return it->second(opt);
+}

@@ -1,0 +1,58 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/parallel.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace pcl_parallel {
+
+/** Elements per block of deterministicReduce(): large enough that a block's work
+ *  dwarfs scheduling, small enough to balance 2..64 threads on ~10^5 points. */
+constexpr std::size_t kReductionBlockSize = 2048;
+
+/**
+ * \brief Thread-count independent parallel reduction (paper Eq. 11-13).
+ *
+ * [0, n) is cut into fixed blocks of \a block_size. Each block is reduced on its own by
+ * `Acc block(std::size_t begin, std::size_t end)`, whichever thread runs it, and the block
+ * results are then folded in block order by `void combine(Acc& into, const Acc& from)`.
+ * Neither the grouping nor the order of floating-point operations depends on the number
+ * of threads, so the result is bit-identical for any thread count. Block results live in
+ * cache-line padded slots so no two threads write to one line.
+ */
+template <typename Acc, typename BlockFn, typename CombineFn>
+Acc
+deterministicReduce(std::size_t n,
+                    unsigned num_threads,
+                    const Acc& identity,
+                    BlockFn&& block,
+                    CombineFn&& combine,
+                    std::size_t block_size = kReductionBlockSize)
+{
+  struct alignas(kCacheLineSize) Slot {
+    Acc value;
+  };
+  if (block_size == 0)
+    block_size = kReductionBlockSize;
+  const std::size_t blocks = (n + block_size - 1) / block_size;
+  std::vector<Slot> partial(blocks, Slot{identity});
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1 && blocks > 1)
+  for (std::int64_t b = 0; b < static_cast<std::int64_t>(blocks); ++b) {
+    const std::size_t begin = static_cast<std::size_t>(b) * block_size;
+    const std::size_t end = begin + block_size < n ? begin + block_size : n;
+    partial[b].value = block(begin, end);
+  }
+  Acc total = identity;
+  for (const Slot& s : partial)
+    combine(total, s.value);
+  return total;
+}
+
+} // namespace pcl_parallel

@@ -1,0 +1,37 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+/**
+ * \file
+ * Workaround for registering clouds of different point types with PCL 1.13.
+ *
+ * PCL 1.13's CorrespondenceEstimationBase<PointSource, PointTarget> declares its
+ * reciprocal tree as a pcl::search::KdTree<PointTarget> but initialises it with a
+ * KdTree<PointSource>, so its constructor (and with it every registration class) does not
+ * compile when the two types differ. We declare explicit specialisations of that
+ * constructor, defined in src/registration/mixed_point_types.cpp, for the mixed pairs
+ * pcl_parallel instantiates: PointXYZ -> PointNormal and PointNormal -> PointXYZ, with
+ * float and double Scalar. Include this header (every pcl_parallel registration header
+ * does) before anything instantiates those classes.
+ */
+
+#include <pcl/point_types.h>
+#include <pcl/registration/correspondence_estimation.h>
+
+#define PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(S, T, SCALAR)                                 \
+  template <>                                                                              \
+  CorrespondenceEstimationBase<S, T, SCALAR>::CorrespondenceEstimationBase();
+
+namespace pcl {
+namespace registration {
+PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointXYZ, pcl::PointNormal, float)
+PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointXYZ, pcl::PointNormal, double)
+PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointNormal, pcl::PointXYZ, float)
+PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointNormal, pcl::PointXYZ, double)
+} // namespace registration
+} // namespace pcl
+
+#undef PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR

@@ -1,0 +1,168 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/search/kdtree.h>
+
+#include <pcl/console/print.h>
+
+#include <omp.h>
+
+#include <cstdint>
+
+namespace pcl_parallel {
+namespace search {
+
+namespace detail {
+/** PCL's clouds store x, y, z first and then padding or other fields. */
+template <typename PointT>
+constexpr std::size_t
+floatStride()
+{
+  static_assert(sizeof(PointT) % sizeof(float) == 0, "point type must be float-aligned");
+  return sizeof(PointT) / sizeof(float);
+}
+
+template <typename PointT>
+void
+buildIndex(KdTreeIndex& index,
+           const pcl::PointCloud<PointT>* cloud,
+           const pcl::Indices* indices,
+           unsigned num_threads,
+           unsigned bucket_size)
+{
+  static_assert(sizeof(pcl::index_t) == sizeof(std::uint32_t), "32-bit pcl::index_t expected");
+  if (!cloud || cloud->empty()) {
+    index.build(nullptr, 0, 3, nullptr, num_threads, bucket_size);
+    return;
+  }
+  const float* xyz = cloud->front().data;
+  constexpr std::size_t stride = floatStride<PointT>();
+  if (!indices) {
+    index.build(xyz, cloud->size(), stride, nullptr, num_threads, bucket_size);
+    return;
+  }
+  // Gather the selected points; ids stay cloud indices. An out-of-range index is an
+  // error, not undefined behaviour.
+  std::vector<float> selected;
+  std::vector<std::uint32_t> ids;
+  selected.reserve(3 * indices->size());
+  ids.reserve(indices->size());
+  for (const auto i : *indices) {
+    if (i < 0 || static_cast<std::size_t>(i) >= cloud->size()) {
+      PCL_ERROR("[pcl_parallel] Index %d out of range (cloud has %zu points); ignored.\n",
+                static_cast<int>(i),
+                cloud->size());
+      continue;
+    }
+    const float* p = xyz + static_cast<std::size_t>(i) * stride;
+    selected.insert(selected.end(), p, p + 3);
+    ids.push_back(static_cast<std::uint32_t>(i));
+  }
+  index.build(selected.data(), ids.size(), 3, ids.data(), num_threads, bucket_size);
+}
+} // namespace detail
+
+template <typename PointT>
+KdTree<PointT>::KdTree(bool sorted) : pcl::search::KdTree<PointT>(sorted)
+{
+  name_ = "pcl_parallel::KdTree";
+}
+
+template <typename PointT>
+void
+KdTree<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const IndicesConstPtr& indices)
+{
+  input_ = cloud;
+  indices_ = indices;
+  if (!cloud)
+    PCL_ERROR("[pcl_parallel::KdTree::setInputCloud] Null input cloud.\n");
+  detail::buildIndex(index_, cloud.get(), indices.get(), num_threads_, bucket_size_);
+  if (index_.empty())
+    PCL_ERROR("[pcl_parallel::KdTree::setInputCloud] The input cloud has no finite points; "
+              "searches will find nothing.\n");
+}
+
+template <typename PointT>
+int
+KdTree<PointT>::nearestKSearch(const PointT& point,
+                               int k,
+                               pcl::Indices& k_indices,
+                               std::vector<float>& k_sqr_distances) const
+{
+  const std::size_t kk = k > 0 ? std::min<std::size_t>(k, index_.size()) : 0;
+  std::vector<std::uint32_t> pos(kk);
+  k_sqr_distances.resize(kk);
+  const std::size_t found = index_.knn(point.data, kk, pos.data(), k_sqr_distances.data());
+  k_indices.resize(found);
+  k_sqr_distances.resize(found);
+  for (std::size_t i = 0; i < found; ++i)
+    k_indices[i] = static_cast<pcl::index_t>(index_.id(pos[i]));
+  return static_cast<int>(found);
+}
+
+template <typename PointT>
+int
+KdTree<PointT>::radiusSearch(const PointT& point,
+                             double radius,
+                             pcl::Indices& k_indices,
+                             std::vector<float>& k_sqr_distances,
+                             unsigned int max_nn) const
+{
+  std::vector<std::uint32_t> pos;
+  index_.radius(point.data,
+                static_cast<float>(radius * radius),
+                pos,
+                k_sqr_distances,
+                max_nn,
+                sorted_results_);
+  k_indices.resize(pos.size());
+  for (std::size_t i = 0; i < pos.size(); ++i)
+    k_indices[i] = static_cast<pcl::index_t>(index_.id(pos[i]));
+  return static_cast<int>(pos.size());
+}
+
+template <typename PointT>
+void
+KdTree<PointT>::nearestKSearch(const PointCloud& cloud,
+                               const pcl::Indices& indices,
+                               int k,
+                               std::vector<pcl::Indices>& k_indices,
+                               std::vector<std::vector<float>>& k_sqr_distances) const
+{
+  // As PCL: empty indices mean every point of the cloud.
+  const std::size_t n = indices.empty() ? cloud.size() : indices.size();
+  k_indices.resize(n);
+  k_sqr_distances.resize(n);
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 64) if (threads > 1)
+  for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+    const auto q = indices.empty() ? i : indices[i];
+    nearestKSearch(cloud[q], k, k_indices[i], k_sqr_distances[i]);
+  }
+}
+
+template <typename PointT>
+void
+KdTree<PointT>::radiusSearch(const PointCloud& cloud,
+                             const pcl::Indices& indices,
+                             double radius,
+                             std::vector<pcl::Indices>& k_indices,
+                             std::vector<std::vector<float>>& k_sqr_distances,
+                             unsigned int max_nn) const
+{
+  const std::size_t n = indices.empty() ? cloud.size() : indices.size();
+  k_indices.resize(n);
+  k_sqr_distances.resize(n);
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 64) if (threads > 1)
+  for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+    const auto q = indices.empty() ? i : indices[i];
+    radiusSearch(cloud[q], radius, k_indices[i], k_sqr_distances[i], max_nn);
+  }
+}
+
+} // namespace search
+} // namespace pcl_parallel

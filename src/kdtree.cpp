@@ -1,0 +1,532 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/kdtree.h>
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+#include <utility>
+
+namespace pcl_parallel {
+
+namespace {
+
+/** A far cell is searched while (lower bound * kBoundSlack) can beat the best match.
+ *  The incremental bound is summed in float, so it may round a few ulp above the true
+ *  distance; the slack keeps the search exact at a negligible loss of pruning. */
+constexpr float kBoundSlack = 1.0f - 8.0f * std::numeric_limits<float>::epsilon();
+
+/** Below this many points a subtree is built by the task that reached it. */
+constexpr std::uint32_t kMinTaskPoints = 4096;
+
+inline float
+sqrDist(const float* a, const float* b)
+{
+  const float dx = a[0] - b[0];
+  const float dy = a[1] - b[1];
+  const float dz = a[2] - b[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+inline bool
+isFinite3(const float* p)
+{
+  return std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+}
+
+/** Node slots of a subtree over n points, f(n) = 1 for n <= B, else
+ *  1 + f(floor(n/2)) + f(ceil(n/2)). Returns {f(n), f(n+1)}; O(log n). */
+std::pair<std::size_t, std::size_t>
+slotPair(std::size_t n, std::size_t bucket)
+{
+  if (n + 1 <= bucket)
+    return {1, 1};
+  if (n <= bucket) // n == B: B+1 points split into two leaves
+    return {1, 3};
+  const std::size_t m = n / 2;
+  const auto [fm, fm1] = slotPair(m, bucket);
+  if (n % 2 == 0)
+    return {1 + 2 * fm, 1 + fm + fm1};
+  return {1 + fm + fm1, 1 + 2 * fm1};
+}
+
+std::size_t
+slotsFor(std::size_t n, std::size_t bucket)
+{
+  return slotPair(n, bucket).first;
+}
+
+// Result policies for the one traversal in KdTreeIndex::search().
+
+/** Nearest neighbour: state in a (padded or packed) per-thread slot. */
+template <typename Slot>
+struct NearestResult {
+  Slot& slot;
+  bool
+  canImprove(float lower_bound) const
+  {
+    return lower_bound * kBoundSlack < slot.sqr_dist;
+  }
+  static std::uint32_t
+  leafLimit(std::uint32_t)
+  {
+    return 1;
+  }
+  void
+  offer(float d2, std::uint32_t pos)
+  {
+    if (d2 < slot.sqr_dist) {
+      slot.sqr_dist = d2;
+      slot.pos = pos;
+    }
+  }
+};
+
+/** k nearest: a sorted array of at most k entries, closest first. */
+struct KnnResult {
+  std::size_t k;
+  std::uint32_t* pos;
+  float* d2;
+  std::size_t count = 0;
+
+  float
+  worst() const
+  {
+    return count < k ? std::numeric_limits<float>::infinity() : d2[count - 1];
+  }
+  bool
+  canImprove(float lower_bound) const
+  {
+    return lower_bound * kBoundSlack < worst();
+  }
+  std::uint32_t
+  leafLimit(std::uint32_t n) const
+  {
+    return static_cast<std::uint32_t>(std::min<std::size_t>(n, k));
+  }
+  void
+  offer(float dist, std::uint32_t p)
+  {
+    if (!(dist < worst()))
+      return;
+    std::size_t i = count < k ? count++ : k - 1;
+    // Insert after equal distances: ties keep the order in which they were found.
+    for (; i > 0 && d2[i - 1] > dist; --i) {
+      d2[i] = d2[i - 1];
+      pos[i] = pos[i - 1];
+    }
+    d2[i] = dist;
+    pos[i] = p;
+  }
+};
+
+/** Fixed radius: every point with d2 <= r2 (inclusive, as FLANN). */
+struct RadiusResult {
+  float r2;
+  std::vector<std::uint32_t>& pos;
+  std::vector<float>& d2;
+
+  bool
+  canImprove(float lower_bound) const
+  {
+    return lower_bound * kBoundSlack <= r2;
+  }
+  static std::uint32_t
+  leafLimit(std::uint32_t n)
+  {
+    return n;
+  }
+  void
+  offer(float dist, std::uint32_t p)
+  {
+    if (dist <= r2) {
+      pos.push_back(p);
+      d2.push_back(dist);
+    }
+  }
+};
+
+} // namespace
+
+/** Build state shared by the tasks of one build(): disjoint ranges of perm are
+ *  partitioned concurrently; each node's slot is known in advance (slotsFor). */
+struct KdTreeIndex::Builder {
+  KdTreeIndex& tree;
+  const float* points; ///< finite input points, 3 floats each
+  std::uint32_t* perm; ///< leaf order -> input point
+  std::uint32_t task_points;
+
+  float
+  coord(std::uint32_t i, std::uint32_t axis) const
+  {
+    return points[3 * static_cast<std::size_t>(i) + axis];
+  }
+
+  void
+  buildNode(std::uint32_t node, std::uint32_t begin, std::uint32_t end)
+  {
+    float lo[3], hi[3];
+    for (int a = 0; a < 3; ++a)
+      lo[a] = hi[a] = coord(perm[begin], a);
+    for (std::uint32_t i = begin + 1; i < end; ++i)
+      for (int a = 0; a < 3; ++a) {
+        const float c = coord(perm[i], a);
+        lo[a] = std::min(lo[a], c);
+        hi[a] = std::max(hi[a], c);
+      }
+    std::uint32_t axis = 0;
+    for (std::uint32_t a = 1; a < 3; ++a)
+      if (hi[a] - lo[a] > hi[axis] - lo[axis])
+        axis = a;
+
+    Node& nd = tree.nodes_[node];
+    const std::uint32_t n = end - begin;
+    const bool coincident = hi[axis] - lo[axis] == 0.0f;
+    if (n <= tree.bucket_size_ || coincident) {
+      nd.kind = coincident && n > 1 ? kDuplicateLeaf : kLeaf;
+      nd.leaf = {begin, end};
+      return;
+    }
+
+    const std::uint32_t mid = begin + n / 2;
+    std::nth_element(perm + begin, perm + mid, perm + end, [&](std::uint32_t a, std::uint32_t b) {
+      return coord(a, axis) < coord(b, axis);
+    });
+    float left_max = coord(perm[begin], axis);
+    for (std::uint32_t i = begin + 1; i < mid; ++i)
+      left_max = std::max(left_max, coord(perm[i], axis));
+
+    nd.kind = axis;
+    nd.split = {left_max, coord(perm[mid], axis)};
+    nd.right = node + 1 + static_cast<std::uint32_t>(slotsFor(mid - begin, tree.bucket_size_));
+    const std::uint32_t right = nd.right;
+
+    // Sec. IV-A.2: the two halves are disjoint, so they are built concurrently.
+    if (n > task_points) {
+#pragma omp task default(shared) firstprivate(node, begin, mid)
+      buildNode(node + 1, begin, mid);
+    }
+    else {
+      buildNode(node + 1, begin, mid);
+    }
+    buildNode(right, mid, end);
+  }
+};
+
+void
+KdTreeIndex::build(const float* xyz,
+                   std::size_t n,
+                   std::size_t stride,
+                   const std::uint32_t* ids,
+                   unsigned num_threads,
+                   unsigned bucket_size)
+{
+  if (bucket_size == 0)
+    throw std::invalid_argument("pcl_parallel::KdTreeIndex: bucket size must be at least 1");
+  if (n > 0 && (xyz == nullptr || stride < 3))
+    throw std::invalid_argument("pcl_parallel::KdTreeIndex: need 3 floats per point");
+  if (n >= kInvalid)
+    throw std::invalid_argument("pcl_parallel::KdTreeIndex: too many points");
+
+  bucket_size_ = bucket_size;
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+
+  std::vector<float> finite;
+  std::vector<std::uint32_t> finite_ids;
+  finite.reserve(3 * n);
+  finite_ids.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* p = xyz + i * stride;
+    if (!isFinite3(p))
+      continue;
+    finite.insert(finite.end(), p, p + 3);
+    finite_ids.push_back(ids ? ids[i] : static_cast<std::uint32_t>(i));
+  }
+  const auto m = static_cast<std::uint32_t>(finite_ids.size());
+
+  nodes_.clear();
+  points_.clear();
+  ids_.clear();
+  if (m == 0) {
+    std::fill(bbox_min_, bbox_min_ + 3, 0.0f);
+    std::fill(bbox_max_, bbox_max_ + 3, 0.0f);
+    return;
+  }
+  for (int a = 0; a < 3; ++a) {
+    bbox_min_[a] = bbox_max_[a] = finite[a];
+    for (std::uint32_t i = 1; i < m; ++i) {
+      bbox_min_[a] = std::min(bbox_min_[a], finite[3 * std::size_t{i} + a]);
+      bbox_max_[a] = std::max(bbox_max_[a], finite[3 * std::size_t{i} + a]);
+    }
+  }
+
+  nodes_.resize(slotsFor(m, bucket_size_));
+  std::vector<std::uint32_t> perm(m);
+  std::iota(perm.begin(), perm.end(), 0u);
+
+  // Spawn tasks down to ~8 subtrees per thread (and never below kMinTaskPoints points):
+  // enough to balance, few enough that task overhead stays negligible.
+  Builder builder{*this,
+                  finite.data(),
+                  perm.data(),
+                  threads > 1 ? std::max(kMinTaskPoints, m / (8 * threads)) : kInvalid};
+  if (threads > 1) {
+#pragma omp parallel num_threads(threads)
+#pragma omp single
+    builder.buildNode(0, 0, m);
+  }
+  else {
+    builder.buildNode(0, 0, m);
+  }
+
+  // Subtrees of coincident points end early and leave unused slots: drop them.
+  std::vector<Node> compact;
+  compact.reserve(nodes_.size());
+  compactNodes(0, compact);
+  nodes_.swap(compact);
+
+  points_.resize(3 * std::size_t{m});
+  ids_.resize(m);
+#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1)
+  for (std::int64_t i = 0; i < static_cast<std::int64_t>(m); ++i) {
+    const std::size_t src = perm[i];
+    std::copy_n(&finite[3 * src], 3, &points_[3 * static_cast<std::size_t>(i)]);
+    ids_[i] = finite_ids[src];
+  }
+}
+
+std::uint32_t
+KdTreeIndex::compactNodes(std::uint32_t node, std::vector<Node>& out) const
+{
+  const auto at = static_cast<std::uint32_t>(out.size());
+  out.push_back(nodes_[node]);
+  if (nodes_[node].kind < kLeaf) {
+    compactNodes(node + 1, out); // lands at at + 1: depth-first order is kept
+    const std::uint32_t right = compactNodes(nodes_[node].right, out);
+    out[at].right = right;
+  }
+  return at;
+}
+
+float
+KdTreeIndex::rootDistance(const float* q, float* off) const
+{
+  float d2 = 0.0f;
+  for (int a = 0; a < 3; ++a) {
+    off[a] = q[a] < bbox_min_[a] ? bbox_min_[a] - q[a]
+           : q[a] > bbox_max_[a] ? q[a] - bbox_max_[a]
+                                 : 0.0f;
+    d2 += off[a] * off[a];
+  }
+  return d2;
+}
+
+template <typename Result>
+void
+KdTreeIndex::scanLeaf(const Node& node, const float* q, Result& result) const
+{
+  const std::uint32_t count = node.leaf.end - node.leaf.begin;
+  // A duplicate leaf's points coincide: its first leafLimit() points stand for all.
+  const std::uint32_t end =
+      node.kind == kDuplicateLeaf ? node.leaf.begin + result.leafLimit(count) : node.leaf.end;
+  const float* p = &points_[3 * static_cast<std::size_t>(node.leaf.begin)];
+  for (std::uint32_t i = node.leaf.begin; i < end; ++i, p += 3)
+    result.offer(sqrDist(q, p), i);
+}
+
+template <typename Result>
+void
+KdTreeIndex::search(
+    std::uint32_t node, const float* q, float min_sqr_dist, float* off, Result& result) const
+{
+  const Node& nd = nodes_[node];
+  if (nd.kind >= kLeaf) {
+    scanLeaf(nd, q, result);
+    return;
+  }
+  const std::uint32_t axis = nd.kind;
+  const float to_left = q[axis] - nd.split.lo;  // >= 0: query is right of the left half
+  const float to_right = q[axis] - nd.split.hi; // <= 0: query is left of the right half
+  std::uint32_t near_child = node + 1, far_child = nd.right;
+  float cut = to_right;
+  if (to_left + to_right >= 0.0f) {
+    std::swap(near_child, far_child);
+    cut = to_left;
+  }
+  search(near_child, q, min_sqr_dist, off, result);
+
+  // Incremental distance to the far cell: replace this axis' offset by the cut.
+  const float old = off[axis];
+  const float far_sqr_dist = min_sqr_dist - old * old + cut * cut;
+  if (result.canImprove(far_sqr_dist)) {
+    off[axis] = cut;
+    search(far_child, q, far_sqr_dist, off, result);
+    off[axis] = old;
+  }
+}
+
+template <typename Slot>
+std::uint32_t
+KdTreeIndex::nearestImpl(Slot& slot, float max_sqr_dist, std::uint32_t hint) const
+{
+  const float* q = slot.query;
+  slot.pos = kInvalid;
+  // Accept d2 <= max_sqr_dist through the strict test d2 < sqr_dist.
+  slot.sqr_dist = std::nextafter(max_sqr_dist, std::numeric_limits<float>::infinity());
+  if (empty() || !isFinite3(q) || !(max_sqr_dist >= 0.0f)) {
+    slot.sqr_dist = std::numeric_limits<float>::infinity();
+    return kInvalid;
+  }
+  if (hint < size()) {
+    const float d2 = sqrDist(q, point(hint));
+    if (d2 <= max_sqr_dist) {
+      slot.sqr_dist = d2;
+      slot.pos = hint;
+    }
+  }
+  float off[3];
+  NearestResult<Slot> result{slot};
+  const float root = rootDistance(q, off);
+  if (result.canImprove(root))
+    search(0, q, root, off, result);
+  if (slot.pos == kInvalid)
+    slot.sqr_dist = std::numeric_limits<float>::infinity();
+  return slot.pos;
+}
+
+std::uint32_t
+KdTreeIndex::nearest(const float* query,
+                     float max_sqr_dist,
+                     float& sqr_dist,
+                     std::uint32_t hint) const
+{
+  PackedNearestSlot slot; // private to this call: no sharing, no padding needed
+  slot.query = query;
+  nearestImpl(slot, max_sqr_dist, hint);
+  sqr_dist = slot.sqr_dist;
+  return slot.pos;
+}
+
+std::uint32_t
+KdTreeIndex::nearest(NearestSlot& slot, float max_sqr_dist, std::uint32_t hint) const
+{
+  return nearestImpl(slot, max_sqr_dist, hint);
+}
+
+std::uint32_t
+KdTreeIndex::nearest(PackedNearestSlot& slot, float max_sqr_dist, std::uint32_t hint) const
+{
+  return nearestImpl(slot, max_sqr_dist, hint);
+}
+
+template <typename Slot>
+void
+KdTreeIndex::nearestBatchImpl(const float* queries,
+                              std::size_t n,
+                              std::size_t stride,
+                              float max_sqr_dist,
+                              std::uint32_t* out_pos,
+                              float* out_sqr_dist,
+                              unsigned num_threads) const
+{
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+  // One slot per thread, indexed by omp_get_thread_num() (paper Sec. IV-B).
+  std::vector<Slot> slots(threads);
+#pragma omp parallel num_threads(threads) if (threads > 1)
+  {
+    Slot& slot = slots[omp_get_thread_num()];
+#pragma omp for schedule(dynamic, 256)
+    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+      slot.query = queries + static_cast<std::size_t>(i) * stride;
+      out_pos[i] = nearestImpl(slot, max_sqr_dist, kInvalid);
+      if (out_sqr_dist)
+        out_sqr_dist[i] = slot.sqr_dist;
+    }
+  }
+}
+
+void
+KdTreeIndex::nearestBatch(const float* queries,
+                          std::size_t n,
+                          std::size_t stride,
+                          float max_sqr_dist,
+                          std::uint32_t* out_pos,
+                          float* out_sqr_dist,
+                          unsigned num_threads,
+                          SlotLayout layout) const
+{
+  if (n > 0 && (queries == nullptr || stride < 3 || out_pos == nullptr))
+    throw std::invalid_argument("pcl_parallel::KdTreeIndex::nearestBatch: bad arguments");
+  if (layout == SlotLayout::kPadded)
+    nearestBatchImpl<NearestSlot>(
+        queries, n, stride, max_sqr_dist, out_pos, out_sqr_dist, num_threads);
+  else
+    nearestBatchImpl<PackedNearestSlot>(
+        queries, n, stride, max_sqr_dist, out_pos, out_sqr_dist, num_threads);
+}
+
+std::size_t
+KdTreeIndex::knn(const float* query,
+                 std::size_t k,
+                 std::uint32_t* out_pos,
+                 float* out_sqr_dist) const
+{
+  if (k == 0 || empty() || !isFinite3(query))
+    return 0;
+  KnnResult result{k, out_pos, out_sqr_dist};
+  float off[3];
+  const float root = rootDistance(query, off);
+  search(0, query, root, off, result);
+  return result.count;
+}
+
+std::size_t
+KdTreeIndex::radius(const float* query,
+                    float sqr_radius,
+                    std::vector<std::uint32_t>& out_pos,
+                    std::vector<float>& out_sqr_dist,
+                    std::size_t max_nn,
+                    bool sorted) const
+{
+  out_pos.clear();
+  out_sqr_dist.clear();
+  if (empty() || !isFinite3(query) || !(sqr_radius >= 0.0f))
+    return 0;
+  RadiusResult result{sqr_radius, out_pos, out_sqr_dist};
+  float off[3];
+  const float root = rootDistance(query, off);
+  if (result.canImprove(root))
+    search(0, query, root, off, result);
+
+  const std::size_t found = out_pos.size();
+  const std::size_t keep = max_nn > 0 ? std::min(max_nn, found) : found;
+  if (sorted) {
+    std::vector<std::uint32_t> order(found);
+    std::iota(order.begin(), order.end(), 0u);
+    const auto closer = [&](std::uint32_t a, std::uint32_t b) {
+      return out_sqr_dist[a] < out_sqr_dist[b] ||
+             (out_sqr_dist[a] == out_sqr_dist[b] && out_pos[a] < out_pos[b]);
+    };
+    std::partial_sort(order.begin(), order.begin() + keep, order.end(), closer);
+    std::vector<std::uint32_t> pos(keep);
+    std::vector<float> d2(keep);
+    for (std::size_t i = 0; i < keep; ++i) {
+      pos[i] = out_pos[order[i]];
+      d2[i] = out_sqr_dist[order[i]];
+    }
+    out_pos.swap(pos);
+    out_sqr_dist.swap(d2);
+  }
+  else {
+    out_pos.resize(keep);
+    out_sqr_dist.resize(keep);
+  }
+  return keep;
+}
+
+} // namespace pcl_parallel
