@@ -51,6 +51,18 @@ clusteredCloud(std::size_t n, std::uint32_t seed)
   return cloud;
 }
 
+/** A copy of cloud with Gaussian noise of sigma on every coordinate (fixed seed). */
+inline pcl::PointCloud<pcl::PointXYZ>
+jittered(const pcl::PointCloud<pcl::PointXYZ>& cloud, float sigma, std::uint32_t seed)
+{
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> g(0.0f, sigma);
+  pcl::PointCloud<pcl::PointXYZ> out;
+  for (const auto& p : cloud)
+    out.push_back(pcl::PointXYZ(p.x + g(rng), p.y + g(rng), p.z + g(rng)));
+  return out;
+}
+
 /** Brute-force nearest neighbour: {index, squared distance}, index -1 if none within
  *  max_sqr (inclusive). Squared distance summed as the tree does: dx², dy², dz² in order. */
 template <typename PointQ, typename PointT>
