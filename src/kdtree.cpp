@@ -151,33 +151,32 @@ struct RadiusResult {
   }
 };
 
+/** A point during the build: partitioned in place, so the split scans and nth_element
+ *  walk contiguous memory instead of chasing an index permutation. */
+struct BuildPoint {
+  float p[3];
+  std::uint32_t id;
+};
+
 } // namespace
 
-/** Build state shared by the tasks of one build(): disjoint ranges of perm are
+/** Build state shared by the tasks of one build(): disjoint ranges of pts are
  *  partitioned concurrently; each node's slot is known in advance (slotsFor). */
 struct KdTreeIndex::Builder {
   KdTreeIndex& tree;
-  const float* points; ///< finite input points, 3 floats each
-  std::uint32_t* perm; ///< leaf order -> input point
+  BuildPoint* pts;
   std::uint32_t task_points;
-
-  float
-  coord(std::uint32_t i, std::uint32_t axis) const
-  {
-    return points[3 * static_cast<std::size_t>(i) + axis];
-  }
 
   void
   buildNode(std::uint32_t node, std::uint32_t begin, std::uint32_t end)
   {
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a)
-      lo[a] = hi[a] = coord(perm[begin], a);
+      lo[a] = hi[a] = pts[begin].p[a];
     for (std::uint32_t i = begin + 1; i < end; ++i)
       for (int a = 0; a < 3; ++a) {
-        const float c = coord(perm[i], a);
-        lo[a] = std::min(lo[a], c);
-        hi[a] = std::max(hi[a], c);
+        lo[a] = std::min(lo[a], pts[i].p[a]);
+        hi[a] = std::max(hi[a], pts[i].p[a]);
       }
     std::uint32_t axis = 0;
     for (std::uint32_t a = 1; a < 3; ++a)
@@ -194,15 +193,15 @@ struct KdTreeIndex::Builder {
     }
 
     const std::uint32_t mid = begin + n / 2;
-    std::nth_element(perm + begin, perm + mid, perm + end, [&](std::uint32_t a, std::uint32_t b) {
-      return coord(a, axis) < coord(b, axis);
+    std::nth_element(pts + begin, pts + mid, pts + end, [axis](const BuildPoint& a, const BuildPoint& b) {
+      return a.p[axis] < b.p[axis];
     });
-    float left_max = coord(perm[begin], axis);
+    float left_max = pts[begin].p[axis];
     for (std::uint32_t i = begin + 1; i < mid; ++i)
-      left_max = std::max(left_max, coord(perm[i], axis));
+      left_max = std::max(left_max, pts[i].p[axis]);
 
     nd.kind = axis;
-    nd.split = {left_max, coord(perm[mid], axis)};
+    nd.split = {left_max, pts[mid].p[axis]};
     nd.right = node + 1 + static_cast<std::uint32_t>(slotsFor(mid - begin, tree.bucket_size_));
     const std::uint32_t right = nd.right;
 
@@ -236,18 +235,14 @@ KdTreeIndex::build(const float* xyz,
   bucket_size_ = bucket_size;
   const unsigned threads = resolveNumberOfThreads(num_threads);
 
-  std::vector<float> finite;
-  std::vector<std::uint32_t> finite_ids;
-  finite.reserve(3 * n);
-  finite_ids.reserve(n);
+  std::vector<BuildPoint> pts;
+  pts.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     const float* p = xyz + i * stride;
-    if (!isFinite3(p))
-      continue;
-    finite.insert(finite.end(), p, p + 3);
-    finite_ids.push_back(ids ? ids[i] : static_cast<std::uint32_t>(i));
+    if (isFinite3(p))
+      pts.push_back({{p[0], p[1], p[2]}, ids ? ids[i] : static_cast<std::uint32_t>(i)});
   }
-  const auto m = static_cast<std::uint32_t>(finite_ids.size());
+  const auto m = static_cast<std::uint32_t>(pts.size());
 
   nodes_.clear();
   points_.clear();
@@ -257,24 +252,19 @@ KdTreeIndex::build(const float* xyz,
     std::fill(bbox_max_, bbox_max_ + 3, 0.0f);
     return;
   }
-  for (int a = 0; a < 3; ++a) {
-    bbox_min_[a] = bbox_max_[a] = finite[a];
-    for (std::uint32_t i = 1; i < m; ++i) {
-      bbox_min_[a] = std::min(bbox_min_[a], finite[3 * std::size_t{i} + a]);
-      bbox_max_[a] = std::max(bbox_max_[a], finite[3 * std::size_t{i} + a]);
+  std::copy_n(pts[0].p, 3, bbox_min_);
+  std::copy_n(pts[0].p, 3, bbox_max_);
+  for (const BuildPoint& q : pts)
+    for (int a = 0; a < 3; ++a) {
+      bbox_min_[a] = std::min(bbox_min_[a], q.p[a]);
+      bbox_max_[a] = std::max(bbox_max_[a], q.p[a]);
     }
-  }
 
   nodes_.resize(slotsFor(m, bucket_size_));
-  std::vector<std::uint32_t> perm(m);
-  std::iota(perm.begin(), perm.end(), 0u);
-
   // Spawn tasks down to ~8 subtrees per thread (and never below kMinTaskPoints points):
   // enough to balance, few enough that task overhead stays negligible.
-  Builder builder{*this,
-                  finite.data(),
-                  perm.data(),
-                  threads > 1 ? std::max(kMinTaskPoints, m / (8 * threads)) : kInvalid};
+  Builder builder{
+      *this, pts.data(), threads > 1 ? std::max(kMinTaskPoints, m / (8 * threads)) : kInvalid};
   if (threads > 1) {
 #pragma omp parallel num_threads(threads)
 #pragma omp single
@@ -294,9 +284,8 @@ KdTreeIndex::build(const float* xyz,
   ids_.resize(m);
 #pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1)
   for (std::int64_t i = 0; i < static_cast<std::int64_t>(m); ++i) {
-    const std::size_t src = perm[i];
-    std::copy_n(&finite[3 * src], 3, &points_[3 * static_cast<std::size_t>(i)]);
-    ids_[i] = finite_ids[src];
+    std::copy_n(pts[i].p, 3, &points_[3 * static_cast<std::size_t>(i)]);
+    ids_[i] = pts[i].id;
   }
 }
 
