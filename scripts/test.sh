@@ -31,8 +31,9 @@ stage() { # stage NAME COMMAND...: runs and times one step
 cmake_build() {
   local dir=$1
   shift
-  cmake -S . -B "$dir" "$@" >"$dir.configure.log" 2>&1 || {
-    cat "$dir.configure.log"
+  mkdir -p "$dir"
+  cmake -S . -B "$dir" "$@" >"$dir/configure.log" 2>&1 || {
+    cat "$dir/configure.log"
     return 1
   }
   cmake --build "$dir" -j"$jobs"
