@@ -49,7 +49,7 @@ if(PCL_PARALLEL_SANITIZE MATCHES "thread")
       message(FATAL_ERROR "ThreadSanitizer build: OpenMP for ${CMAKE_CXX_COMPILER} is not "
                           "LLVM's libomp (${OpenMP_CXX_LIBRARIES}); install libomp-14-dev")
     endif()
-    file(REAL_PATH "${_omp_lib}" _omp_lib)
+    get_filename_component(_omp_lib "${_omp_lib}" REALPATH) # file(REAL_PATH) needs 3.19
     set(PCL_PARALLEL_OPENMP_SHIM_DIR "${PROJECT_BINARY_DIR}/openmp-shim")
     file(MAKE_DIRECTORY "${PCL_PARALLEL_OPENMP_SHIM_DIR}")
     file(CREATE_LINK "${_omp_lib}" "${PCL_PARALLEL_OPENMP_SHIM_DIR}/libgomp.so.1" SYMBOLIC)
