@@ -4,8 +4,12 @@
 #   "thread"             ThreadSanitizer; use Clang with LLVM's OpenMP runtime (libomp) so the
 #                        Archer OMPT tool can tell TSan about OpenMP's synchronisation:
 #                          CC=clang-14 CXX=clang++-14 cmake -DPCL_PARALLEL_SANITIZE=thread ...
-# scripts/test.sh runs both; the run-time options (ASAN_OPTIONS, TSAN_OPTIONS, Archer,
-# suppression files) are set on the tests in test/CMakeLists.txt, so plain `ctest` works.
+# scripts/test.sh builds and runs both. It exports the run-time options (ASAN_OPTIONS,
+# LSAN_OPTIONS, UBSAN_OPTIONS, TSAN_OPTIONS with test/sanitizers/*.supp) before building,
+# since gtest discovery runs the instrumented tests at build time too; copy them from there
+# to run a sanitizer build by hand. In particular TSan needs ignore_noninstrumented_modules=1
+# (Archer's advice: uninstrumented libomp/PCL/OpenNI2 code otherwise gives false reports).
+# OMP_TOOL_LIBRARIES (Archer) is set on the TSan tests by test/CMakeLists.txt.
 #
 # Only our own targets are instrumented (pcl_parallel_sanitize(target)); PCL, FLANN, Boost
 # and VTK come from Debian's uninstrumented packages.
