@@ -8,7 +8,8 @@
 # LSAN_OPTIONS, UBSAN_OPTIONS, TSAN_OPTIONS with test/sanitizers/*.supp) before building,
 # since gtest discovery runs the instrumented tests at build time too; copy them from there
 # to run a sanitizer build by hand. In particular TSan needs ignore_noninstrumented_modules=1
-# (Archer's advice: uninstrumented libomp/PCL/OpenNI2 code otherwise gives false reports).
+# (Archer's advice: uninstrumented libomp, and libOpenNI2 loaded by libpcl_io, otherwise
+# give false reports).
 # OMP_TOOL_LIBRARIES (Archer) is set on the TSan tests by test/CMakeLists.txt.
 #
 # Only our own targets are instrumented (pcl_parallel_sanitize(target)); PCL, FLANN, Boost
