@@ -1,10 +1,27 @@
 # Dependencies of pcl_parallel, found the same way by our build and by the installed
 # pcl_parallelConfig.cmake (which includes this file).
-include(CMakeFindDependencyMacro)
+#
+# From the config (inside find_package(pcl_parallel)) find_dependency forwards REQUIRED and
+# QUIET; in our own build there is no enclosing find_package, so find_package(... REQUIRED)
+# is used directly (find_dependency would make a missing dependency non-fatal there).
+if(CMAKE_FIND_PACKAGE_NAME)
+  include(CMakeFindDependencyMacro)
+  macro(_pcl_parallel_find_dependency)
+    find_dependency(${ARGN})
+  endmacro()
+else()
+  macro(_pcl_parallel_find_dependency)
+    find_package(${ARGN} REQUIRED)
+  endmacro()
+endif()
 
 # Debian's PCLConfig.cmake loads VTK (for pcl_io), whose imported targets reference
-# MPI::MPI_C; without MPI found first, generation fails.
-find_dependency(MPI COMPONENTS C)
-find_dependency(PCL 1.13 COMPONENTS common search kdtree registration io)
-find_dependency(Eigen3 3.3)
-find_dependency(OpenMP COMPONENTS CXX)
+# MPI::MPI_C; without MPI found first, generation fails. FindMPI's C component needs the C
+# language, which a consumer's project(... LANGUAGES CXX) does not enable.
+if(NOT CMAKE_C_COMPILER_LOADED)
+  enable_language(C)
+endif()
+_pcl_parallel_find_dependency(MPI COMPONENTS C)
+_pcl_parallel_find_dependency(PCL 1.13 COMPONENTS common search kdtree registration io)
+_pcl_parallel_find_dependency(Eigen3 3.3)
+_pcl_parallel_find_dependency(OpenMP COMPONENTS CXX)

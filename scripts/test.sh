@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# The test suite, as run by CI (.ci/run) and documented in README.md. From the repository root:
+#
+#   scripts/test.sh                 all stages
+#   scripts/test.sh release tsan    only the stages named
+#
+# Stages (each in its own build directory, reused by later runs):
+#   release  build/       Release build of everything; ctest (unit tests + install_consumer)
+#   asan     build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (GCC, -O1 -g),
+#                         whole test suite, leaks checked, any UBSan finding fails
+#   tsan     build-tsan/  ThreadSanitizer (clang-14, LLVM libomp + Archer, -O1 -g), only
+#                         the tests labelled "tsan" in test/CMakeLists.txt
+# Prints the time of each stage at the end. Dependencies: scripts/install-deps.sh.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+jobs=$(nproc)
+stages=("$@")
+((${#stages[@]})) || stages=(release asan tsan)
+
+timings=()
+stage() { # stage NAME COMMAND...: runs and times one step
+  local name=$1 start=$SECONDS
+  shift
+  echo "=== ${name}"
+  "$@"
+  timings+=("$(printf '%-16s %5ds' "$name" $((SECONDS - start)))")
+}
+
+# cmake_build DIR [cmake configure args...]: configure and build DIR
+cmake_build() {
+  local dir=$1
+  shift
+  mkdir -p "$dir"
+  cmake -S . -B "$dir" "$@" >"$dir/configure.log" 2>&1 || {
+    cat "$dir/configure.log"
+    return 1
+  }
+  cmake --build "$dir" -j"$jobs"
+}
+
+release() {
+  stage release-build cmake_build build -DCMAKE_BUILD_TYPE=Release
+  stage release-ctest ctest --test-dir build --output-on-failure --no-tests=error -j2
+}
+
+asan() {
+  # detect_leaks: LeakSanitizer at exit; suppressions: see the file for why each is benign.
+  export ASAN_OPTIONS=detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1
+  export LSAN_OPTIONS=suppressions=$PWD/test/sanitizers/lsan.supp:print_suppressions=0
+  export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  stage asan-build cmake_build build-asan -DCMAKE_BUILD_TYPE=Debug \
+    -DPCL_PARALLEL_SANITIZE=address,undefined -DPCL_PARALLEL_BUILD_APPS=OFF
+  stage asan-ctest ctest --test-dir build-asan --output-on-failure --no-tests=error -j2
+  unset ASAN_OPTIONS LSAN_OPTIONS UBSAN_OPTIONS
+}
+
+tsan() {
+  # OMP_TOOL_LIBRARIES (Archer) is set on the tests by test/CMakeLists.txt.
+  export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 ignore_noninstrumented_modules=1 suppressions=$PWD/test/sanitizers/tsan.supp"
+  export CC=clang-14 CXX=clang++-14
+  stage tsan-build cmake_build build-tsan -DCMAKE_BUILD_TYPE=Debug \
+    -DPCL_PARALLEL_SANITIZE=thread -DPCL_PARALLEL_BUILD_APPS=OFF
+  stage tsan-ctest ctest --test-dir build-tsan --output-on-failure --no-tests=error -j2 -L tsan
+  unset TSAN_OPTIONS CC CXX
+}
+
+total=$SECONDS
+for s in "${stages[@]}"; do
+  case "$s" in
+  release | asan | tsan) "$s" ;;
+  *)
+    echo "scripts/test.sh: unknown stage '$s' (release, asan, tsan)" >&2
+    exit 2
+    ;;
+  esac
+done
+
+echo "=== stage timings"
+printf '%s\n' "${timings[@]}"
+printf '%-16s %5ds\n' total $((SECONDS - total))

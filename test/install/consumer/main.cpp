@@ -1,0 +1,56 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * Consumer of the installed package (ctest install_consumer); also the usage example in
+ * README.md. Exits non-zero if a search or the registration gives a wrong answer.
+ */
+#include <pcl_parallel/registration/correspondence_estimation.h>
+#include <pcl_parallel/search/kdtree.h>
+
+#include <pcl/common/transforms.h>
+#include <pcl/registration/icp.h>
+
+#include <cmath>
+#include <cstdio>
+
+int
+main()
+{
+  using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+  Cloud::Ptr target(new Cloud), source(new Cloud);
+  for (int i = 0; i < 20; ++i) // a 20 x 20 x 5 grid, 10 cm spacing
+    for (int j = 0; j < 20; ++j)
+      for (int k = 0; k < 5; ++k)
+        target->push_back(pcl::PointXYZ(0.1f * i, 0.1f * j, 0.1f * k));
+
+  // Drop-in for pcl::search::KdTree, built and batch-searched in parallel.
+  pcl_parallel::search::KdTree<pcl::PointXYZ>::Ptr tree(
+      new pcl_parallel::search::KdTree<pcl::PointXYZ>);
+  tree->setInputCloud(target);
+  pcl::Indices nn(1);
+  std::vector<float> nn_sqr(1);
+  if (tree->nearestKSearch(pcl::PointXYZ(0.51f, 0.49f, 0.2f), 1, nn, nn_sqr) != 1 ||
+      (*target)[nn[0]].getVector3fMap() != Eigen::Vector3f(0.5f, 0.5f, 0.2f)) {
+    std::fprintf(stderr, "nearestKSearch: wrong neighbour\n");
+    return 1;
+  }
+
+  // Parallel closest-point search inside PCL's ICP.
+  Eigen::Affine3f motion(Eigen::Translation3f(0.02f, -0.03f, 0.01f));
+  pcl::transformPointCloud(*target, *source, motion);
+  using Estimation = pcl_parallel::registration::ParallelCorrespondenceEstimation<pcl::PointXYZ,
+                                                                                  pcl::PointXYZ>;
+  pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
+  icp.setCorrespondenceEstimation(Estimation::Ptr(new Estimation));
+  icp.setSearchMethodTarget(tree, true); // reuse the tree built above
+  icp.setInputSource(source);
+  icp.setInputTarget(target);
+  icp.setMaximumIterations(50);
+  Cloud aligned;
+  icp.align(aligned);
+  const Eigen::Vector3f t = icp.getFinalTransformation().block<3, 1>(0, 3);
+  const float err = (t + motion.translation()).norm();
+  std::printf("ICP converged=%d, translation error %.2e\n", icp.hasConverged(), err);
+  return icp.hasConverged() && err < 1e-3f ? 0 : 1;
+}
