@@ -65,12 +65,17 @@ matrixToPose(const Eigen::Matrix4d& m)
 void
 applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta)
 {
+  const Eigen::Vector3d t = delta.head<3>();
   const Eigen::Vector3d w = delta.tail<3>();
+  const Eigen::Vector3d c = pose.topRightCorner<3, 1>();
   const double angle = w.norm();
-  Eigen::Matrix4d d = Eigen::Matrix4d::Identity();
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
   if (angle > 0.0)
-    d.topLeftCorner<3, 3>() = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-  d.topRightCorner<3, 1>() = delta.head<3>();
+    r = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
+  // p -> r (p - c) + c + t + w x c, i.e. p + w x p + t to first order.
+  Eigen::Matrix4d d = Eigen::Matrix4d::Identity();
+  d.topLeftCorner<3, 3>() = r;
+  d.topRightCorner<3, 1>() = c - r * c + t + w.cross(c);
   pose = d * pose;
   // Keep R orthonormal over many updates.
   const Eigen::Quaterniond q(Eigen::Matrix3d(pose.topLeftCorner<3, 3>()));

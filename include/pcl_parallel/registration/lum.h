@@ -145,6 +145,17 @@ public:
    *  Unlike the 6-vector overload, vertex 0 keeps the given pose (still fixed). */
   Vertex
   addPointCloud(const PointCloudPtr& cloud, const Eigen::Matrix4f& pose);
+  /** Any Eigen expression (e.g. Matrix4f::Identity(), a Matrix4d): 4x4 goes to the matrix
+   *  overload, 6x1 to the 6-vector one (otherwise the two overloads are ambiguous). */
+  template <typename Derived>
+  Vertex
+  addPointCloud(const PointCloudPtr& cloud, const Eigen::MatrixBase<Derived>& pose)
+  {
+    if constexpr (Derived::RowsAtCompileTime == 4 && Derived::ColsAtCompileTime == 4)
+      return addPointCloud(cloud, Eigen::Matrix4f(pose.template cast<float>()));
+    else
+      return addPointCloud(cloud, Eigen::Vector6f(pose.template cast<float>()));
+  }
   void
   setPoseMatrix(const Vertex& vertex, const Eigen::Matrix4d& pose);
   Eigen::Matrix4d
@@ -171,6 +182,30 @@ public:
    *  std::out_of_range for a missing vertex, std::invalid_argument for source == target. */
   void
   addLink(const Vertex& source_vertex, const Vertex& target_vertex);
+  /** pLUM mode: also search the target's points in the source (default true), so both
+   *  scans' overlap borders contribute pairs. */
+  void
+  setSymmetricCorrespondences(bool symmetric)
+  {
+    symmetric_ = symmetric;
+  }
+  bool
+  getSymmetricCorrespondences() const
+  {
+    return symmetric_;
+  }
+  /** pLUM mode: query every step-th point of a scan (default 1: all). The trees always
+   *  hold all points, so matches keep the full density. */
+  void
+  setQueryStep(std::size_t step)
+  {
+    query_step_ = step > 0 ? step : 1;
+  }
+  std::size_t
+  getQueryStep() const
+  {
+    return query_step_;
+  }
   /** Links with fewer valid pairs are dropped for the iteration (default 10, >= 3). */
   void
   setMinCorrespondences(std::size_t n)
@@ -256,6 +291,8 @@ private:
   float convergence_threshold_ = 0.0f;
   double correspondence_distance_ = 0.0;
   std::size_t min_correspondences_ = 10;
+  bool symmetric_ = true;
+  std::size_t query_step_ = 1;
   unsigned num_threads_ = 0;
 
   // Master copy of the poses (double) and the 6-vectors last written to the graph: a

@@ -32,9 +32,13 @@ poseToMatrix(const Eigen::Matrix<float, 6, 1>& pose);
 Eigen::Matrix<float, 6, 1>
 matrixToPose(const Eigen::Matrix4d& m);
 
-/** Left (world-frame) update T <- Exp(delta) * T with delta = (t, w): rotation by the
- *  rotation vector w (Rodrigues, exact), then translation by t. To first order it moves a
- *  world point p to p + w x p + t, which is what the linearisation below assumes. */
+/** Left (world-frame) update of a pose by delta = (t, w). The linearisation below models
+ *  it to first order as moving a world point p to p + w x p + t. Any rigid motion with
+ *  that expansion is a valid update; this one rotates by the rotation vector w
+ *  (Rodrigues, exact) about the pose's own position c and translates by t + w x c, so
+ *  points near the scan, the ones its links constrain, move with an error of order
+ *  |w|^2 |p - c| instead of |w|^2 |p| (which grows with the distance to the world
+ *  origin, e.g. along a long trajectory). */
 void
 applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta);
 

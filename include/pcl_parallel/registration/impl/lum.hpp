@@ -350,36 +350,51 @@ ParallelLUM<PointT>::computeLinkPairs(std::size_t,
                                       lum::LinkAccumulator& acc,
                                       pcl::Correspondences* out)
 {
-  const PointCloud& src = *(*slam_graph_)[link.source].cloud_;
-  const KdTreeIndex& tree = *trees_[link.target];
-  const Eigen::Matrix4d& ti = poses_[link.source];
-  const Eigen::Matrix4d& tj = poses_[link.target];
-  // Source points into the target's own frame, where its tree was built.
-  const Eigen::Matrix4f tji = (tj.inverse() * ti).template cast<float>();
-  const float max_sqr = registration::sqrDistanceBound(correspondence_distance_);
-  std::vector<std::uint32_t>& hints = hints_.at({link.source, link.target});
-  if (hints.size() != src.size())
-    hints.assign(src.size(), KdTreeIndex::kInvalid);
   if (out)
     out->clear();
+  const float max_sqr = registration::sqrDistanceBound(correspondence_distance_);
   float q[3];
   slot.query = q;
-  for (std::size_t k = 0; k < src.size(); ++k) {
-    const Eigen::Vector3f p = src[k].getVector3fMap();
-    if (!p.allFinite())
-      continue;
-    Eigen::Vector3f::Map(q) = tji.topLeftCorner<3, 3>() * p + tji.topRightCorner<3, 1>();
-    const std::uint32_t pos = tree.nearest(slot, max_sqr, hints[k]);
-    hints[k] = pos;
-    if (pos == KdTreeIndex::kInvalid)
-      continue;
-    const Eigen::Vector3d pt(tree.point(pos)[0], tree.point(pos)[1], tree.point(pos)[2]);
-    acc.add(ti.topLeftCorner<3, 3>() * p.cast<double>() + ti.topRightCorner<3, 1>(),
-            tj.topLeftCorner<3, 3>() * pt + tj.topRightCorner<3, 1>());
-    if (out)
-      out->emplace_back(static_cast<pcl::index_t>(k),
-                        static_cast<pcl::index_t>(tree.id(pos)),
-                        slot.sqr_dist);
+  // Pass 0: source points searched in the target's tree; pass 1 (symmetric mode): the
+  // reverse. Both feed one accumulator with the residual always source - target, so
+  // overlap borders pull from both sides and the bias of one-sided pairing cancels.
+  for (int pass = 0; pass < (symmetric_ ? 2 : 1); ++pass) {
+    const Vertex from = pass == 0 ? link.source : link.target;
+    const Vertex to = pass == 0 ? link.target : link.source;
+    const PointCloud& cloud = *(*slam_graph_)[from].cloud_;
+    const KdTreeIndex& tree = *trees_[to];
+    const Eigen::Matrix4d& t_from = poses_[from];
+    const Eigen::Matrix4d& t_to = poses_[to];
+    // Query points into the other scan's own frame, where its tree was built.
+    const Eigen::Matrix4f rel = (t_to.inverse() * t_from).template cast<float>();
+    std::vector<std::uint32_t>& hints = hints_.at({from, to});
+    if (hints.size() != cloud.size())
+      hints.assign(cloud.size(), KdTreeIndex::kInvalid);
+    for (std::size_t k = 0; k < cloud.size(); k += query_step_) {
+      const Eigen::Vector3f p = cloud[k].getVector3fMap();
+      if (!p.allFinite())
+        continue;
+      Eigen::Vector3f::Map(q) = rel.topLeftCorner<3, 3>() * p + rel.topRightCorner<3, 1>();
+      const std::uint32_t pos = tree.nearest(slot, max_sqr, hints[k]);
+      hints[k] = pos;
+      if (pos == KdTreeIndex::kInvalid)
+        continue;
+      const Eigen::Vector3d a =
+          t_from.topLeftCorner<3, 3>() * p.cast<double>() + t_from.topRightCorner<3, 1>();
+      const Eigen::Vector3d b =
+          t_to.topLeftCorner<3, 3>() *
+              Eigen::Vector3f::Map(tree.point(pos)).template cast<double>() +
+          t_to.topRightCorner<3, 1>();
+      if (pass == 0) {
+        acc.add(a, b);
+        if (out)
+          out->emplace_back(static_cast<pcl::index_t>(k),
+                            static_cast<pcl::index_t>(tree.id(pos)),
+                            slot.sqr_dist);
+      }
+      else
+        acc.add(b, a);
+    }
   }
 }
 
@@ -413,8 +428,10 @@ ParallelLUM<PointT>::compute()
   const unsigned threads = resolveNumberOfThreads(num_threads_);
   if (plum) {
     buildTrees();
-    for (const LinkRef& l : links)
-      hints_[{l.source, l.target}]; // create before the parallel loop
+    for (const LinkRef& l : links) { // create before the parallel loop
+      hints_[{l.source, l.target}];
+      hints_[{l.target, l.source}];
+    }
   }
 
   std::vector<lum::LinkBlock, Eigen::aligned_allocator<lum::LinkBlock>> blocks(links.size());
