@@ -19,6 +19,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <cmath>
@@ -504,6 +505,14 @@ TEST_F(QuietPcl, LoopOf200PosesCloses)
   EXPECT_LT(e1.max_trans, e0.max_trans / 10.0);
   EXPECT_LT(e1.max_rot, e0.max_rot / 10.0);
   EXPECT_LT(e1.mean_trans, e0.mean_trans / 10.0);
+  // Step 5's covariances: symmetric positive definite, and largest halfway round the loop,
+  // farthest from the fixed vertex 0 along both branches.
+  const pcl_parallel::lum::Matrix6d c1 = lum.getPoseCovariance(1);
+  const pcl_parallel::lum::Matrix6d c100 = lum.getPoseCovariance(100);
+  EXPECT_TRUE(c100.isApprox(c100.transpose()));
+  EXPECT_GT(Eigen::SelfAdjointEigenSolver<pcl_parallel::lum::Matrix6d>(c100).eigenvalues().minCoeff(), 0.0);
+  EXPECT_GT(c100.topLeftCorner<3, 3>().trace(), 10.0 * c1.topLeftCorner<3, 3>().trace());
+  EXPECT_TRUE(lum.getPoseCovariance(0).isZero());
   // The closure itself: the last pose is where it should be relative to the first.
   double r, t;
   pcl_parallel::lum::poseError(got[0].inverse() * got[n - 1], truth[0].inverse() * truth[n - 1],
