@@ -236,6 +236,8 @@ TYPED_TEST(LumApiTest, SameCodeCompilesAndRecoversTruth)
     total += cl->size();
   EXPECT_EQ(lum.getConcatenatedCloud()->size(), total);
 
+  const Lum copy = lum; // copyable, like PCL's
+  EXPECT_EQ(copy.getNumVertices(), lum.getNumVertices());
   typename Lum::SLAMGraphPtr graph = lum.getLoopGraph();
   Lum other;
   other.setLoopGraph(graph);

@@ -256,6 +256,13 @@ public:
   }
 
 private:
+  /** One thread's search state (paper Sec. IV-B / V): the padded slot and the query it
+   *  points to, on their own cache lines. */
+  struct alignas(kCacheLineSize) ThreadState {
+    NearestSlot slot;
+    float query[3];
+  };
+
   struct LinkRef {
     Vertex source;
     Vertex target;
@@ -273,9 +280,8 @@ private:
   void
   buildTrees();
   void
-  computeLinkPairs(std::size_t l,
-                   const LinkRef& link,
-                   NearestSlot& slot,
+  computeLinkPairs(const LinkRef& link,
+                   ThreadState& state,
                    lum::LinkAccumulator& acc,
                    pcl::Correspondences* out);
   void
@@ -307,7 +313,28 @@ private:
   // Per-link warm-start hints (last iteration's matches), by (source, target).
   std::map<std::pair<Vertex, Vertex>, std::vector<std::uint32_t>> hints_;
 
-  std::unique_ptr<lum::PoseGraphSolver> solver_;
+  /** The solver with its factorisation; a copy of ParallelLUM starts with a fresh one
+   *  (PCL's LUM is copyable, so ours is too; the graph is shared, as PCL's copy shares it). */
+  struct SolverSlot {
+    std::unique_ptr<lum::PoseGraphSolver> ptr{new lum::PoseGraphSolver};
+    SolverSlot() = default;
+    SolverSlot(const SolverSlot&) : ptr(new lum::PoseGraphSolver) {}
+    SolverSlot&
+    operator=(const SolverSlot&)
+    {
+      ptr.reset(new lum::PoseGraphSolver);
+      return *this;
+    }
+    SolverSlot(SolverSlot&&) noexcept = default;
+    SolverSlot&
+    operator=(SolverSlot&&) noexcept = default;
+    lum::PoseGraphSolver*
+    operator->() const
+    {
+      return ptr.get();
+    }
+  };
+  SolverSlot solver_;
   int iterations_done_ = 0;
   double last_mean_update_ = 0.0;
   std::size_t dropped_links_ = 0;

@@ -21,9 +21,7 @@
 namespace pcl_parallel {
 
 template <typename PointT>
-ParallelLUM<PointT>::ParallelLUM()
-: slam_graph_(new SLAMGraph), solver_(new lum::PoseGraphSolver)
-{}
+ParallelLUM<PointT>::ParallelLUM() : slam_graph_(new SLAMGraph) {}
 
 template <typename PointT>
 ParallelLUM<PointT>::~ParallelLUM() = default;
@@ -344,16 +342,16 @@ ParallelLUM<PointT>::buildTrees()
 
 template <typename PointT>
 void
-ParallelLUM<PointT>::computeLinkPairs(std::size_t,
-                                      const LinkRef& link,
-                                      NearestSlot& slot,
+ParallelLUM<PointT>::computeLinkPairs(const LinkRef& link,
+                                      ThreadState& state,
                                       lum::LinkAccumulator& acc,
                                       pcl::Correspondences* out)
 {
   if (out)
     out->clear();
   const float max_sqr = registration::sqrDistanceBound(correspondence_distance_);
-  float q[3];
+  NearestSlot& slot = state.slot;
+  float* q = state.query;
   slot.query = q;
   // Pass 0: source points searched in the target's tree; pass 1 (symmetric mode): the
   // reverse. Both feed one accumulator with the residual always source - target, so
@@ -438,7 +436,7 @@ ParallelLUM<PointT>::compute()
   std::vector<const char*> reasons(links.size(), nullptr);
   std::vector<std::size_t> pair_counts(links.size(), 0);
   std::vector<pcl::CorrespondencesPtr> link_corrs(links.size());
-  std::vector<NearestSlot> slots(threads); // paper Sec. IV-B/V: one padded slot per thread
+  std::vector<ThreadState> states(threads); // paper Sec. IV-B/V: padded, one per thread
   std::vector<lum::Vector6d, Eigen::aligned_allocator<lum::Vector6d>> delta;
   iterations_done_ = 0;
 
@@ -451,7 +449,7 @@ ParallelLUM<PointT>::compute()
       if (plum) {
         if (!link_corrs[li])
           link_corrs[li].reset(new pcl::Correspondences);
-        computeLinkPairs(li, link, slots[omp_get_thread_num()], acc, link_corrs[li].get());
+        computeLinkPairs(link, states[omp_get_thread_num()], acc, link_corrs[li].get());
       }
       else
         computeLinkFixed(link, acc);
