@@ -28,8 +28,11 @@ namespace pcl_parallel {
  * - pLUM mode (setCorrespondenceDistance(d) with d > 0): every iteration recomputes the
  *   closest points of every link (i, j) within d (paper step 1). Each scan's k-d tree is
  *   built once in the scan's own frame; the source points are moved into the target's
- *   frame by the current poses and searched there. Links come from setCorrespondences()
- *   (the given pairs are then ignored), addLink(), or loop_detection.h.
+ *   frame by the current poses and searched there, by default in both directions
+ *   (setSymmetricCorrespondences). Links come from setCorrespondences() (the given pairs
+ *   are then ignored), addLink(), detectLinksByDistance() (loop_detection.h) or
+ *   findOverlappingPairs(). To shrink the distance over the iterations, call compute()
+ *   with setMaxIterations(1) in a loop (see docs/design.md).
  *
  * Per iteration, for all links in parallel (OpenMP, dynamic schedule): pairs, then the
  * link's measurement and covariance (step 2, lum::LinkAccumulator). The per-link blocks
@@ -39,7 +42,7 @@ namespace pcl_parallel {
  * thread count.
  *
  * Poses are kept internally as 4x4 matrices in double and linearised with a local
- * (world-frame) perturbation T <- Exp(t, w) T, so no orientation is special; PCL's
+ * (world-frame) perturbation of each pose (lum::applyUpdate), so no orientation is special; PCL's
  * (x, y, z, roll, pitch, yaw) vectors are converted only at the API boundary. Near
  * pitch = +-90 deg the 6-vector is ambiguous, the matrix (getPoseMatrix) is not.
  *
@@ -47,6 +50,7 @@ namespace pcl_parallel {
  * - invalid input (missing vertex, empty cloud, non-finite pose, no links, a vertex not
  *   connected to vertex 0, out-of-range correspondence indices) throws
  *   std::invalid_argument / std::out_of_range where PCL prints an error or crashes;
+ *   an unsolvable system stops compute() with PCL_ERROR, keeping the last good poses;
  * - a link with too few pairs or a singular covariance is dropped for the iteration with
  *   a PCL_WARN (PCL keeps it with zero weight, which may leave G singular);
  * - the link covariance is s^2 A^-1 with the unbiased s^2 = SSR / (3N - 6) (Borrmann et
