@@ -87,5 +87,12 @@ fmt(const char* format, Args... args)
 int
 runKdTree(const Options& opt);
 
+int
+runLum(const Options& opt);
+int
+runLumBunny(const Options& opt);
+int
+runLumScaling(const Options& opt);
+
 } // namespace bench
 } // namespace pcl_parallel

@@ -1,0 +1,610 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/registration/correspondence_estimation.h> // sqrDistanceBound
+#include <pcl_parallel/registration/lum.h>
+#include <pcl_parallel/search/impl/kdtree.hpp>
+
+#include <pcl/common/transforms.h>
+#include <pcl/console/print.h>
+
+#include <omp.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+
+namespace pcl_parallel {
+
+template <typename PointT>
+ParallelLUM<PointT>::ParallelLUM() : slam_graph_(new SLAMGraph) {}
+
+template <typename PointT>
+ParallelLUM<PointT>::~ParallelLUM() = default;
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setLoopGraph(const SLAMGraphPtr& slam_graph)
+{
+  if (!slam_graph)
+    throw std::invalid_argument("[pcl_parallel::ParallelLUM::setLoopGraph] null graph");
+  slam_graph_ = slam_graph;
+  poses_.clear();
+  mirrors_.clear();
+  hints_.clear();
+}
+
+template <typename PointT>
+typename ParallelLUM<PointT>::SLAMGraph::vertices_size_type
+ParallelLUM<PointT>::getNumVertices() const
+{
+  return num_vertices(*slam_graph_);
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::checkVertex(const Vertex& v, const char* where) const
+{
+  if (v >= getNumVertices())
+    throw std::out_of_range(std::string("[pcl_parallel::ParallelLUM::") + where +
+                            "] vertex " + std::to_string(v) + " does not exist (" +
+                            std::to_string(getNumVertices()) + " vertices)");
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::syncPoses()
+{
+  const std::size_t n = getNumVertices();
+  poses_.resize(n, Eigen::Matrix4d::Identity());
+  mirrors_.resize(n, Eigen::Vector6f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  for (std::size_t v = 0; v < n; ++v) {
+    const Eigen::Vector6f& p = (*slam_graph_)[v].pose_;
+    // Bitwise comparison: NaN mirrors (new vertices) never match.
+    if (!(p.array() == mirrors_[v].array()).all()) {
+      poses_[v] = lum::poseToMatrix(p);
+      mirrors_[v] = p;
+    }
+  }
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::writeBackPoses()
+{
+  for (std::size_t v = 0; v < poses_.size(); ++v) {
+    mirrors_[v] = lum::matrixToPose(poses_[v]);
+    (*slam_graph_)[v].pose_ = mirrors_[v];
+  }
+}
+
+template <typename PointT>
+typename ParallelLUM<PointT>::Vertex
+ParallelLUM<PointT>::addPointCloud(const PointCloudPtr& cloud, const Eigen::Vector6f& pose)
+{
+  syncPoses();
+  const Vertex v = add_vertex(*slam_graph_);
+  (*slam_graph_)[v].cloud_ = cloud;
+  if (v == 0 && pose != Eigen::Vector6f::Zero())
+    PCL_WARN("[pcl_parallel::ParallelLUM::addPointCloud] The pose estimate is ignored for "
+             "the first cloud in the graph since that will become the reference pose.\n");
+  (*slam_graph_)[v].pose_ = v == 0 ? Eigen::Vector6f::Zero() : pose;
+  syncPoses();
+  return v;
+}
+
+template <typename PointT>
+typename ParallelLUM<PointT>::Vertex
+ParallelLUM<PointT>::addPointCloud(const PointCloudPtr& cloud, const Eigen::Matrix4f& pose)
+{
+  syncPoses();
+  const Vertex v = add_vertex(*slam_graph_);
+  (*slam_graph_)[v].cloud_ = cloud;
+  poses_.push_back(pose.cast<double>());
+  mirrors_.push_back(lum::matrixToPose(poses_.back()));
+  (*slam_graph_)[v].pose_ = mirrors_.back();
+  return v;
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setPointCloud(const Vertex& vertex, const PointCloudPtr& cloud)
+{
+  checkVertex(vertex, "setPointCloud");
+  (*slam_graph_)[vertex].cloud_ = cloud;
+}
+
+template <typename PointT>
+typename ParallelLUM<PointT>::PointCloudPtr
+ParallelLUM<PointT>::getPointCloud(const Vertex& vertex) const
+{
+  checkVertex(vertex, "getPointCloud");
+  return (*slam_graph_)[vertex].cloud_;
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setPose(const Vertex& vertex, const Eigen::Vector6f& pose)
+{
+  checkVertex(vertex, "setPose");
+  if (vertex == 0) {
+    PCL_ERROR("[pcl_parallel::ParallelLUM::setPose] The pose estimate is ignored for the "
+              "first cloud in the graph since that will become the reference pose.\n");
+    return;
+  }
+  syncPoses();
+  (*slam_graph_)[vertex].pose_ = pose;
+  syncPoses();
+}
+
+template <typename PointT>
+Eigen::Vector6f
+ParallelLUM<PointT>::getPose(const Vertex& vertex) const
+{
+  checkVertex(vertex, "getPose");
+  return (*slam_graph_)[vertex].pose_;
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setPoseMatrix(const Vertex& vertex, const Eigen::Matrix4d& pose)
+{
+  checkVertex(vertex, "setPoseMatrix");
+  syncPoses();
+  poses_[vertex] = pose;
+  mirrors_[vertex] = lum::matrixToPose(pose);
+  (*slam_graph_)[vertex].pose_ = mirrors_[vertex];
+}
+
+template <typename PointT>
+Eigen::Matrix4d
+ParallelLUM<PointT>::getPoseMatrix(const Vertex& vertex) const
+{
+  checkVertex(vertex, "getPoseMatrix");
+  const Eigen::Vector6f& p = (*slam_graph_)[vertex].pose_;
+  if (vertex < poses_.size() && (p.array() == mirrors_[vertex].array()).all())
+    return poses_[vertex];
+  return lum::poseToMatrix(p); // changed through the graph since
+}
+
+template <typename PointT>
+Eigen::Affine3f
+ParallelLUM<PointT>::getTransformation(const Vertex& vertex) const
+{
+  return Eigen::Affine3f(getPoseMatrix(vertex).template cast<float>());
+}
+
+template <typename PointT>
+lum::Matrix6d
+ParallelLUM<PointT>::getPoseCovariance(const Vertex& vertex) const
+{
+  checkVertex(vertex, "getPoseCovariance");
+  return solver_->covariance(vertex);
+}
+
+namespace detail {
+/** PCL's EdgeProperties leaves its matrices uninitialised. */
+template <typename EdgeProperties>
+EdgeProperties
+zeroEdgeProperties()
+{
+  EdgeProperties ep;
+  ep.cinv_.setZero();
+  ep.cinvd_.setZero();
+  return ep;
+}
+} // namespace detail
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setCorrespondences(const Vertex& source_vertex,
+                                        const Vertex& target_vertex,
+                                        const pcl::CorrespondencesPtr& corrs)
+{
+  checkVertex(source_vertex, "setCorrespondences");
+  checkVertex(target_vertex, "setCorrespondences");
+  if (source_vertex == target_vertex)
+    throw std::invalid_argument(
+        "[pcl_parallel::ParallelLUM::setCorrespondences] source and target are the same");
+  Edge e;
+  bool present;
+  std::tie(e, present) = edge(source_vertex, target_vertex, *slam_graph_);
+  if (!present)
+    std::tie(e, present) = add_edge(source_vertex, target_vertex, detail::zeroEdgeProperties<EdgeProperties>(), *slam_graph_);
+  (*slam_graph_)[e].corrs_ = corrs;
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::addLink(const Vertex& source_vertex, const Vertex& target_vertex)
+{
+  checkVertex(source_vertex, "addLink");
+  checkVertex(target_vertex, "addLink");
+  if (source_vertex == target_vertex)
+    throw std::invalid_argument("[pcl_parallel::ParallelLUM::addLink] source == target");
+  if (!edge(source_vertex, target_vertex, *slam_graph_).second) {
+    EdgeProperties ep = detail::zeroEdgeProperties<EdgeProperties>();
+    ep.corrs_.reset(new pcl::Correspondences);
+    add_edge(source_vertex, target_vertex, ep, *slam_graph_);
+  }
+}
+
+template <typename PointT>
+pcl::CorrespondencesPtr
+ParallelLUM<PointT>::getCorrespondences(const Vertex& source_vertex,
+                                        const Vertex& target_vertex) const
+{
+  checkVertex(source_vertex, "getCorrespondences");
+  checkVertex(target_vertex, "getCorrespondences");
+  const auto e = edge(source_vertex, target_vertex, *slam_graph_);
+  if (!e.second) {
+    PCL_ERROR("[pcl_parallel::ParallelLUM::getCorrespondences] There is no link %zu -> "
+              "%zu.\n",
+              static_cast<std::size_t>(source_vertex),
+              static_cast<std::size_t>(target_vertex));
+    return pcl::CorrespondencesPtr();
+  }
+  return (*slam_graph_)[e.first].corrs_;
+}
+
+template <typename PointT>
+std::vector<typename ParallelLUM<PointT>::LinkRef>
+ParallelLUM<PointT>::collectLinks() const
+{
+  std::vector<LinkRef> links;
+  typename SLAMGraph::edge_iterator e, e_end;
+  for (std::tie(e, e_end) = edges(*slam_graph_); e != e_end; ++e)
+    links.push_back({source(*e, *slam_graph_), target(*e, *slam_graph_), *e});
+  // Fixed order independent of the graph's edge lists: the assembly order.
+  std::sort(links.begin(), links.end(), [](const LinkRef& a, const LinkRef& b) {
+    return std::make_pair(a.source, a.target) < std::make_pair(b.source, b.target);
+  });
+  return links;
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links) const
+{
+  const std::size_t n = getNumVertices();
+  const std::string where = "[pcl_parallel::ParallelLUM::compute] ";
+  if (n < 2)
+    throw std::invalid_argument(where + "the graph needs at least 2 vertices");
+  if (links.empty())
+    throw std::invalid_argument(where + "the graph has no links");
+  for (std::size_t v = 0; v < n; ++v) {
+    const auto& cloud = (*slam_graph_)[v].cloud_;
+    if (!cloud || cloud->empty())
+      throw std::invalid_argument(where + "vertex " + std::to_string(v) +
+                                  " has no or an empty point cloud");
+    if (!poses_[v].allFinite())
+      throw std::invalid_argument(where + "vertex " + std::to_string(v) +
+                                  " has a non-finite pose");
+  }
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
+  for (const LinkRef& l : links) {
+    pairs.emplace_back(static_cast<std::uint32_t>(l.source),
+                       static_cast<std::uint32_t>(l.target));
+    if (correspondence_distance_ > 0.0)
+      continue;
+    const auto& corrs = (*slam_graph_)[l.edge].corrs_;
+    const std::string name =
+        "link " + std::to_string(l.source) + " -> " + std::to_string(l.target);
+    if (!corrs)
+      throw std::invalid_argument(where + name +
+                                  " has no correspondences (set them, or use pLUM mode "
+                                  "with setCorrespondenceDistance)");
+    const std::size_t ns = (*slam_graph_)[l.source].cloud_->size();
+    const std::size_t nt = (*slam_graph_)[l.target].cloud_->size();
+    for (const pcl::Correspondence& c : *corrs)
+      if (c.index_query < 0 || static_cast<std::size_t>(c.index_query) >= ns ||
+          c.index_match < 0 || static_cast<std::size_t>(c.index_match) >= nt)
+        throw std::out_of_range(where + name + " has a correspondence index out of range");
+  }
+  const auto unreachable = lum::unreachableFromZero(n, pairs);
+  if (!unreachable.empty())
+    throw std::invalid_argument(where + std::to_string(unreachable.size()) +
+                                " vertices (first: " + std::to_string(unreachable.front()) +
+                                ") are not connected to vertex 0 by any link");
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::buildTrees()
+{
+  const std::size_t n = getNumVertices();
+  trees_.resize(n);
+  tree_source_.resize(n, {nullptr, 0});
+  std::vector<std::size_t> todo;
+  for (std::size_t v = 0; v < n; ++v) {
+    const PointCloud* c = (*slam_graph_)[v].cloud_.get();
+    const std::size_t size = c ? c->size() : 0;
+    if (!trees_[v] || tree_source_[v] != std::make_pair(c, size))
+      todo.push_back(v);
+  }
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+  // One tree per thread at a time; a tree does not depend on how it was built.
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
+  for (std::int64_t k = 0; k < static_cast<std::int64_t>(todo.size()); ++k) {
+    const std::size_t v = todo[k];
+    auto tree = std::make_shared<KdTreeIndex>();
+    search::detail::buildIndex(*tree, (*slam_graph_)[v].cloud_.get(), nullptr, 1,
+                               KdTreeIndex::kDefaultBucketSize);
+    trees_[v] = tree;
+    const PointCloud* c = (*slam_graph_)[v].cloud_.get();
+    tree_source_[v] = {c, c ? c->size() : 0};
+  }
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::computeLinkPairs(const LinkRef& link,
+                                      ThreadState& state,
+                                      lum::LinkAccumulator& acc,
+                                      pcl::Correspondences* out)
+{
+  if (out)
+    out->clear();
+  const float max_sqr = registration::sqrDistanceBound(correspondence_distance_);
+  NearestSlot& slot = state.slot;
+  float* q = state.query;
+  slot.query = q;
+  // Pass 0: source points searched in the target's tree; pass 1 (symmetric mode): the
+  // reverse. Both feed one accumulator with the residual always source - target, so
+  // overlap borders pull from both sides and the bias of one-sided pairing cancels.
+  for (int pass = 0; pass < (symmetric_ ? 2 : 1); ++pass) {
+    const Vertex from = pass == 0 ? link.source : link.target;
+    const Vertex to = pass == 0 ? link.target : link.source;
+    const PointCloud& cloud = *(*slam_graph_)[from].cloud_;
+    const KdTreeIndex& tree = *trees_[to];
+    const Eigen::Matrix4d& t_from = poses_[from];
+    const Eigen::Matrix4d& t_to = poses_[to];
+    // Query points into the other scan's own frame, where its tree was built.
+    const Eigen::Matrix4f rel = (t_to.inverse() * t_from).template cast<float>();
+    std::vector<std::uint32_t>& hints = hints_.at({from, to});
+    if (hints.size() != cloud.size())
+      hints.assign(cloud.size(), KdTreeIndex::kInvalid);
+    for (std::size_t k = 0; k < cloud.size(); k += query_step_) {
+      const Eigen::Vector3f p = cloud[k].getVector3fMap();
+      if (!p.allFinite())
+        continue;
+      Eigen::Vector3f::Map(q) = rel.topLeftCorner<3, 3>() * p + rel.topRightCorner<3, 1>();
+      const std::uint32_t pos = tree.nearest(slot, max_sqr, hints[k]);
+      hints[k] = pos;
+      if (pos == KdTreeIndex::kInvalid)
+        continue;
+      const Eigen::Vector3d a =
+          t_from.topLeftCorner<3, 3>() * p.cast<double>() + t_from.topRightCorner<3, 1>();
+      const Eigen::Vector3d b =
+          t_to.topLeftCorner<3, 3>() *
+              Eigen::Vector3f::Map(tree.point(pos)).template cast<double>() +
+          t_to.topRightCorner<3, 1>();
+      if (pass == 0) {
+        acc.add(a, b);
+        if (out)
+          out->emplace_back(static_cast<pcl::index_t>(k),
+                            static_cast<pcl::index_t>(tree.id(pos)),
+                            slot.sqr_dist);
+      }
+      else
+        acc.add(b, a);
+    }
+  }
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::computeLinkFixed(const LinkRef& link, lum::LinkAccumulator& acc) const
+{
+  const PointCloud& src = *(*slam_graph_)[link.source].cloud_;
+  const PointCloud& tgt = *(*slam_graph_)[link.target].cloud_;
+  const Eigen::Matrix4d& ti = poses_[link.source];
+  const Eigen::Matrix4d& tj = poses_[link.target];
+  for (const pcl::Correspondence& c : *(*slam_graph_)[link.edge].corrs_) {
+    const Eigen::Vector3d p = src[c.index_query].getVector3fMap().template cast<double>();
+    const Eigen::Vector3d q = tgt[c.index_match].getVector3fMap().template cast<double>();
+    if (!p.allFinite() || !q.allFinite())
+      continue;
+    acc.add(ti.topLeftCorner<3, 3>() * p + ti.topRightCorner<3, 1>(),
+            tj.topLeftCorner<3, 3>() * q + tj.topRightCorner<3, 1>());
+  }
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::compute()
+{
+  syncPoses();
+  const std::vector<LinkRef> links = collectLinks();
+  validate(links);
+  const std::size_t n = getNumVertices();
+  const bool plum = correspondence_distance_ > 0.0;
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+  if (plum) {
+    buildTrees();
+    for (const LinkRef& l : links) { // create before the parallel loop
+      hints_[{l.source, l.target}];
+      hints_[{l.target, l.source}];
+    }
+  }
+
+  std::vector<lum::LinkBlock, Eigen::aligned_allocator<lum::LinkBlock>> blocks(links.size());
+  std::vector<const char*> reasons(links.size(), nullptr);
+  std::vector<std::size_t> pair_counts(links.size(), 0);
+  std::vector<pcl::CorrespondencesPtr> link_corrs(links.size());
+  std::vector<ThreadState> states(threads); // paper Sec. IV-B/V: padded, one per thread
+  std::vector<lum::Vector6d, Eigen::aligned_allocator<lum::Vector6d>> delta;
+  iterations_done_ = 0;
+
+  for (int it = 0; it < max_iterations_; ++it) {
+    // Steps 1-2 for all links in parallel; each link's sums run in a fixed order.
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
+    for (std::int64_t li = 0; li < static_cast<std::int64_t>(links.size()); ++li) {
+      const LinkRef& link = links[li];
+      lum::LinkAccumulator acc;
+      if (plum) {
+        if (!link_corrs[li])
+          link_corrs[li].reset(new pcl::Correspondences);
+        computeLinkPairs(link, states[omp_get_thread_num()], acc, link_corrs[li].get());
+      }
+      else
+        computeLinkFixed(link, acc);
+      lum::LinkBlock& b = blocks[li];
+      b.source = static_cast<std::uint32_t>(link.source);
+      b.target = static_cast<std::uint32_t>(link.target);
+      pair_counts[li] = acc.size();
+      b.valid = acc.finish(min_correspondences_, 1e-12, b.info, b.grad, nullptr, &reasons[li]);
+    }
+
+    dropped_links_ = 0;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> valid;
+    for (std::size_t li = 0; li < links.size(); ++li) {
+      if (blocks[li].valid) {
+        valid.emplace_back(blocks[li].source, blocks[li].target);
+        continue;
+      }
+      ++dropped_links_;
+      PCL_WARN("[pcl_parallel::ParallelLUM::compute] Link %zu -> %zu dropped in iteration "
+               "%d: %s (%zu pairs).\n",
+               static_cast<std::size_t>(links[li].source),
+               static_cast<std::size_t>(links[li].target),
+               it,
+               reasons[li] ? reasons[li] : "invalid",
+               pair_counts[li]);
+    }
+    const auto unreachable = lum::unreachableFromZero(n, valid);
+    if (!unreachable.empty()) {
+      PCL_ERROR("[pcl_parallel::ParallelLUM::compute] After dropping links, %zu vertices "
+                "(first: %u) are not connected to vertex 0; stopping with the poses of "
+                "iteration %d.\n",
+                unreachable.size(),
+                unreachable.front(),
+                it);
+      break;
+    }
+    // Steps 3-4.
+    if (!solver_->solve(n, blocks, delta)) {
+      PCL_ERROR("[pcl_parallel::ParallelLUM::compute] The linear system G X = B could not "
+                "be solved in iteration %d; poses left unchanged.\n",
+                it);
+      break;
+    }
+    // Step 5.
+    double sum = 0.0;
+    for (std::size_t v = 1; v < n; ++v) {
+      lum::applyUpdate(poses_[v], delta[v]);
+      sum += delta[v].norm();
+    }
+    ++iterations_done_;
+    last_mean_update_ = sum / static_cast<double>(n - 1);
+    if (last_mean_update_ <= convergence_threshold_)
+      break;
+  }
+
+  writeBackPoses();
+  for (std::size_t li = 0; li < links.size(); ++li) {
+    EdgeProperties& ep = (*slam_graph_)[links[li].edge];
+    ep.cinv_ = blocks[li].info.template cast<float>();
+    ep.cinvd_ = blocks[li].grad.template cast<float>();
+    if (plum && link_corrs[li])
+      ep.corrs_ = link_corrs[li];
+  }
+}
+
+template <typename PointT>
+typename ParallelLUM<PointT>::PointCloudPtr
+ParallelLUM<PointT>::getTransformedCloud(const Vertex& vertex) const
+{
+  PointCloudPtr out(new PointCloud);
+  pcl::transformPointCloud(*getPointCloud(vertex), *out, getPoseMatrix(vertex));
+  return out;
+}
+
+template <typename PointT>
+typename ParallelLUM<PointT>::PointCloudPtr
+ParallelLUM<PointT>::getConcatenatedCloud() const
+{
+  PointCloudPtr out(new PointCloud);
+  for (std::size_t v = 0; v < getNumVertices(); ++v) {
+    PointCloud temp;
+    pcl::transformPointCloud(*getPointCloud(v), temp, getPoseMatrix(v));
+    *out += temp;
+  }
+  return out;
+}
+
+template <typename PointT>
+double
+ParallelLUM<PointT>::computeOverlap(const Vertex& source_vertex,
+                                    const Vertex& target_vertex,
+                                    double max_distance)
+{
+  checkVertex(source_vertex, "computeOverlap");
+  checkVertex(target_vertex, "computeOverlap");
+  syncPoses();
+  buildTrees();
+  return overlap(source_vertex, target_vertex, max_distance);
+}
+
+template <typename PointT>
+double
+ParallelLUM<PointT>::overlap(const Vertex& source_vertex,
+                             const Vertex& target_vertex,
+                             double max_distance) const
+{
+  const PointCloudPtr& src = (*slam_graph_)[source_vertex].cloud_;
+  const KdTreeIndex& tree = *trees_[target_vertex];
+  if (!src || src->empty() || tree.empty())
+    return 0.0;
+  const Eigen::Matrix4f tji =
+      (poses_[target_vertex].inverse() * poses_[source_vertex]).template cast<float>();
+  const float max_sqr = registration::sqrDistanceBound(max_distance);
+  std::size_t finite = 0, hits = 0;
+  NearestSlot slot;
+  float q[3];
+  slot.query = q;
+  for (const PointT& pt : *src) {
+    const Eigen::Vector3f p = pt.getVector3fMap();
+    if (!p.allFinite())
+      continue;
+    ++finite;
+    Eigen::Vector3f::Map(q) = tji.topLeftCorner<3, 3>() * p + tji.topRightCorner<3, 1>();
+    if (tree.nearest(slot, max_sqr) != KdTreeIndex::kInvalid)
+      ++hits;
+  }
+  return finite ? static_cast<double>(hits) / static_cast<double>(finite) : 0.0;
+}
+
+template <typename PointT>
+std::vector<std::pair<typename ParallelLUM<PointT>::Vertex, typename ParallelLUM<PointT>::Vertex>>
+ParallelLUM<PointT>::findOverlappingPairs(double max_distance, double min_fraction)
+{
+  syncPoses();
+  buildTrees();
+  const std::size_t n = getNumVertices();
+  std::vector<std::pair<Vertex, Vertex>> pairs;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j)
+      pairs.emplace_back(i, j);
+  std::vector<char> keep(pairs.size(), 0);
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
+  for (std::int64_t k = 0; k < static_cast<std::int64_t>(pairs.size()); ++k) {
+    const auto [i, j] = pairs[k];
+    const double o = std::min(overlap(i, j, max_distance), overlap(j, i, max_distance));
+    keep[k] = o >= min_fraction;
+  }
+  std::vector<std::pair<Vertex, Vertex>> out;
+  for (std::size_t k = 0; k < pairs.size(); ++k)
+    if (keep[k])
+      out.push_back(pairs[k]);
+  return out;
+}
+
+} // namespace pcl_parallel
+
+#define PCL_INSTANTIATE_ParallelLUM(T) template class pcl_parallel::ParallelLUM<T>;

@@ -1,0 +1,351 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/registration/lum_solver.h>
+
+#include <pcl/correspondence.h>
+#include <pcl/point_cloud.h>
+#include <pcl/registration/lum.h>
+
+#include <map>
+#include <memory>
+#include <utility>
+#include <vector>
+
+namespace pcl_parallel {
+
+/**
+ * \brief pLUM: Lu/Milios style 6D GraphSLAM, parallel over the links of the graph
+ * (Nüchter 2007, Sec. III and V), with the public API of pcl::registration::LUM.
+ *
+ * Two modes:
+ * - PCL mode (default): compute() uses the correspondences given per link with
+ *   setCorrespondences(), fixed over all iterations, exactly as pcl::registration::LUM.
+ * - pLUM mode (setCorrespondenceDistance(d) with d > 0): every iteration recomputes the
+ *   closest points of every link (i, j) within d (paper step 1). Each scan's k-d tree is
+ *   built once in the scan's own frame; the source points are moved into the target's
+ *   frame by the current poses and searched there, by default in both directions
+ *   (setSymmetricCorrespondences). Links come from setCorrespondences() (the given pairs
+ *   are then ignored), addLink(), detectLinksByDistance() (loop_detection.h) or
+ *   findOverlappingPairs(). To shrink the distance over the iterations, call compute()
+ *   with setMaxIterations(1) in a loop (see docs/design.md).
+ *
+ * Per iteration, for all links in parallel (OpenMP, dynamic schedule): pairs, then the
+ * link's measurement and covariance (step 2, lum::LinkAccumulator). The per-link blocks
+ * are then assembled in link order into a sparse G X = B and solved with a sparse LDL^T
+ * in double (steps 3-4, lum::PoseGraphSolver), and the poses updated (step 5). Every
+ * per-link sum runs sequentially in a fixed order, so the result is identical for any
+ * thread count.
+ *
+ * Poses are kept internally as 4x4 matrices in double and linearised with a local
+ * (world-frame) perturbation of each pose (lum::applyUpdate), so no orientation is special; PCL's
+ * (x, y, z, roll, pitch, yaw) vectors are converted only at the API boundary. Near
+ * pitch = +-90 deg the 6-vector is ambiguous, the matrix (getPoseMatrix) is not.
+ *
+ * Deviations from pcl::registration::LUM, all on invalid input or by design:
+ * - invalid input (missing vertex, empty cloud, non-finite pose, no links, a vertex not
+ *   connected to vertex 0, out-of-range correspondence indices) throws
+ *   std::invalid_argument / std::out_of_range where PCL prints an error or crashes;
+ *   an unsolvable system stops compute() with PCL_ERROR, keeping the last good poses;
+ * - a link with too few pairs or a singular covariance is dropped for the iteration with
+ *   a PCL_WARN (PCL keeps it with zero weight, which may leave G singular);
+ * - the link covariance is s^2 A^-1 with the unbiased s^2 = SSR / (3N - 6) (Borrmann et
+ *   al. 2008) where PCL uses SSR; both agree when every link has the same pair count;
+ * - EdgeProperties::cinv_ / cinvd_ receive our H and g (see lum_solver.h), in the local
+ *   perturbation's parametrisation, not in PCL's Euler one.
+ */
+template <typename PointT>
+class ParallelLUM {
+public:
+  using Ptr = pcl::shared_ptr<ParallelLUM<PointT>>;
+  using ConstPtr = pcl::shared_ptr<const ParallelLUM<PointT>>;
+  using PointCloud = pcl::PointCloud<PointT>;
+  using PointCloudPtr = typename PointCloud::Ptr;
+  using PointCloudConstPtr = typename PointCloud::ConstPtr;
+
+  // PCL's own graph type, so setLoopGraph/getLoopGraph interoperate with LUM<PointT>.
+  using PclLUM = pcl::registration::LUM<PointT>;
+  using VertexProperties = typename PclLUM::VertexProperties;
+  using EdgeProperties = typename PclLUM::EdgeProperties;
+  using SLAMGraph = typename PclLUM::SLAMGraph;
+  using SLAMGraphPtr = typename PclLUM::SLAMGraphPtr;
+  using Vertex = typename SLAMGraph::vertex_descriptor;
+  using Edge = typename SLAMGraph::edge_descriptor;
+
+  ParallelLUM();
+  ~ParallelLUM();
+
+  // ---- pcl::registration::LUM API ------------------------------------------------
+  void
+  setLoopGraph(const SLAMGraphPtr& slam_graph);
+  SLAMGraphPtr
+  getLoopGraph() const
+  {
+    return slam_graph_;
+  }
+  typename SLAMGraph::vertices_size_type
+  getNumVertices() const;
+  /** Iteration cap of compute() (default 5, as PCL). */
+  void
+  setMaxIterations(int max_iterations)
+  {
+    max_iterations_ = max_iterations;
+  }
+  int
+  getMaxIterations() const
+  {
+    return max_iterations_;
+  }
+  /** compute() stops when the mean norm of the vertices' 6D updates (t in metres, w in
+   *  radians) is at or below this (PCL's criterion; default 0). */
+  void
+  setConvergenceThreshold(float convergence_threshold)
+  {
+    convergence_threshold_ = convergence_threshold;
+  }
+  float
+  getConvergenceThreshold() const
+  {
+    return convergence_threshold_;
+  }
+  /** Adds a scan with pose (x, y, z, roll, pitch, yaw). As PCL, the first vertex is the
+   *  fixed reference and its pose is forced to zero. */
+  Vertex
+  addPointCloud(const PointCloudPtr& cloud,
+                const Eigen::Vector6f& pose = Eigen::Vector6f::Zero());
+  void
+  setPointCloud(const Vertex& vertex, const PointCloudPtr& cloud);
+  PointCloudPtr
+  getPointCloud(const Vertex& vertex) const;
+  void
+  setPose(const Vertex& vertex, const Eigen::Vector6f& pose);
+  Eigen::Vector6f
+  getPose(const Vertex& vertex) const;
+  Eigen::Affine3f
+  getTransformation(const Vertex& vertex) const;
+  /** Adds (or replaces) link source -> target with pairs (index_query in source,
+   *  index_match in target). Throws std::out_of_range for a missing vertex. */
+  void
+  setCorrespondences(const Vertex& source_vertex,
+                     const Vertex& target_vertex,
+                     const pcl::CorrespondencesPtr& corrs);
+  /** The link's pairs: the given ones, or in pLUM mode those of the last iteration. */
+  pcl::CorrespondencesPtr
+  getCorrespondences(const Vertex& source_vertex, const Vertex& target_vertex) const;
+  /** Runs up to getMaxIterations() iterations (see the class comment). */
+  void
+  compute();
+  PointCloudPtr
+  getTransformedCloud(const Vertex& vertex) const;
+  PointCloudPtr
+  getConcatenatedCloud() const;
+
+  // ---- GraphRegistration style and double-precision poses -------------------------
+  /** Adds a scan with a 4x4 pose (pcl::registration::GraphRegistration's signature).
+   *  Unlike the 6-vector overload, vertex 0 keeps the given pose (still fixed). */
+  Vertex
+  addPointCloud(const PointCloudPtr& cloud, const Eigen::Matrix4f& pose);
+  /** Any Eigen expression (e.g. Matrix4f::Identity(), a Matrix4d): 4x4 goes to the matrix
+   *  overload, 6x1 to the 6-vector one (otherwise the two overloads are ambiguous). */
+  template <typename Derived>
+  Vertex
+  addPointCloud(const PointCloudPtr& cloud, const Eigen::MatrixBase<Derived>& pose)
+  {
+    if constexpr (Derived::RowsAtCompileTime == 4 && Derived::ColsAtCompileTime == 4)
+      return addPointCloud(cloud, Eigen::Matrix4f(pose.template cast<float>()));
+    else
+      return addPointCloud(cloud, Eigen::Vector6f(pose.template cast<float>()));
+  }
+  void
+  setPoseMatrix(const Vertex& vertex, const Eigen::Matrix4d& pose);
+  Eigen::Matrix4d
+  getPoseMatrix(const Vertex& vertex) const;
+  /** 6x6 marginal covariance of the vertex's last update (t, w), from the last solve's
+   *  factorisation (paper step 5); zero for vertex 0 or before compute(). */
+  lum::Matrix6d
+  getPoseCovariance(const Vertex& vertex) const;
+
+  // ---- pLUM ------------------------------------------------------------------------
+  /** > 0 turns on pLUM mode: pairs re-estimated every iteration within this distance
+   *  (metres); 0 (default) uses the fixed correspondences. */
+  void
+  setCorrespondenceDistance(double distance)
+  {
+    correspondence_distance_ = distance;
+  }
+  double
+  getCorrespondenceDistance() const
+  {
+    return correspondence_distance_;
+  }
+  /** Adds link source -> target without correspondences (for pLUM mode). Throws
+   *  std::out_of_range for a missing vertex, std::invalid_argument for source == target. */
+  void
+  addLink(const Vertex& source_vertex, const Vertex& target_vertex);
+  /** pLUM mode: also search the target's points in the source (default true), so both
+   *  scans' overlap borders contribute pairs. */
+  void
+  setSymmetricCorrespondences(bool symmetric)
+  {
+    symmetric_ = symmetric;
+  }
+  bool
+  getSymmetricCorrespondences() const
+  {
+    return symmetric_;
+  }
+  /** pLUM mode: query every step-th point of a scan (default 1: all). The trees always
+   *  hold all points, so matches keep the full density. */
+  void
+  setQueryStep(std::size_t step)
+  {
+    query_step_ = step > 0 ? step : 1;
+  }
+  std::size_t
+  getQueryStep() const
+  {
+    return query_step_;
+  }
+  /** Links with fewer valid pairs are dropped for the iteration (default 10, >= 3). */
+  void
+  setMinCorrespondences(std::size_t n)
+  {
+    min_correspondences_ = n;
+  }
+  std::size_t
+  getMinCorrespondences() const
+  {
+    return min_correspondences_;
+  }
+  /** Threads for the per-link work; 0 (default) = all cores. */
+  void
+  setNumberOfThreads(unsigned num_threads)
+  {
+    num_threads_ = num_threads;
+  }
+  unsigned
+  getNumberOfThreads() const
+  {
+    return num_threads_;
+  }
+  /** Fraction of the source scan's finite points whose closest target point lies within
+   *  max_distance, at the current poses (builds the k-d trees if needed). */
+  double
+  computeOverlap(const Vertex& source_vertex, const Vertex& target_vertex, double max_distance);
+  /** All pairs (i < j) whose overlap, the smaller of the two directions, is at least
+   *  min_fraction, in parallel over pairs. Returns them; does not add links. */
+  std::vector<std::pair<Vertex, Vertex>>
+  findOverlappingPairs(double max_distance, double min_fraction);
+
+  /** Iterations run by the last compute(), and its last mean update norm. */
+  int
+  getNumIterationsDone() const
+  {
+    return iterations_done_;
+  }
+  double
+  getLastMeanUpdate() const
+  {
+    return last_mean_update_;
+  }
+  /** Links dropped in the last iteration. */
+  std::size_t
+  getNumDroppedLinks() const
+  {
+    return dropped_links_;
+  }
+
+private:
+  /** One thread's search state (paper Sec. IV-B / V): the padded slot and the query it
+   *  points to, on their own cache lines. */
+  struct alignas(kCacheLineSize) ThreadState {
+    NearestSlot slot;
+    float query[3];
+  };
+
+  struct LinkRef {
+    Vertex source;
+    Vertex target;
+    Edge edge;
+  };
+
+  void
+  syncPoses();
+  void
+  writeBackPoses();
+  std::vector<LinkRef>
+  collectLinks() const;
+  void
+  validate(const std::vector<LinkRef>& links) const;
+  void
+  buildTrees();
+  void
+  computeLinkPairs(const LinkRef& link,
+                   ThreadState& state,
+                   lum::LinkAccumulator& acc,
+                   pcl::Correspondences* out);
+  void
+  computeLinkFixed(const LinkRef& link, lum::LinkAccumulator& acc) const;
+  void
+  checkVertex(const Vertex& v, const char* where) const;
+  /** computeOverlap() without syncing poses or building trees (safe in parallel). */
+  double
+  overlap(const Vertex& source_vertex, const Vertex& target_vertex, double max_distance) const;
+
+  SLAMGraphPtr slam_graph_;
+  int max_iterations_ = 5;
+  float convergence_threshold_ = 0.0f;
+  double correspondence_distance_ = 0.0;
+  std::size_t min_correspondences_ = 10;
+  bool symmetric_ = true;
+  std::size_t query_step_ = 1;
+  unsigned num_threads_ = 0;
+
+  // Master copy of the poses (double) and the 6-vectors last written to the graph: a
+  // vertex whose graph pose_ differs from its mirror was changed through the graph and
+  // is re-read from it.
+  std::vector<Eigen::Matrix4d> poses_;
+  std::vector<Eigen::Vector6f, Eigen::aligned_allocator<Eigen::Vector6f>> mirrors_;
+
+  // Per-vertex k-d trees in the scan's own frame, rebuilt when the cloud changes.
+  std::vector<std::shared_ptr<KdTreeIndex>> trees_;
+  std::vector<std::pair<const PointCloud*, std::size_t>> tree_source_;
+  // Per-link warm-start hints (last iteration's matches), by (source, target).
+  std::map<std::pair<Vertex, Vertex>, std::vector<std::uint32_t>> hints_;
+
+  /** The solver with its factorisation; a copy of ParallelLUM starts with a fresh one
+   *  (PCL's LUM is copyable, so ours is too; the graph is shared, as PCL's copy shares it). */
+  struct SolverSlot {
+    std::unique_ptr<lum::PoseGraphSolver> ptr{new lum::PoseGraphSolver};
+    SolverSlot() = default;
+    SolverSlot(const SolverSlot&) : ptr(new lum::PoseGraphSolver) {}
+    SolverSlot&
+    operator=(const SolverSlot&)
+    {
+      ptr.reset(new lum::PoseGraphSolver);
+      return *this;
+    }
+    SolverSlot(SolverSlot&&) noexcept = default;
+    SolverSlot&
+    operator=(SolverSlot&&) noexcept = default;
+    lum::PoseGraphSolver*
+    operator->() const
+    {
+      return ptr.get();
+    }
+  };
+  SolverSlot solver_;
+  int iterations_done_ = 0;
+  double last_mean_update_ = 0.0;
+  std::size_t dropped_links_ = 0;
+};
+
+} // namespace pcl_parallel
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pcl_parallel/registration/impl/lum.hpp>
+#endif

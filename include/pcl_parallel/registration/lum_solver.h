@@ -1,0 +1,163 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * Non-template core of ParallelLUM: pose conversions, the 6D linearisation of one link
+ * and the sparse solve of G X = B. Compiled once in src/registration/lum_solver.cpp.
+ */
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace pcl_parallel {
+namespace lum {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+/** PCL's 6-vector (x, y, z, roll, pitch, yaw), T = Tr * Rz(yaw) * Ry(pitch) * Rx(roll)
+ *  as pcl::getTransformation, as a 4x4 in double. */
+Eigen::Matrix4d
+poseToMatrix(const Eigen::Matrix<float, 6, 1>& pose);
+
+/** Inverse of poseToMatrix(). At pitch = +-90 deg (gimbal lock) roll and yaw are not
+ *  unique: roll is set to 0 and yaw carries the whole rotation, so the round trip still
+ *  gives the same matrix. */
+Eigen::Matrix<float, 6, 1>
+matrixToPose(const Eigen::Matrix4d& m);
+
+/** Left (world-frame) update of a pose by delta = (t, w). The linearisation below models
+ *  it to first order as moving a world point p to p + w x p + t. Any rigid motion with
+ *  that expansion is a valid update; this one rotates by the rotation vector w
+ *  (Rodrigues, exact) about the pose's own position c and translates by t + w x c, so
+ *  points near the scan, the ones its links constrain, move with an error of order
+ *  |w|^2 |p - c| instead of |w|^2 |p| (which grows with the distance to the world
+ *  origin, e.g. along a long trajectory). */
+void
+applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta);
+
+/** Rotation angle (rad) and translation distance between two poses. */
+void
+poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, double& dist);
+
+/**
+ * \brief Sufficient statistics of one link's point pairs (paper Sec. III step 2).
+ *
+ * For a pair with world points a (source scan i) and b (target scan j), residual
+ * r = a - b and midpoint m = (a + b) / 2, perturbing both poses by delta = (t, w) as in
+ * applyUpdate() changes r to first order into r + M (delta_i - delta_j) with
+ * M = [I, -[m]x] (the second-order terms w x (a - m) are dropped, as Lu/Milios and
+ * Borrmann et al. 2008, Sec. 3, do with the pair averages). The link's least-squares
+ * problem is thus linear in the pose difference D = delta_i - delta_j:
+ *   min_D sum |r + M D|^2,  A = sum M^T M,  c = sum M^T r,
+ * D-bar = -A^-1 c is the measurement and C = s^2 A^-1 its covariance, s^2 the residual
+ * variance after the fit (Borrmann et al. 2008, Eq. 9-11).
+ *
+ * Midpoints are accumulated relative to the first one (origin_) and shifted back in
+ * finish(), so large world coordinates do not cancel away the precision of the sums.
+ * add() is inline: it runs once per point pair on the hot path.
+ */
+class LinkAccumulator {
+public:
+  void
+  add(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+  {
+    const Eigen::Vector3d r = a - b;
+    if (n_ == 0)
+      origin_ = 0.5 * (a + b);
+    const Eigen::Vector3d m = 0.5 * (a + b) - origin_;
+    ++n_;
+    sum_m_ += m;
+    sum_mmt_ += m * m.transpose();
+    sum_r_ += r;
+    sum_mxr_ += m.cross(r);
+    sum_rr_ += r.squaredNorm();
+  }
+
+  std::size_t
+  size() const
+  {
+    return n_;
+  }
+
+  /** Fills the link's normal-equation blocks in world coordinates: information matrix
+   *  H = A / s^2 (= C^-1) and g = c / s^2 (= -C^-1 D-bar). Returns false (with a reason)
+   *  for fewer than min_pairs pairs or a singular A, or a non-finite result. s^2 is kept
+   *  at or above min_variance, so a link of exact pairs gets a large finite weight. */
+  bool
+  finish(std::size_t min_pairs,
+         double min_variance,
+         Matrix6d& info,
+         Vector6d& grad,
+         double* variance = nullptr,
+         const char** reason = nullptr) const;
+
+private:
+  std::size_t n_ = 0;
+  Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sum_m_ = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d sum_mmt_ = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d sum_r_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sum_mxr_ = Eigen::Vector3d::Zero();
+  double sum_rr_ = 0.0;
+};
+
+/** One link's contribution to G X = B: cost (D + H^-1 g)^T H (D + H^-1 g) with
+ *  D = delta_source - delta_target. */
+struct LinkBlock {
+  std::uint32_t source = 0;
+  std::uint32_t target = 0;
+  bool valid = false;
+  Matrix6d info = Matrix6d::Zero();
+  Vector6d grad = Vector6d::Zero();
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+/**
+ * \brief Assembles and solves the sparse normal equations G X = B over vertices
+ * 1..n-1 (vertex 0 is the fixed reference) with Eigen's SimplicialLDLT in double
+ * (paper Sec. III steps 3-4; the O(n^3) dense solve of PCL's LUM becomes a sparse
+ * Cholesky whose cost follows the fill of the graph).
+ *
+ * Triplets are generated from the link blocks in link order, so G and B, and hence the
+ * solution, do not depend on which thread computed which link. The symbolic analysis is
+ * reused while the link structure stays the same.
+ */
+class PoseGraphSolver {
+public:
+  PoseGraphSolver();
+  ~PoseGraphSolver();
+  PoseGraphSolver(const PoseGraphSolver&) = delete;
+  PoseGraphSolver&
+  operator=(const PoseGraphSolver&) = delete;
+
+  /** Solves for the updates of all n vertices (delta[0] = 0). Returns false if the
+   *  factorisation fails (e.g. a vertex without a valid link). */
+  bool
+  solve(std::size_t num_vertices,
+        const std::vector<LinkBlock, Eigen::aligned_allocator<LinkBlock>>& links,
+        std::vector<Vector6d, Eigen::aligned_allocator<Vector6d>>& delta);
+
+  /** Marginal covariance of vertex v (1..n-1) from the last factorisation: the 6x6
+   *  diagonal block of G^-1 (paper step 5, "update the covariances"). Zero for v = 0. */
+  Matrix6d
+  covariance(std::size_t v) const;
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/** Vertices not connected to vertex 0 through the given (source, target) links. */
+std::vector<std::uint32_t>
+unreachableFromZero(std::size_t num_vertices,
+                    const std::vector<std::pair<std::uint32_t, std::uint32_t>>& links);
+
+} // namespace lum
+} // namespace pcl_parallel

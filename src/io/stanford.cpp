@@ -1,0 +1,68 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/io/stanford.h>
+
+#include <cmath>
+#include <pcl/io/ply_io.h>
+
+#include <Eigen/Geometry>
+
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace pcl_parallel {
+namespace io {
+
+std::vector<StanfordConfEntry>
+loadStanfordConf(const std::string& path)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw std::runtime_error("cannot open " + path);
+  std::vector<StanfordConfEntry> out;
+  std::string line;
+  for (int line_no = 1; std::getline(in, line); ++line_no) {
+    std::istringstream ss(line);
+    std::string kind;
+    if (!(ss >> kind) || kind != "bmesh")
+      continue;
+    StanfordConfEntry e;
+    double t[3], q[4];
+    if (!(ss >> e.file >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3]))
+      throw std::runtime_error(path + ":" + std::to_string(line_no) +
+                               ": malformed bmesh line");
+    const Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]); // (w, x, y, z)
+    if (!(quat.norm() > 0.5))
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": bad quaternion");
+    e.pose.setIdentity();
+    e.pose.topLeftCorner<3, 3>() = quat.normalized().toRotationMatrix().transpose();
+    e.pose.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]);
+    out.push_back(e);
+  }
+  return out;
+}
+
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+loadStanfordScan(const std::string& path)
+{
+  pcl::PointCloud<pcl::PointXYZ> grid;
+  if (pcl::io::loadPLYFile(path, grid) < 0)
+    throw std::runtime_error("cannot read PLY " + path);
+  pcl::PointCloud<pcl::PointXYZ>::Ptr out(new pcl::PointCloud<pcl::PointXYZ>);
+  out->reserve(grid.size());
+  for (const auto& p : grid)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      out->push_back(p);
+  out->width = static_cast<std::uint32_t>(out->size());
+  out->height = 1;
+  out->is_dense = true;
+  if (out->empty())
+    throw std::runtime_error("no finite points in " + path);
+  return out;
+}
+
+} // namespace io
+} // namespace pcl_parallel

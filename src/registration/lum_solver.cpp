@@ -1,0 +1,269 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/registration/lum_solver.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
+
+#include <cmath>
+#include <numeric>
+
+namespace pcl_parallel {
+namespace lum {
+
+namespace {
+Eigen::Matrix3d
+skew(const Eigen::Vector3d& v)
+{
+  Eigen::Matrix3d s;
+  s << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return s;
+}
+} // namespace
+
+Eigen::Matrix4d
+poseToMatrix(const Eigen::Matrix<float, 6, 1>& pose)
+{
+  const Eigen::Matrix<double, 6, 1> p = pose.cast<double>();
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = (Eigen::AngleAxisd(p(5), Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(p(4), Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(p(3), Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  m.topRightCorner<3, 1>() = p.head<3>();
+  return m;
+}
+
+Eigen::Matrix<float, 6, 1>
+matrixToPose(const Eigen::Matrix4d& m)
+{
+  const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+  Eigen::Matrix<float, 6, 1> out;
+  out.head<3>() = m.topRightCorner<3, 1>().cast<float>();
+  // R = Rz(yaw) Ry(pitch) Rx(roll): R(2,0) = -sin(pitch). atan2 instead of PCL's asin
+  // keeps pitch accurate near +-90 deg.
+  const double cp = std::hypot(r(0, 0), r(1, 0));
+  const double pitch = std::atan2(-r(2, 0), cp);
+  double roll, yaw;
+  if (cp > 1e-9) {
+    roll = std::atan2(r(2, 1), r(2, 2));
+    yaw = std::atan2(r(1, 0), r(0, 0));
+  }
+  else { // gimbal lock: only yaw -+ roll is defined; put it all into yaw
+    roll = 0.0;
+    yaw = std::atan2(-r(0, 1), r(1, 1));
+  }
+  out(3) = static_cast<float>(roll);
+  out(4) = static_cast<float>(pitch);
+  out(5) = static_cast<float>(yaw);
+  return out;
+}
+
+void
+applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta)
+{
+  const Eigen::Vector3d t = delta.head<3>();
+  const Eigen::Vector3d w = delta.tail<3>();
+  const Eigen::Vector3d c = pose.topRightCorner<3, 1>();
+  const double angle = w.norm();
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  if (angle > 0.0)
+    r = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
+  // p -> r (p - c) + c + t + w x c, i.e. p + w x p + t to first order.
+  Eigen::Matrix4d d = Eigen::Matrix4d::Identity();
+  d.topLeftCorner<3, 3>() = r;
+  d.topRightCorner<3, 1>() = c - r * c + t + w.cross(c);
+  pose = d * pose;
+  // Keep R orthonormal over many updates.
+  const Eigen::Quaterniond q(Eigen::Matrix3d(pose.topLeftCorner<3, 3>()));
+  pose.topLeftCorner<3, 3>() = q.normalized().toRotationMatrix();
+}
+
+void
+poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, double& dist)
+{
+  const Eigen::Matrix3d r = a.topLeftCorner<3, 3>().transpose() * b.topLeftCorner<3, 3>();
+  angle = Eigen::AngleAxisd(r).angle();
+  dist = (a.topRightCorner<3, 1>() - b.topRightCorner<3, 1>()).norm();
+}
+
+bool
+LinkAccumulator::finish(std::size_t min_pairs,
+                        double min_variance,
+                        Matrix6d& info,
+                        Vector6d& grad,
+                        double* variance,
+                        const char** reason) const
+{
+  auto fail = [&](const char* why) {
+    if (reason)
+      *reason = why;
+    info.setZero();
+    grad.setZero();
+    return false;
+  };
+  if (n_ < std::max<std::size_t>(min_pairs, 3))
+    return fail("too few point pairs");
+
+  // A' and c' in the frame centred at origin_ (M' = [I, -[m']x]).
+  const double n = static_cast<double>(n_);
+  Matrix6d a;
+  a.topLeftCorner<3, 3>() = n * Eigen::Matrix3d::Identity();
+  a.topRightCorner<3, 3>() = -skew(sum_m_);
+  a.bottomLeftCorner<3, 3>() = skew(sum_m_);
+  a.bottomRightCorner<3, 3>() =
+      sum_mmt_.trace() * Eigen::Matrix3d::Identity() - sum_mmt_;
+  Vector6d c;
+  c << sum_r_, sum_mxr_;
+
+  // Singular A: the pairs do not fix all six DoF (e.g. collinear points). Judged on the
+  // unit-diagonal scaling, so units and point spread do not matter.
+  const Vector6d scale = a.diagonal().cwiseSqrt().cwiseInverse();
+  if (!scale.allFinite())
+    return fail("degenerate point pairs");
+  const Matrix6d a_scaled = scale.asDiagonal() * a * scale.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(a_scaled, Eigen::EigenvaluesOnly);
+  if (eig.info() != Eigen::Success || !(eig.eigenvalues()(0) > 1e-9))
+    return fail("singular covariance (the pairs do not constrain all six DoF)");
+
+  // Residual after the fit: sum |r + M D|^2 at D = -A^-1 c is sum |r|^2 - c^T A^-1 c.
+  const Eigen::LDLT<Matrix6d> ldlt(a);
+  const Vector6d d_bar = -ldlt.solve(c);
+  const double ssr = std::max(0.0, sum_rr_ + c.dot(d_bar));
+  const double dof = 3.0 * n - 6.0;
+  const double s2 = std::max(ssr / std::max(dof, 1.0), min_variance);
+  if (!std::isfinite(s2) || !d_bar.allFinite())
+    return fail("non-finite measurement");
+
+  // Back to world coordinates: M = M' T with T = [[I, -[o]x], [0, I]].
+  Matrix6d t = Matrix6d::Identity();
+  t.topRightCorner<3, 3>() = -skew(origin_);
+  info = t.transpose() * a * t / s2;
+  grad = t.transpose() * c / s2;
+  if (variance)
+    *variance = s2;
+  if (!info.allFinite() || !grad.allFinite())
+    return fail("non-finite measurement");
+  return true;
+}
+
+struct PoseGraphSolver::Impl {
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pattern; ///< analysed structure
+  std::size_t pattern_n = 0;
+  bool factorised = false;
+};
+
+PoseGraphSolver::PoseGraphSolver() : impl_(new Impl) {}
+PoseGraphSolver::~PoseGraphSolver() = default;
+
+bool
+PoseGraphSolver::solve(std::size_t num_vertices,
+                       const std::vector<LinkBlock, Eigen::aligned_allocator<LinkBlock>>& links,
+                       std::vector<Vector6d, Eigen::aligned_allocator<Vector6d>>& delta)
+{
+  delta.assign(num_vertices, Vector6d::Zero());
+  impl_->factorised = false;
+  if (num_vertices < 2)
+    return true;
+  const Eigen::Index dim = static_cast<Eigen::Index>(6 * (num_vertices - 1));
+
+  // Triplets in link order (deterministic); vertex v maps to rows 6 (v - 1).
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(links.size() * 4 * 36);
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(dim);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pattern;
+  auto block = [&](std::uint32_t r, std::uint32_t c, const Matrix6d& m, double sign) {
+    const Eigen::Index r0 = 6 * (static_cast<Eigen::Index>(r) - 1);
+    const Eigen::Index c0 = 6 * (static_cast<Eigen::Index>(c) - 1);
+    for (int j = 0; j < 6; ++j)
+      for (int i = 0; i < 6; ++i)
+        if (r0 + i >= c0 + j) // lower triangle: what SimplicialLDLT reads
+          triplets.emplace_back(r0 + i, c0 + j, sign * m(i, j));
+  };
+  for (const LinkBlock& l : links) {
+    if (!l.valid)
+      continue;
+    pattern.emplace_back(l.source, l.target);
+    const std::uint32_t s = l.source, t = l.target;
+    if (s > 0) {
+      block(s, s, l.info, 1.0);
+      b.segment<6>(6 * (s - 1)) -= l.grad;
+    }
+    if (t > 0) {
+      block(t, t, l.info, 1.0);
+      b.segment<6>(6 * (t - 1)) += l.grad;
+    }
+    if (s > 0 && t > 0) {
+      if (s > t)
+        block(s, t, l.info, -1.0);
+      else
+        block(t, s, l.info, -1.0); // info is symmetric
+    }
+  }
+  Eigen::SparseMatrix<double> g(dim, dim);
+  g.setFromTriplets(triplets.begin(), triplets.end());
+
+  if (pattern != impl_->pattern || impl_->pattern_n != num_vertices) {
+    impl_->ldlt.analyzePattern(g);
+    impl_->pattern = std::move(pattern);
+    impl_->pattern_n = num_vertices;
+  }
+  impl_->ldlt.factorize(g);
+  if (impl_->ldlt.info() != Eigen::Success)
+    return false;
+  // LDL^T of an SPD matrix has a positive D; a zero or negative pivot means a vertex
+  // is not constrained.
+  if (!(impl_->ldlt.vectorD().minCoeff() > 0.0))
+    return false;
+  const Eigen::VectorXd x = impl_->ldlt.solve(b);
+  if (impl_->ldlt.info() != Eigen::Success || !x.allFinite())
+    return false;
+  for (std::size_t v = 1; v < num_vertices; ++v)
+    delta[v] = x.segment<6>(static_cast<Eigen::Index>(6 * (v - 1)));
+  impl_->factorised = true;
+  return true;
+}
+
+Matrix6d
+PoseGraphSolver::covariance(std::size_t v) const
+{
+  if (v == 0 || !impl_->factorised || v >= impl_->pattern_n)
+    return Matrix6d::Zero();
+  const Eigen::Index dim = static_cast<Eigen::Index>(6 * (impl_->pattern_n - 1));
+  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(dim, 6);
+  for (int k = 0; k < 6; ++k)
+    e(static_cast<Eigen::Index>(6 * (v - 1)) + k, k) = 1.0;
+  const Eigen::MatrixXd x = impl_->ldlt.solve(e);
+  return x.middleRows<6>(static_cast<Eigen::Index>(6 * (v - 1)));
+}
+
+std::vector<std::uint32_t>
+unreachableFromZero(std::size_t num_vertices,
+                    const std::vector<std::pair<std::uint32_t, std::uint32_t>>& links)
+{
+  std::vector<std::uint32_t> parent(num_vertices);
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto find = [&](std::uint32_t x) {
+    while (parent[x] != x)
+      x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (const auto& l : links)
+    if (l.first < num_vertices && l.second < num_vertices)
+      parent[find(l.first)] = find(l.second);
+  std::vector<std::uint32_t> out;
+  if (num_vertices == 0)
+    return out;
+  const std::uint32_t root = find(0);
+  for (std::uint32_t v = 1; v < num_vertices; ++v)
+    if (find(v) != root)
+      out.push_back(v);
+  return out;
+}
+
+} // namespace lum
+} // namespace pcl_parallel
