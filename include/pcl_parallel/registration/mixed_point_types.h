@@ -16,6 +16,15 @@
  * pcl_parallel instantiates: PointXYZ -> PointNormal and PointNormal -> PointXYZ, with
  * float and double Scalar. Include this header (every pcl_parallel registration header
  * does) before anything instantiates those classes.
+ *
+ * pcl::IterativeClosestPoint's constructor also instantiates PCL's own
+ * CorrespondenceEstimation<PointSource, PointTarget>, whose determineCorrespondences and
+ * determineReciprocalCorrespondences do not compile for different types either (the
+ * same-type branch passes a PointSource to a KdTree<PointTarget>; the reciprocal tree has
+ * the target's type but is given the source cloud). We declare explicit specialisations
+ * of both for the same mixed pairs; they keep PCL's semantics (the source point is copied
+ * into a PointTarget for the search; the reciprocal search uses a private tree over a
+ * PointTarget copy of the source) and live in src/registration/mixed_point_types.cpp.
  */
 
 #include <pcl/point_types.h>
@@ -25,8 +34,20 @@
   template <>                                                                              \
   CorrespondenceEstimationBase<S, T, SCALAR>::CorrespondenceEstimationBase();
 
+#define PCL_PARALLEL_DECLARE_MIXED_CE(S, T, SCALAR)                                       \
+  template <>                                                                              \
+  void CorrespondenceEstimation<S, T, SCALAR>::determineCorrespondences(                   \
+      pcl::Correspondences& correspondences, double max_distance);                         \
+  template <>                                                                              \
+  void CorrespondenceEstimation<S, T, SCALAR>::determineReciprocalCorrespondences(         \
+      pcl::Correspondences& correspondences, double max_distance);
+
 namespace pcl {
 namespace registration {
+PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointXYZ, pcl::PointNormal, float)
+PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointXYZ, pcl::PointNormal, double)
+PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointNormal, pcl::PointXYZ, float)
+PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointNormal, pcl::PointXYZ, double)
 PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointXYZ, pcl::PointNormal, float)
 PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointXYZ, pcl::PointNormal, double)
 PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointNormal, pcl::PointXYZ, float)
@@ -35,3 +56,4 @@ PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointNormal, pcl::PointXYZ, double)
 } // namespace pcl
 
 #undef PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR
+#undef PCL_PARALLEL_DECLARE_MIXED_CE
