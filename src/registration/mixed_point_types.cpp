@@ -107,7 +107,31 @@ mixedReciprocalCorrespondences(pcl::search::KdTree<T>& tree,
   , force_no_recompute_reciprocal_(false)                                                  \
   {}
 
+// PCL 1.13's Registration::initCompute without handing the (differently typed)
+// reciprocal tree to the correspondence estimation.
+#define PCL_PARALLEL_DEFINE_MIXED_INIT(S, T, SCALAR)                                      \
+  template <>                                                                              \
+  bool Registration<S, T, SCALAR>::initCompute()                                           \
+  {                                                                                        \
+    if (!target_) {                                                                        \
+      PCL_ERROR("[pcl::registration::%s::compute] No input target dataset was given!\n",   \
+                getClassName().c_str());                                                   \
+      return false;                                                                        \
+    }                                                                                      \
+    if (target_cloud_updated_ && !force_no_recompute_) {                                   \
+      tree_->setInputCloud(target_);                                                       \
+      target_cloud_updated_ = false;                                                       \
+    }                                                                                      \
+    if (correspondence_estimation_)                                                        \
+      correspondence_estimation_->setSearchMethodTarget(tree_, force_no_recompute_);       \
+    return PCLBase<S>::initCompute();                                                      \
+  }
+
 namespace pcl {
+PCL_PARALLEL_DEFINE_MIXED_INIT(pcl::PointXYZ, pcl::PointNormal, float)
+PCL_PARALLEL_DEFINE_MIXED_INIT(pcl::PointXYZ, pcl::PointNormal, double)
+PCL_PARALLEL_DEFINE_MIXED_INIT(pcl::PointNormal, pcl::PointXYZ, float)
+PCL_PARALLEL_DEFINE_MIXED_INIT(pcl::PointNormal, pcl::PointXYZ, double)
 namespace registration {
 PCL_PARALLEL_DEFINE_MIXED_CE(pcl::PointXYZ, pcl::PointNormal, float)
 PCL_PARALLEL_DEFINE_MIXED_CE(pcl::PointXYZ, pcl::PointNormal, double)

@@ -25,10 +25,17 @@
  * of both for the same mixed pairs; they keep PCL's semantics (the source point is copied
  * into a PointTarget for the search; the reciprocal search uses a private tree over a
  * PointTarget copy of the source) and live in src/registration/mixed_point_types.cpp.
+ *
+ * Finally, Registration<PointSource, PointTarget>::initCompute (called by every align())
+ * hands its reciprocal tree, a KdTree<PointSource>, to the correspondence estimation,
+ * which wants the mistyped KdTree<PointTarget>: it does not compile either. Its explicit
+ * specialisation for the mixed pairs does what PCL's does except that hand-over (the
+ * specialised reciprocal search above does not use that tree).
  */
 
 #include <pcl/point_types.h>
 #include <pcl/registration/correspondence_estimation.h>
+#include <pcl/registration/registration.h>
 
 #define PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(S, T, SCALAR)                                 \
   template <>                                                                              \
@@ -42,7 +49,15 @@
   void CorrespondenceEstimation<S, T, SCALAR>::determineReciprocalCorrespondences(         \
       pcl::Correspondences& correspondences, double max_distance);
 
+#define PCL_PARALLEL_DECLARE_MIXED_INIT(S, T, SCALAR)                                     \
+  template <>                                                                              \
+  bool Registration<S, T, SCALAR>::initCompute();
+
 namespace pcl {
+PCL_PARALLEL_DECLARE_MIXED_INIT(pcl::PointXYZ, pcl::PointNormal, float)
+PCL_PARALLEL_DECLARE_MIXED_INIT(pcl::PointXYZ, pcl::PointNormal, double)
+PCL_PARALLEL_DECLARE_MIXED_INIT(pcl::PointNormal, pcl::PointXYZ, float)
+PCL_PARALLEL_DECLARE_MIXED_INIT(pcl::PointNormal, pcl::PointXYZ, double)
 namespace registration {
 PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointXYZ, pcl::PointNormal, float)
 PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointXYZ, pcl::PointNormal, double)
@@ -57,3 +72,4 @@ PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointNormal, pcl::PointXYZ, double)
 
 #undef PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR
 #undef PCL_PARALLEL_DECLARE_MIXED_CE
+#undef PCL_PARALLEL_DECLARE_MIXED_INIT
