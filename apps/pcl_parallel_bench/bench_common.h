@@ -87,5 +87,9 @@ fmt(const char* format, Args... args)
 int
 runKdTree(const Options& opt);
 
+/** pcl::IterativeClosestPoint vs ParallelIterativeClosestPoint (and Open3D if built). */
+int
+runIcp(const Options& opt);
+
 } // namespace bench
 } // namespace pcl_parallel
