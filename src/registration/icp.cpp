@@ -18,9 +18,59 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
 namespace pcl_parallel {
 namespace registration {
 namespace detail {
+
+namespace {
+/** Spreads the low 21 bits of v to every third bit. */
+std::uint64_t
+spreadBits(std::uint64_t v)
+{
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+} // namespace
+
+void
+spatialOrder(const float* xyz, std::size_t n, std::size_t stride, std::vector<std::uint32_t>& order)
+{
+  order.clear();
+  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* p = xyz + i * stride;
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      continue;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = order.empty() ? p[a] : std::min(lo[a], p[a]);
+      hi[a] = order.empty() ? p[a] : std::max(hi[a], p[a]);
+    }
+    order.push_back(static_cast<std::uint32_t>(i));
+  }
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(order.size());
+  double scale[3];
+  for (int a = 0; a < 3; ++a)
+    scale[a] = hi[a] > lo[a] ? 2097151.0 / (static_cast<double>(hi[a]) - lo[a]) : 0.0;
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const float* p = xyz + static_cast<std::size_t>(order[k]) * stride;
+    std::uint64_t code = 0;
+    for (int a = 0; a < 3; ++a)
+      code |= spreadBits(static_cast<std::uint64_t>((p[a] - lo[a]) * scale[a])) << a;
+    keyed[k] = {code, order[k]};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  for (std::size_t k = 0; k < keyed.size(); ++k)
+    order[k] = keyed[k].second;
+}
 
 Eigen::Matrix4d
 rigidTransformFromMoments(const PairMoments& mo, const double ref[3], bool horn)

@@ -223,7 +223,8 @@ private:
   RotationMethod rotation_method_ = RotationMethod::kSvd;
   bool used_fast_path_ = false;
   typename TargetTree::Ptr private_tree_;  ///< when tree_ is not a pcl_parallel tree
-  std::vector<std::uint32_t> warm_;        ///< per source point: last match (tree position)
+  std::vector<std::uint32_t> order_;       ///< source points in spatial (Morton) order
+  std::vector<std::uint32_t> warm_;        ///< per order_ entry: last match (tree position)
 };
 
 namespace detail {
@@ -236,6 +237,14 @@ struct PairMoments {
   double sm[3] = {0, 0, 0};
   double sdm[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; ///< Σ d mᵀ, row-major
 };
+
+/** Indices of the finite points among \a n (stride floats apart) sorted by the Morton
+ *  (Z-order) code of their position in a 2^21 grid over their bounding box, ties by
+ *  index. Visiting queries in this order makes consecutive searches walk the same part
+ *  of the target tree, so it stays in cache (large clouds in arbitrary order otherwise
+ *  miss on almost every node). The order is a function of the input alone. */
+void
+spatialOrder(const float* xyz, std::size_t n, std::size_t stride, std::vector<std::uint32_t>& order);
 
 /** Rigid transform that maps d onto m in the least-squares sense (Eq. 7 and 9), from
  *  the moments of \a n pairs shifted by \a ref. \a horn: Horn's quaternion instead of

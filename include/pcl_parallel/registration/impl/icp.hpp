@@ -209,7 +209,12 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
   const KdTreeIndex* target = targetIndex();
   if (target) {
     const PointCloudSource& src = *input_;
-    const std::size_t n = src.size();
+    // Finite source points in spatial order (coherent tree walks); NaNs are left out here.
+    detail::spatialOrder(src.empty() ? nullptr : src.front().data,
+                         src.size(),
+                         sizeof(PointSource) / sizeof(float),
+                         order_);
+    const std::size_t n = order_.size();
     const unsigned threads = resolveNumberOfThreads(num_threads_);
     const float bound = sqrDistanceBound(corr_dist_threshold_);
     // A target point as reference: shifted sums stay small (Eq. 11-13 in double).
@@ -234,9 +239,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
         float q[3];
         slot.query = q;
         for (std::size_t i = begin; i < end; ++i) {
-          const auto& p = src[i];
-          if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-            continue;
+          const auto& p = src[order_[i]];
           for (int r = 0; r < 3; ++r)
             q[r] = tr[4 * r] * p.x + tr[4 * r + 1] * p.y + tr[4 * r + 2] * p.z + tr[4 * r + 3];
           const std::uint32_t pos = target->nearest(slot, bound, warm_[i]);
