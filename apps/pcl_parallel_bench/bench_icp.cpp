@@ -224,8 +224,10 @@ runIcp(const Options& opt)
       if (threads == 1 || t_one == 0.0)
         t_one = t;
       const Eigen::Matrix4f d = pcl_result.inverse() * icp.getFinalTransformation();
-      const double deg = std::acos(std::min(1.0, 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0))) *
-                         180.0 / M_PI;
+      const Eigen::Vector3f w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
+      const double deg =
+          std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0)) * 180.0 /
+          M_PI;
       table.addRow({c.name,
                     pts,
                     fmt("pcl_parallel pICP (vs PCL: %.4f deg, %.2g)", deg,
