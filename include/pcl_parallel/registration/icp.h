@@ -78,7 +78,9 @@ private:
  * is transformed by the current estimate, its closest target point within the maximum
  * distance is searched (warm-started from its match of the previous iteration), and the
  * pair is folded into per-block sums n, Σd, Σm, Σ d mᵀ and Σ|m-d|² in double
- * (Eq. 11-13). No correspondence vector is built. Blocks of fixed size are combined in a
+ * (Eq. 11-13). No correspondence vector is built. Source points are visited in Morton
+ * order (computed once per align()), so consecutive searches reuse the cached part of
+ * the tree; non-finite source points are skipped. Blocks of fixed size are combined in a
  * fixed order (deterministicReduce), and the search result per point is exact, so the
  * result is bit-identical for any thread count. The rotation comes from the SVD of the
  * correlation matrix H (Eq. 9, Arun's method with the reflection case handled) or,
