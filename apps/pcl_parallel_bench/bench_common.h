@@ -93,6 +93,9 @@ int
 runLumBunny(const Options& opt);
 int
 runLumScaling(const Options& opt);
+/** pcl::IterativeClosestPoint vs ParallelIterativeClosestPoint (and Open3D if built). */
+int
+runIcp(const Options& opt);
 
 } // namespace bench
 } // namespace pcl_parallel

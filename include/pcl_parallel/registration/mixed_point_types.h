@@ -16,17 +16,53 @@
  * pcl_parallel instantiates: PointXYZ -> PointNormal and PointNormal -> PointXYZ, with
  * float and double Scalar. Include this header (every pcl_parallel registration header
  * does) before anything instantiates those classes.
+ *
+ * pcl::IterativeClosestPoint's constructor also instantiates PCL's own
+ * CorrespondenceEstimation<PointSource, PointTarget>, whose determineCorrespondences and
+ * determineReciprocalCorrespondences do not compile for different types either (the
+ * same-type branch passes a PointSource to a KdTree<PointTarget>; the reciprocal tree has
+ * the target's type but is given the source cloud). We declare explicit specialisations
+ * of both for the same mixed pairs; they keep PCL's semantics (the source point is copied
+ * into a PointTarget for the search; the reciprocal search uses a private tree over a
+ * PointTarget copy of the source) and live in src/registration/mixed_point_types.cpp.
+ *
+ * Finally, Registration<PointSource, PointTarget>::initCompute (called by every align())
+ * hands its reciprocal tree, a KdTree<PointSource>, to the correspondence estimation,
+ * which wants the mistyped KdTree<PointTarget>: it does not compile either. Its explicit
+ * specialisation for the mixed pairs does what PCL's does except that hand-over (the
+ * specialised reciprocal search above does not use that tree).
  */
 
 #include <pcl/point_types.h>
 #include <pcl/registration/correspondence_estimation.h>
+#include <pcl/registration/registration.h>
 
 #define PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(S, T, SCALAR)                                 \
   template <>                                                                              \
   CorrespondenceEstimationBase<S, T, SCALAR>::CorrespondenceEstimationBase();
 
+#define PCL_PARALLEL_DECLARE_MIXED_CE(S, T, SCALAR)                                       \
+  template <>                                                                              \
+  void CorrespondenceEstimation<S, T, SCALAR>::determineCorrespondences(                   \
+      pcl::Correspondences& correspondences, double max_distance);                         \
+  template <>                                                                              \
+  void CorrespondenceEstimation<S, T, SCALAR>::determineReciprocalCorrespondences(         \
+      pcl::Correspondences& correspondences, double max_distance);
+
+#define PCL_PARALLEL_DECLARE_MIXED_INIT(S, T, SCALAR)                                     \
+  template <>                                                                              \
+  bool Registration<S, T, SCALAR>::initCompute();
+
 namespace pcl {
+PCL_PARALLEL_DECLARE_MIXED_INIT(pcl::PointXYZ, pcl::PointNormal, float)
+PCL_PARALLEL_DECLARE_MIXED_INIT(pcl::PointXYZ, pcl::PointNormal, double)
+PCL_PARALLEL_DECLARE_MIXED_INIT(pcl::PointNormal, pcl::PointXYZ, float)
+PCL_PARALLEL_DECLARE_MIXED_INIT(pcl::PointNormal, pcl::PointXYZ, double)
 namespace registration {
+PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointXYZ, pcl::PointNormal, float)
+PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointXYZ, pcl::PointNormal, double)
+PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointNormal, pcl::PointXYZ, float)
+PCL_PARALLEL_DECLARE_MIXED_CE(pcl::PointNormal, pcl::PointXYZ, double)
 PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointXYZ, pcl::PointNormal, float)
 PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointXYZ, pcl::PointNormal, double)
 PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointNormal, pcl::PointXYZ, float)
@@ -35,3 +71,5 @@ PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(pcl::PointNormal, pcl::PointXYZ, double)
 } // namespace pcl
 
 #undef PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR
+#undef PCL_PARALLEL_DECLARE_MIXED_CE
+#undef PCL_PARALLEL_DECLARE_MIXED_INIT

@@ -1,0 +1,263 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/registration/correspondence_estimation.h>
+#include <pcl_parallel/registration/mixed_point_types.h>
+#include <pcl_parallel/search/kdtree.h>
+
+#include <pcl/registration/default_convergence_criteria.h>
+#include <pcl/registration/icp.h>
+
+#include <limits>
+#include <vector>
+
+namespace pcl_parallel {
+namespace registration {
+
+/**
+ * \brief PCL's DefaultConvergenceCriteria whose correspondence MSE can be supplied by the
+ * caller instead of being summed from a correspondence vector.
+ *
+ * The fused pICP pass never materialises correspondences; it computes the MSE of the
+ * (squared) correspondence distances itself and hands it over with
+ * setCorrespondencesMSE(). hasConverged() is PCL 1.13's rule for rule (same members, same
+ * order, same state carried across align() calls), so iteration counts and
+ * getConvergenceState() mean exactly what they mean for pcl::IterativeClosestPoint.
+ * Without a supplied MSE (the PCL loop) it is PCL's class unchanged.
+ */
+template <typename Scalar = float>
+class FusedConvergenceCriteria : public pcl::registration::DefaultConvergenceCriteria<Scalar> {
+public:
+  using Base = pcl::registration::DefaultConvergenceCriteria<Scalar>;
+  using Matrix4 = typename Base::Matrix4;
+  using Ptr = pcl::shared_ptr<FusedConvergenceCriteria<Scalar>>;
+
+  FusedConvergenceCriteria(const int& iterations,
+                           const Matrix4& transform,
+                           const pcl::Correspondences& correspondences)
+  : Base(iterations, transform, correspondences)
+  {}
+
+  /** The MSE the next hasConverged() calls use instead of the correspondences'. */
+  void
+  setCorrespondencesMSE(double mse)
+  {
+    external_mse_ = mse;
+    use_external_mse_ = true;
+  }
+  /** Back to PCL's behaviour: MSE from the correspondence vector. */
+  void
+  clearCorrespondencesMSE()
+  {
+    use_external_mse_ = false;
+  }
+
+  bool
+  hasConverged() override;
+
+private:
+  double external_mse_ = 0.0;
+  bool use_external_mse_ = false;
+};
+
+/**
+ * \brief Parallel ICP (pICP, paper Sec. II and IV): a drop-in replacement for
+ * pcl::IterativeClosestPoint.
+ *
+ * It *is* a pcl::IterativeClosestPoint, so it goes wherever PCL takes a registration
+ * (pcl::Registration::Ptr, ELCH::setReg, IncrementalRegistration::setRegistration) and
+ * every setter of PCL's class keeps its meaning.
+ *
+ * **Fast path.** With PCL's default components (our parallel correspondence estimation,
+ * no rejectors, TransformationEstimationSVD, no reciprocal correspondences, no
+ * visualisation callback) each iteration is one fused parallel pass: every source point
+ * is transformed by the current estimate, its closest target point within the maximum
+ * distance is searched (warm-started from its match of the previous iteration), and the
+ * pair is folded into per-block sums n, Σd, Σm, Σ d mᵀ and Σ|m-d|² in double
+ * (Eq. 11-13). No correspondence vector is built. Source points are visited in Morton
+ * order (computed once per align()), so consecutive searches reuse the cached part of
+ * the tree; non-finite source points are skipped. Blocks of fixed size are combined in a
+ * fixed order (deterministicReduce), and the search result per point is exact, so the
+ * result is bit-identical for any thread count. The rotation comes from the SVD of the
+ * correlation matrix H (Eq. 9, Arun's method with the reflection case handled) or,
+ * optionally, Horn's unit quaternion; the translation from Eq. 7. The iteration then
+ * follows PCL's order (incremental transform, final = incremental * final, convergence
+ * check with PCL's DefaultConvergenceCriteria rules), so iteration counts match PCL's.
+ *
+ * **PCL loop.** With any user-supplied rejector, correspondence or transformation
+ * estimator, reciprocal correspondences or a visualisation callback, PCL's own loop
+ * (pcl::IterativeClosestPoint::computeTransformation) runs unchanged; the correspondence
+ * estimation there is still our parallel one unless the user replaced it.
+ *
+ * **Target tree.** The default search method is a pcl_parallel::search::KdTree, so
+ * Registration::initCompute builds our tree (once per target, as PCL) and the fast path
+ * reuses its index; setSearchMethodTarget(tree, force_no_recompute) keeps PCL's meaning.
+ * A plain PCL tree passed there is left alone and a private pcl_parallel tree is built.
+ *
+ * Documented differences from pcl::IterativeClosestPoint:
+ * - The fast path transforms the original source by the accumulated transform each
+ *   iteration (PCL re-transforms its float copy incrementally, accumulating rounding) and
+ *   estimates in double (PCL's default SVD estimator works in Scalar): results agree to
+ *   rounding, not bit for bit.
+ * - As PCL's loop, the fast path uses every point of the input source (PCL's ICP does not
+ *   honour setIndices for the correspondence search either).
+ * - After a fast-path align() the registration's correspondence vector is left empty.
+ * - getFitnessScore() hides Registration::getFitnessScore (not virtual in PCL) with a
+ *   parallel version on our tree; called through a pcl::Registration pointer, PCL's serial
+ *   version runs (same value up to summation order).
+ * - Fewer than min_number_correspondences (3) pairs: PCL_ERROR, hasConverged() == false,
+ *   state CONVERGENCE_CRITERIA_NO_CORRESPONDENCES, final transform = the last estimate,
+ *   output = source transformed by it. An empty or all-NaN target is reported the same way.
+ */
+template <typename PointSource, typename PointTarget, typename Scalar = float>
+class ParallelIterativeClosestPoint
+: public pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar> {
+public:
+  using Base = pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>;
+  using Ptr = pcl::shared_ptr<ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>>;
+  using ConstPtr =
+      pcl::shared_ptr<const ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>>;
+  using PointCloudSource = typename Base::PointCloudSource;
+  using PointCloudTarget = typename Base::PointCloudTarget;
+  using PointCloudTargetConstPtr = typename Base::PointCloudTargetConstPtr;
+  using Matrix4 = typename Base::Matrix4;
+  using TargetTree = pcl_parallel::search::KdTree<PointTarget>;
+  using CorrespondenceEstimation =
+      ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>;
+  using ConvergenceCriteria = FusedConvergenceCriteria<Scalar>;
+
+  /** How the fast path computes the rotation from the correlation matrix H (Eq. 9). */
+  enum class RotationMethod {
+    kSvd,           ///< Arun et al.: R = V Uᵀ from H = U Λ Vᵀ (paper's theorem, default)
+    kHornQuaternion ///< Horn: eigenvector of the 4x4 symmetric matrix built from H
+  };
+
+  ParallelIterativeClosestPoint();
+  ~ParallelIterativeClosestPoint() override = default;
+
+  /** Threads for the fused pass, tree building and our correspondence estimation;
+   *  0 (default) = all cores. */
+  void
+  setNumberOfThreads(unsigned num_threads);
+  unsigned
+  getNumberOfThreads() const
+  {
+    return num_threads_;
+  }
+
+  void
+  setRotationMethod(RotationMethod method)
+  {
+    rotation_method_ = method;
+  }
+  RotationMethod
+  getRotationMethod() const
+  {
+    return rotation_method_;
+  }
+
+  /** Drops the private target tree, then PCL's setInputTarget. */
+  void
+  setInputTarget(const PointCloudTargetConstPtr& cloud) override;
+
+  /** Mean squared distance of the transformed source points to their closest target
+   *  point, over those within \a max_range (squared distance, as PCL), computed in
+   *  parallel on our tree. Hides the non-virtual Registration::getFitnessScore. */
+  double
+  getFitnessScore(double max_range = std::numeric_limits<double>::max());
+
+  /** Whether the last align() took the fused fast path (false: PCL's loop). */
+  bool
+  usedFastPath() const
+  {
+    return used_fast_path_;
+  }
+
+protected:
+  using Base::converged_;
+  using Base::corr_dist_threshold_;
+  using Base::correspondence_estimation_;
+  using Base::correspondence_rejectors_;
+  using Base::correspondences_;
+  using Base::euclidean_fitness_epsilon_;
+  using Base::final_transformation_;
+  using Base::getClassName;
+  using Base::input_;
+  using Base::max_iterations_;
+  using Base::min_number_correspondences_;
+  using Base::nr_iterations_;
+  using Base::previous_transformation_;
+  using Base::reg_name_;
+  using Base::target_;
+  using Base::transformation_;
+  using Base::transformation_epsilon_;
+  using Base::transformation_estimation_;
+  using Base::transformation_rotation_epsilon_;
+  using Base::update_visualizer_;
+  using Base::use_reciprocal_correspondence_;
+  using pcl::Registration<PointSource, PointTarget, Scalar>::tree_;
+  using pcl::Registration<PointSource, PointTarget, Scalar>::force_no_recompute_;
+  using pcl::Registration<PointSource, PointTarget, Scalar>::target_cloud_updated_;
+
+  void
+  computeTransformation(PointCloudSource& output, const Matrix4& guess) override;
+
+  /** True when every component is PCL's default, i.e. the fused pass computes exactly
+   *  what PCL's loop would. */
+  bool
+  fastPathApplies() const;
+
+  /** The fused loop (Eq. 2-13). */
+  void
+  computeTransformationFused(PointCloudSource& output, const Matrix4& guess);
+
+  /** The index the target is searched with: tree_'s if it is ours (built here if the
+   *  target changed and force_no_recompute is off), else a private one. Null on error. */
+  const KdTreeIndex*
+  targetIndex();
+
+private:
+  unsigned num_threads_ = 0;
+  RotationMethod rotation_method_ = RotationMethod::kSvd;
+  bool used_fast_path_ = false;
+  typename TargetTree::Ptr private_tree_;  ///< when tree_ is not a pcl_parallel tree
+  std::vector<std::uint32_t> order_;       ///< source points in spatial (Morton) order
+  std::vector<std::uint32_t> warm_;        ///< per order_ entry: last match (tree position)
+};
+
+namespace detail {
+/** Sums of one block of point pairs (d: transformed source, m: target), shifted by a
+ *  fixed reference point to keep the double sums well conditioned (Eq. 11-13). */
+struct PairMoments {
+  double n = 0.0;
+  double sqr_dist = 0.0; ///< Σ |m - d|² (the correspondences' `distance` in PCL)
+  double sd[3] = {0, 0, 0};
+  double sm[3] = {0, 0, 0};
+  double sdm[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; ///< Σ d mᵀ, row-major
+};
+
+/** Indices of the finite points among \a n (stride floats apart) sorted by the Morton
+ *  (Z-order) code of their position in a 2^21 grid over their bounding box, ties by
+ *  index. Visiting queries in this order makes consecutive searches walk the same part
+ *  of the target tree, so it stays in cache (large clouds in arbitrary order otherwise
+ *  miss on almost every node). The order is a function of the input alone. */
+void
+spatialOrder(const float* xyz, std::size_t n, std::size_t stride, std::vector<std::uint32_t>& order);
+
+/** Rigid transform that maps d onto m in the least-squares sense (Eq. 7 and 9), from
+ *  the moments of \a n pairs shifted by \a ref. \a horn: Horn's quaternion instead of
+ *  the SVD. */
+Eigen::Matrix4d
+rigidTransformFromMoments(const PairMoments& moments, const double ref[3], bool horn);
+} // namespace detail
+
+} // namespace registration
+} // namespace pcl_parallel
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pcl_parallel/registration/impl/icp.hpp>
+#endif

@@ -1,0 +1,133 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+// GCC 12 reports -Warray-bounds / -Wuse-after-free false positives inside PCL 1.13's
+// TransformationEstimationSVD (the default estimator pcl::IterativeClosestPoint's
+// constructor instantiates here), not in our code: silence them for this file only.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Warray-bounds"
+#pragma GCC diagnostic ignored "-Wuse-after-free"
+#endif
+#include <pcl_parallel/point_types.h>
+#include <pcl_parallel/registration/impl/icp.hpp>
+
+#include <pcl/impl/instantiate.hpp>
+#include <pcl/point_types.h>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace pcl_parallel {
+namespace registration {
+namespace detail {
+
+namespace {
+/** Spreads the low 21 bits of v to every third bit. */
+std::uint64_t
+spreadBits(std::uint64_t v)
+{
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffffULL;
+  v = (v | v << 16) & 0x1f0000ff0000ffULL;
+  v = (v | v << 8) & 0x100f00f00f00f00fULL;
+  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+  v = (v | v << 2) & 0x1249249249249249ULL;
+  return v;
+}
+} // namespace
+
+void
+spatialOrder(const float* xyz, std::size_t n, std::size_t stride, std::vector<std::uint32_t>& order)
+{
+  order.clear();
+  float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* p = xyz + i * stride;
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      continue;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = order.empty() ? p[a] : std::min(lo[a], p[a]);
+      hi[a] = order.empty() ? p[a] : std::max(hi[a], p[a]);
+    }
+    order.push_back(static_cast<std::uint32_t>(i));
+  }
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(order.size());
+  double scale[3];
+  for (int a = 0; a < 3; ++a)
+    scale[a] = hi[a] > lo[a] ? 2097151.0 / (static_cast<double>(hi[a]) - lo[a]) : 0.0;
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const float* p = xyz + static_cast<std::size_t>(order[k]) * stride;
+    std::uint64_t code = 0;
+    for (int a = 0; a < 3; ++a)
+      code |= spreadBits(static_cast<std::uint64_t>((p[a] - lo[a]) * scale[a])) << a;
+    keyed[k] = {code, order[k]};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  for (std::size_t k = 0; k < keyed.size(); ++k)
+    order[k] = keyed[k].second;
+}
+
+Eigen::Matrix4d
+rigidTransformFromMoments(const PairMoments& mo, const double ref[3], bool horn)
+{
+  const double n = mo.n;
+  // Centroids (Eq. 3) of the shifted pairs.
+  const Eigen::Vector3d cd(mo.sd[0] / n, mo.sd[1] / n, mo.sd[2] / n);
+  const Eigen::Vector3d cm(mo.sm[0] / n, mo.sm[1] / n, mo.sm[2] / n);
+  // Correlation matrix H = Σ (d - cd)(m - cm)ᵀ = Σ d mᵀ - n cd cmᵀ (Eq. 9, 11-12).
+  Eigen::Matrix3d H;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      H(a, b) = mo.sdm[3 * a + b] - n * cd[a] * cm[b];
+
+  Eigen::Matrix3d R;
+  if (!horn) {
+    // Arun et al.: H = U Λ Vᵀ, R = V Uᵀ; a reflection (det < 0) flips V's last column.
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Matrix3d& u = svd.matrixU();
+    Eigen::Matrix3d v = svd.matrixV();
+    if (u.determinant() * v.determinant() < 0)
+      v.col(2) *= -1.0;
+    R = v * u.transpose();
+  }
+  else {
+    // Horn (1987): the unit quaternion maximising Σ m'·(R d') is the eigenvector of the
+    // largest eigenvalue of N built from S = H (S_ab = Σ d'_a m'_b).
+    const Eigen::Matrix3d& S = H;
+    Eigen::Matrix4d N;
+    N << S(0, 0) + S(1, 1) + S(2, 2), S(1, 2) - S(2, 1), S(2, 0) - S(0, 2), S(0, 1) - S(1, 0),
+        S(1, 2) - S(2, 1), S(0, 0) - S(1, 1) - S(2, 2), S(0, 1) + S(1, 0), S(2, 0) + S(0, 2),
+        S(2, 0) - S(0, 2), S(0, 1) + S(1, 0), -S(0, 0) + S(1, 1) - S(2, 2), S(1, 2) + S(2, 1),
+        S(0, 1) - S(1, 0), S(2, 0) + S(0, 2), S(1, 2) + S(2, 1), -S(0, 0) - S(1, 1) + S(2, 2);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(N);
+    const Eigen::Vector4d q = eig.eigenvectors().col(3); // eigenvalues ascending
+    R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+  }
+  // t = cm - R cd (Eq. 7), back in unshifted coordinates.
+  const Eigen::Vector3d r(ref[0], ref[1], ref[2]);
+  Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+  T.topLeftCorner<3, 3>() = R;
+  T.topRightCorner<3, 1>() = (cm + r) - R * (cd + r);
+  return T;
+}
+
+} // namespace detail
+} // namespace registration
+} // namespace pcl_parallel
+
+template class pcl_parallel::registration::FusedConvergenceCriteria<float>;
+template class pcl_parallel::registration::FusedConvergenceCriteria<double>;
+
+#define PCL_PARALLEL_INSTANTIATE_ICP(S, T, SCALAR)                                        \
+  template class pcl_parallel::registration::ParallelIterativeClosestPoint<S, T, SCALAR>;
+// PCL_INSTANTIATE(X, types) expands PCL_INSTANTIATE_X(T) for each type.
+#define PCL_INSTANTIATE_ParallelIterativeClosestPoint(T)                                  \
+  PCL_PARALLEL_INSTANTIATE_ICP(T, T, float) PCL_PARALLEL_INSTANTIATE_ICP(T, T, double)
+PCL_INSTANTIATE(ParallelIterativeClosestPoint, PCL_PARALLEL_XYZ_POINT_TYPES)
+PCL_PARALLEL_INSTANTIATE_ICP(pcl::PointXYZ, pcl::PointNormal, float)
+PCL_PARALLEL_INSTANTIATE_ICP(pcl::PointNormal, pcl::PointXYZ, float)

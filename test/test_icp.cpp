@@ -1,0 +1,724 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * ParallelIterativeClosestPoint against pcl::IterativeClosestPoint on the same input, and
+ * against ground truth / the paper's implementation on real data.
+ */
+// GCC 12 false positives inside PCL 1.13's TransformationEstimationSVD / Eigen::umeyama,
+// instantiated here by pcl::IterativeClosestPoint (see src/registration/icp.cpp).
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Warray-bounds"
+#pragma GCC diagnostic ignored "-Wuse-after-free"
+#endif
+#include "random_clouds.h"
+#include "test_data.h"
+
+#include <pcl_parallel/io/ply.h>
+#include <pcl_parallel/io/uos.h>
+#include <pcl_parallel/registration/icp.h>
+
+#include <pcl/common/transforms.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/registration/correspondence_rejection_median_distance.h>
+#include <pcl/registration/correspondence_rejection_sample_consensus.h>
+#include <pcl/registration/elch.h>
+#include <pcl/registration/icp.h>
+#include <pcl/registration/incremental_registration.h>
+#include <pcl/registration/transformation_estimation_point_to_plane_lls.h>
+#include <pcl/search/kdtree.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+namespace {
+
+using pcl::PointCloud;
+using pcl::PointNormal;
+using pcl::PointXYZ;
+using PIcp = pcl_parallel::registration::ParallelIterativeClosestPoint<PointXYZ, PointXYZ>;
+using State = pcl::registration::DefaultConvergenceCriteria<float>::ConvergenceState;
+
+template <typename PointT>
+typename PointCloud<PointT>::Ptr
+loadPcd(const std::string& path)
+{
+  typename PointCloud<PointT>::Ptr cloud(new PointCloud<PointT>);
+  if (pcl::io::loadPCDFile(path, *cloud) != 0)
+    ADD_FAILURE() << "cannot read " << path;
+  return cloud;
+}
+
+/** Rotation angle (degrees) and translation distance between two rigid transforms. */
+std::pair<double, double>
+poseDifference(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
+{
+  const Eigen::Matrix4d d = a.inverse() * b;
+  // atan2 of the skew part and the trace: acos(trace) alone loses small angles to the
+  // rounding of float rotation matrices (~0.03 deg).
+  const Eigen::Vector3d w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
+  const double angle = std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1));
+  return {angle * 180.0 / M_PI, (a.topRightCorner<3, 1>() - b.topRightCorner<3, 1>()).norm()};
+}
+
+/** Reads the protected iteration counter of a registration. */
+template <typename Reg>
+struct Peek : Reg {
+  static int
+  iterations(const Reg& r)
+  {
+    return static_cast<const Peek&>(r).nr_iterations_;
+  }
+};
+
+/** PCL's test parameters for bun0 -> bun4. */
+template <typename Reg>
+void
+setPclTestParameters(Reg& reg)
+{
+  reg.setMaximumIterations(50);
+  reg.setMaxCorrespondenceDistance(0.05);
+  reg.setTransformationEpsilon(1e-8);
+}
+
+struct BunnyPair {
+  PointCloud<PointXYZ>::Ptr src, tgt;
+};
+BunnyPair
+loadBun04(const std::string& s, const std::string& t)
+{
+  return {loadPcd<PointXYZ>(s), loadPcd<PointXYZ>(t)};
+}
+
+// ---------------------------------------------------------------------------------------
+// bun0 -> bun4 with PCL's test parameters: same matrix as PCL 1.13's ICP (run here on the
+// same input) and as the table in data/README.md; same iteration count and state.
+TEST(ParallelIcp, Bun0ToBun4MatchesPcl)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  PCL_PARALLEL_REQUIRE_DATA(bun4, "pcl_test/bun4.pcd");
+  const BunnyPair p = loadBun04(bun0, bun4);
+
+  pcl::IterativeClosestPoint<PointXYZ, PointXYZ> ref;
+  setPclTestParameters(ref);
+  ref.setInputSource(p.src);
+  ref.setInputTarget(p.tgt);
+  PointCloud<PointXYZ> ref_out;
+  ref.align(ref_out);
+
+  PIcp icp;
+  setPclTestParameters(icp);
+  icp.setInputSource(p.src);
+  icp.setInputTarget(p.tgt);
+  PointCloud<PointXYZ> out;
+  icp.align(out);
+  EXPECT_TRUE(icp.usedFastPath());
+  EXPECT_EQ(icp.hasConverged(), ref.hasConverged());
+
+  const Eigen::Matrix4f ours = icp.getFinalTransformation();
+  const Eigen::Matrix4f pcl_t = ref.getFinalTransformation();
+  const float readme[3][4] = {{0.8806f, 0.0365f, -0.4724f, 0.0345f},
+                              {-0.0235f, 0.9992f, 0.0333f, -0.0015f},
+                              {0.4732f, -0.0182f, 0.8808f, 0.0412f}};
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) {
+      EXPECT_NEAR(ours(r, c), pcl_t(r, c), 1e-3) << r << "," << c;
+      if (r < 3) {
+        EXPECT_NEAR(ours(r, c), readme[r][c], 1e-3) << r << "," << c;
+      }
+    }
+  EXPECT_NEAR(icp.getFitnessScore(), ref.getFitnessScore(), 1e-6);
+  // The output is the whole source transformed by the final transform.
+  ASSERT_EQ(out.size(), p.src->size());
+  const Eigen::Vector4f q = ours * (*p.src)[7].getVector4fMap();
+  EXPECT_NEAR(out[7].x, q[0], 1e-5);
+  EXPECT_NEAR(out[7].z, q[2], 1e-5);
+  EXPECT_EQ(Peek<PIcp>::iterations(icp), Peek<decltype(ref)>::iterations(ref));
+}
+
+// Same convergence rules as PCL's DefaultConvergenceCriteria: on bun0 -> bun4 the
+// iteration count and the convergence state equal PCL's, also for a second align() on the
+// same object (the criteria's MSE state carries over in PCL too).
+TEST(ParallelIcp, IterationCountAndStateMatchPcl)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  PCL_PARALLEL_REQUIRE_DATA(bun4, "pcl_test/bun4.pcd");
+  const BunnyPair p = loadBun04(bun0, bun4);
+  for (const double eps : {1e-8, 1e-6}) {
+    pcl::IterativeClosestPoint<PointXYZ, PointXYZ> ref;
+    PIcp icp;
+    setPclTestParameters(ref);
+    setPclTestParameters(icp);
+    ref.setTransformationEpsilon(eps);
+    icp.setTransformationEpsilon(eps);
+    ref.setInputSource(p.src);
+    ref.setInputTarget(p.tgt);
+    icp.setInputSource(p.src);
+    icp.setInputTarget(p.tgt);
+    PointCloud<PointXYZ> out;
+    for (int run = 0; run < 2; ++run) {
+      ref.align(out);
+      icp.align(out);
+      EXPECT_EQ(icp.getConvergeCriteria()->getConvergenceState(),
+                ref.getConvergeCriteria()->getConvergenceState())
+          << "eps " << eps << " run " << run;
+      EXPECT_EQ(Peek<PIcp>::iterations(icp), Peek<decltype(ref)>::iterations(ref))
+          << "eps " << eps << " run " << run;
+      EXPECT_TRUE(icp.getFinalTransformation().isApprox(ref.getFinalTransformation(), 1e-3));
+    }
+  }
+}
+
+// A translated copy of bun0 registers back exactly (PCL's test: fitness < 1e-6).
+TEST(ParallelIcp, TranslatedCopy)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  const auto src = loadPcd<PointXYZ>(bun0);
+  PointCloud<PointXYZ>::Ptr tgt(new PointCloud<PointXYZ>);
+  Eigen::Affine3f shift = Eigen::Affine3f::Identity();
+  shift.translation() << 0.01f, 0.02f, -0.005f;
+  pcl::transformPointCloud(*src, *tgt, shift);
+
+  PIcp icp;
+  setPclTestParameters(icp);
+  icp.setInputSource(src);
+  icp.setInputTarget(tgt);
+  PointCloud<PointXYZ> out;
+  icp.align(out);
+  EXPECT_TRUE(icp.hasConverged());
+  EXPECT_LT(icp.getFitnessScore(), 1e-6);
+  const Eigen::Matrix4f t = icp.getFinalTransformation();
+  for (int r = 0; r < 3; ++r)
+    EXPECT_NEAR(t(r, 3), shift.translation()[r], 2e-3);
+  EXPECT_TRUE((t.topLeftCorner<3, 3>().isApprox(Eigen::Matrix3f::Identity(), 1e-3)));
+}
+
+// PCL's rejector test: median-distance + sample-consensus rejectors, random rigid motion.
+// Rejectors force PCL's loop (with our parallel correspondence estimation in it); the
+// result must recover the motion like PCL's ICP does.
+TEST(ParallelIcp, RejectorScenarioUsesPclLoop)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  const auto cloud = loadPcd<PointXYZ>(bun0);
+  std::mt19937 rng(1234);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  auto randomTransform = [&](float max_angle, float max_trans) {
+    Eigen::Vector3f axis(u(rng), u(rng), u(rng));
+    axis.normalize();
+    Eigen::Affine3f t(Eigen::AngleAxisf(max_angle * std::abs(u(rng)), axis));
+    t.translation() << max_trans * u(rng), max_trans * u(rng), max_trans * u(rng);
+    return t;
+  };
+  for (int k = 0; k < 3; ++k) {
+    PIcp icp;
+    icp.setMaximumIterations(50);
+    icp.setTransformationEpsilon(1e-8);
+    icp.setMaxCorrespondenceDistance(0.15);
+    pcl::registration::CorrespondenceRejectorMedianDistance::Ptr med(
+        new pcl::registration::CorrespondenceRejectorMedianDistance);
+    med->setMedianFactor(4.0);
+    icp.addCorrespondenceRejector(med);
+    pcl::registration::CorrespondenceRejectorSampleConsensus<PointXYZ>::Ptr sac(
+        new pcl::registration::CorrespondenceRejectorSampleConsensus<PointXYZ>);
+    icp.addCorrespondenceRejector(sac);
+
+    const Eigen::Affine3f delta = randomTransform(0.05f, 0.05f);
+    // Rotations act about the origin: keep the net offset small enough that delta moves
+    // no point beyond the 0.15 correspondence distance.
+    const Eigen::Affine3f net = randomTransform(2.0f * static_cast<float>(M_PI), 0.5f);
+    PointCloud<PointXYZ>::Ptr src(new PointCloud<PointXYZ>), tgt(new PointCloud<PointXYZ>);
+    pcl::transformPointCloud(*cloud, *src, delta.inverse() * net);
+    pcl::transformPointCloud(*cloud, *tgt, net);
+    icp.setInputSource(src);
+    icp.setInputTarget(tgt);
+    PointCloud<PointXYZ> out;
+    icp.align(out);
+    EXPECT_FALSE(icp.usedFastPath());
+    const Eigen::Matrix4f t = icp.getFinalTransformation();
+    // src = delta^-1 net cloud, tgt = net cloud: the motion src -> tgt is delta.
+    const Eigen::Matrix4f expected = delta.matrix();
+    for (int r = 0; r < 3; ++r) {
+      EXPECT_NEAR(t(r, 3), expected(r, 3), 1e-2) << "trial " << k;
+      for (int c = 0; c < 3; ++c)
+        EXPECT_NEAR(t(r, c), expected(r, c), 1e-1) << "trial " << k;
+    }
+  }
+}
+
+// A user transformation estimator (point-to-plane LLS on PointNormal clouds) runs PCL's
+// loop; the result equals pcl::IterativeClosestPoint with the same estimator.
+TEST(ParallelIcp, UserTransformationEstimatorMatchesPcl)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  PCL_PARALLEL_REQUIRE_DATA(bun4, "pcl_test/bun4.pcd");
+  const auto src = loadPcd<PointNormal>(bun0); // bun0 carries normals
+  PointCloud<PointNormal>::Ptr tgt(new PointCloud<PointNormal>);
+  Eigen::Affine3f shift(Eigen::AngleAxisf(0.05f, Eigen::Vector3f::UnitY()));
+  shift.translation() << 0.01f, 0.0f, 0.005f;
+  pcl::transformPointCloudWithNormals(*src, *tgt, shift);
+
+  using Lls = pcl::registration::TransformationEstimationPointToPlaneLLS<PointNormal, PointNormal>;
+  pcl_parallel::registration::ParallelIterativeClosestPoint<PointNormal, PointNormal> icp;
+  pcl::IterativeClosestPoint<PointNormal, PointNormal> ref;
+  for (auto* r : {static_cast<pcl::IterativeClosestPoint<PointNormal, PointNormal>*>(&icp), &ref}) {
+    setPclTestParameters(*r);
+    r->setTransformationEstimation(Lls::Ptr(new Lls));
+    r->setInputSource(src);
+    r->setInputTarget(tgt);
+    PointCloud<PointNormal> out;
+    r->align(out);
+  }
+  EXPECT_FALSE(icp.usedFastPath());
+  EXPECT_TRUE(icp.getFinalTransformation().isApprox(ref.getFinalTransformation(), 1e-4));
+  EXPECT_TRUE(icp.getFinalTransformation().isApprox(shift.matrix(), 1e-2));
+}
+
+// Reciprocal correspondences and the visualisation callback take PCL's loop and work.
+TEST(ParallelIcp, ReciprocalAndVisualiserMatchPcl)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  PCL_PARALLEL_REQUIRE_DATA(bun4, "pcl_test/bun4.pcd");
+  const BunnyPair p = loadBun04(bun0, bun4);
+  PIcp icp;
+  pcl::IterativeClosestPoint<PointXYZ, PointXYZ> ref;
+  setPclTestParameters(icp);
+  setPclTestParameters(ref);
+  icp.setUseReciprocalCorrespondences(true);
+  ref.setUseReciprocalCorrespondences(true);
+  int calls = 0;
+  std::function<pcl::Registration<PointXYZ, PointXYZ>::UpdateVisualizerCallbackSignature> cb =
+      [&](const PointCloud<PointXYZ>&, const pcl::Indices& s, const PointCloud<PointXYZ>&,
+          const pcl::Indices& t) {
+        EXPECT_EQ(s.size(), t.size());
+        ++calls;
+      };
+  icp.registerVisualizationCallback(cb);
+  for (auto* r : {static_cast<pcl::IterativeClosestPoint<PointXYZ, PointXYZ>*>(&icp), &ref}) {
+    r->setInputSource(p.src);
+    r->setInputTarget(p.tgt);
+    PointCloud<PointXYZ> out;
+    r->align(out);
+  }
+  EXPECT_FALSE(icp.usedFastPath());
+  EXPECT_GT(calls, 0);
+  EXPECT_TRUE(icp.getFinalTransformation().isApprox(ref.getFinalTransformation(), 1e-4));
+}
+
+// Thread counts 1..4 give bit-identical transforms and iteration counts (fixed blocks,
+// fixed combination order, exact searches), on a cloud spanning many reduction blocks.
+TEST(ParallelIcp, BitIdenticalForAnyThreadCount)
+{
+  auto tgt = pcl_parallel::test::clusteredCloud(30000, 7).makeShared();
+  PointCloud<PointXYZ>::Ptr src(new PointCloud<PointXYZ>);
+  Eigen::Affine3f motion(Eigen::AngleAxisf(0.03f, Eigen::Vector3f(1, 2, 3).normalized()));
+  motion.translation() << 0.02f, -0.01f, 0.03f;
+  pcl::transformPointCloud(*tgt, *src, motion);
+  Eigen::Matrix4f first;
+  for (unsigned threads = 1; threads <= 4; ++threads) {
+    PIcp icp;
+    icp.setNumberOfThreads(threads);
+    icp.setMaximumIterations(30);
+    icp.setMaxCorrespondenceDistance(0.5);
+    icp.setTransformationEpsilon(1e-10);
+    icp.setInputSource(src);
+    icp.setInputTarget(tgt);
+    PointCloud<PointXYZ> out;
+    icp.align(out);
+    ASSERT_TRUE(icp.usedFastPath());
+    EXPECT_EQ(icp.getNumberOfThreads(), threads);
+    if (threads == 1) {
+      first = icp.getFinalTransformation();
+      EXPECT_TRUE(first.isApprox(motion.inverse().matrix(), 1e-2)) << first;
+    }
+    else
+      EXPECT_EQ(icp.getFinalTransformation(), first) << threads << " threads";
+  }
+}
+
+// Horn's quaternion and Arun's SVD give the same transform.
+TEST(ParallelIcp, HornEqualsSvd)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  PCL_PARALLEL_REQUIRE_DATA(bun4, "pcl_test/bun4.pcd");
+  const BunnyPair p = loadBun04(bun0, bun4);
+  PIcp svd, horn;
+  horn.setRotationMethod(PIcp::RotationMethod::kHornQuaternion);
+  for (PIcp* r : {&svd, &horn}) {
+    setPclTestParameters(*r);
+    r->setInputSource(p.src);
+    r->setInputTarget(p.tgt);
+    PointCloud<PointXYZ> out;
+    r->align(out);
+  }
+  EXPECT_TRUE(horn.getFinalTransformation().isApprox(svd.getFinalTransformation(), 1e-5));
+  // A pure reflection-prone case: moments of a planar point set still give det(R) = +1.
+  pcl_parallel::registration::detail::PairMoments m;
+  const double ref[3] = {0, 0, 0};
+  const double pts[4][3] = {{1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}};
+  for (const auto& d : pts) {
+    m.n += 1;
+    for (int a = 0; a < 3; ++a) {
+      m.sd[a] += d[a];
+      m.sm[a] += d[a];
+      for (int b = 0; b < 3; ++b)
+        m.sdm[3 * a + b] += d[a] * d[b];
+    }
+  }
+  for (bool use_horn : {false, true}) {
+    const Eigen::Matrix4d t =
+        pcl_parallel::registration::detail::rigidTransformFromMoments(m, ref, use_horn);
+    EXPECT_NEAR((t.topLeftCorner<3, 3>().determinant()), 1.0, 1e-12);
+    EXPECT_TRUE(t.isApprox(Eigen::Matrix4d::Identity(), 1e-12)) << t;
+  }
+}
+
+// Fewer than 3 correspondences: documented stop, no exception, finite output.
+TEST(ParallelIcp, TooFewCorrespondences)
+{
+  PointCloud<PointXYZ>::Ptr src(new PointCloud<PointXYZ>), tgt(new PointCloud<PointXYZ>);
+  for (int i = 0; i < 10; ++i) {
+    src->push_back(PointXYZ(static_cast<float>(i), 0, 0));
+    tgt->push_back(PointXYZ(static_cast<float>(i), 5, 0)); // all 5 away
+  }
+  (*tgt)[0] = PointXYZ(0, 0.01f, 0); // exactly two within range
+  (*tgt)[1] = PointXYZ(1, 0.01f, 0);
+  PIcp icp;
+  icp.setMaxCorrespondenceDistance(1.0);
+  icp.setInputSource(src);
+  icp.setInputTarget(tgt);
+  PointCloud<PointXYZ> out;
+  Eigen::Matrix4f guess = Eigen::Matrix4f::Identity();
+  guess(2, 3) = 0.001f;
+  EXPECT_NO_THROW(icp.align(out, guess));
+  EXPECT_FALSE(icp.hasConverged());
+  EXPECT_EQ(icp.getConvergeCriteria()->getConvergenceState(),
+            State::CONVERGENCE_CRITERIA_NO_CORRESPONDENCES);
+  EXPECT_EQ(icp.getFinalTransformation(), guess);
+  ASSERT_EQ(out.size(), src->size());
+  for (const auto& q : out)
+    EXPECT_TRUE(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z));
+}
+
+// Empty or all-NaN source / target: PCL_ERROR, hasConverged() == false, no crash.
+TEST(ParallelIcp, EmptyAndNanClouds)
+{
+  const auto good = pcl_parallel::test::uniformCloud(200, 3).makeShared();
+  PointCloud<PointXYZ>::Ptr empty(new PointCloud<PointXYZ>);
+  PointCloud<PointXYZ>::Ptr nan(new PointCloud<PointXYZ>);
+  const float q = std::numeric_limits<float>::quiet_NaN();
+  for (int i = 0; i < 50; ++i)
+    nan->push_back(PointXYZ(q, q, q));
+  nan->is_dense = false;
+  struct Case {
+    PointCloud<PointXYZ>::Ptr src, tgt;
+  };
+  for (const Case& c : {Case{empty, good}, Case{good, empty}, Case{nan, good}, Case{good, nan}}) {
+    PIcp icp;
+    icp.setInputSource(c.src);
+    icp.setInputTarget(c.tgt);
+    PointCloud<PointXYZ> out;
+    EXPECT_NO_THROW(icp.align(out));
+    EXPECT_FALSE(icp.hasConverged());
+    EXPECT_TRUE(icp.getFinalTransformation().allFinite());
+  }
+}
+
+// setSearchMethodTarget: a pre-built pcl_parallel tree with force_no_recompute and a
+// plain PCL (FLANN) tree both give the default result; getFitnessScore agrees with PCL's.
+TEST(ParallelIcp, SearchMethodTargetAndFitness)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  PCL_PARALLEL_REQUIRE_DATA(bun4, "pcl_test/bun4.pcd");
+  const BunnyPair p = loadBun04(bun0, bun4);
+  auto run = [&](PIcp& icp) {
+    setPclTestParameters(icp);
+    icp.setInputSource(p.src);
+    icp.setInputTarget(p.tgt);
+    PointCloud<PointXYZ> out;
+    icp.align(out);
+    return Eigen::Matrix4f(icp.getFinalTransformation());
+  };
+  PIcp plain;
+  const Eigen::Matrix4f expected = run(plain);
+
+  PIcp prebuilt;
+  pcl_parallel::search::KdTree<PointXYZ>::Ptr tree(new pcl_parallel::search::KdTree<PointXYZ>);
+  tree->setInputCloud(p.tgt);
+  prebuilt.setSearchMethodTarget(tree, true);
+  EXPECT_EQ(run(prebuilt), expected);
+
+  PIcp flann;
+  flann.setSearchMethodTarget(pcl::search::KdTree<PointXYZ>::Ptr(new pcl::search::KdTree<PointXYZ>));
+  EXPECT_EQ(run(flann), expected);
+
+  pcl::Registration<PointXYZ, PointXYZ>& base = plain; // PCL's serial fitness
+  EXPECT_NEAR(plain.getFitnessScore(), base.getFitnessScore(), 1e-9);
+  EXPECT_NEAR(plain.getFitnessScore(1e-4), base.getFitnessScore(1e-4), 1e-9);
+}
+
+// Source and target of different point types (PointXYZ -> PointNormal and back) give the
+// same transform as the same-type registration, and as PCL's ICP on the mixed types.
+TEST(ParallelIcp, MixedPointTypes)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  PCL_PARALLEL_REQUIRE_DATA(bun4, "pcl_test/bun4.pcd");
+  const BunnyPair p = loadBun04(bun0, bun4);
+  PointCloud<PointNormal>::Ptr tgt_n(new PointCloud<PointNormal>), src_n(new PointCloud<PointNormal>);
+  pcl::copyPointCloud(*p.tgt, *tgt_n);
+  pcl::copyPointCloud(*p.src, *src_n);
+
+  PIcp same;
+  setPclTestParameters(same);
+  same.setInputSource(p.src);
+  same.setInputTarget(p.tgt);
+  PointCloud<PointXYZ> out;
+  same.align(out);
+
+  pcl_parallel::registration::ParallelIterativeClosestPoint<PointXYZ, PointNormal> mixed;
+  setPclTestParameters(mixed);
+  mixed.setInputSource(p.src);
+  mixed.setInputTarget(tgt_n);
+  mixed.align(out);
+  EXPECT_EQ(mixed.getFinalTransformation(), same.getFinalTransformation());
+
+  pcl_parallel::registration::ParallelIterativeClosestPoint<PointNormal, PointXYZ> back;
+  setPclTestParameters(back);
+  back.setInputSource(src_n);
+  back.setInputTarget(p.tgt);
+  PointCloud<PointNormal> out_n;
+  back.align(out_n);
+  EXPECT_EQ(back.getFinalTransformation(), same.getFinalTransformation());
+
+  pcl::IterativeClosestPoint<PointXYZ, PointNormal> ref; // compiles thanks to mixed_point_types.h
+  setPclTestParameters(ref);
+  ref.setInputSource(p.src);
+  ref.setInputTarget(tgt_n);
+  ref.align(out);
+  EXPECT_TRUE(mixed.getFinalTransformation().isApprox(ref.getFinalTransformation(), 1e-3));
+}
+
+// Inside PCL's own pipelines: IncrementalRegistration and ELCH accept it and give the
+// same result as with PCL's ICP.
+TEST(ParallelIcp, InsidePclPipelines)
+{
+  PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
+  const auto cloud = loadPcd<PointXYZ>(bun0);
+  std::vector<PointCloud<PointXYZ>::Ptr> clouds;
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Affine3f t(Eigen::AngleAxisf(0.02f * k, Eigen::Vector3f::UnitZ()));
+    t.translation() << 0.004f * k, 0.002f * k, 0.0f;
+    PointCloud<PointXYZ>::Ptr c(new PointCloud<PointXYZ>);
+    pcl::transformPointCloud(*cloud, *c, t);
+    clouds.push_back(c);
+  }
+  auto incremental = [&](pcl::Registration<PointXYZ, PointXYZ>::Ptr reg) {
+    reg->setMaxCorrespondenceDistance(0.05);
+    reg->setMaximumIterations(50);
+    reg->setTransformationEpsilon(1e-8);
+    pcl::registration::IncrementalRegistration<PointXYZ> iicp;
+    iicp.setRegistration(reg);
+    for (const auto& c : clouds)
+      EXPECT_TRUE(iicp.registerCloud(c));
+    return Eigen::Matrix4f(iicp.getAbsoluteTransform());
+  };
+  const Eigen::Matrix4f ours = incremental(PIcp::Ptr(new PIcp));
+  const Eigen::Matrix4f pcls =
+      incremental(pcl::IterativeClosestPoint<PointXYZ, PointXYZ>::Ptr(
+          new pcl::IterativeClosestPoint<PointXYZ, PointXYZ>));
+  EXPECT_TRUE(ours.isApprox(pcls, 1e-3)) << ours << "\n" << pcls;
+
+  // ELCH: a loop whose end drifted by D from its start: c0, c1 = A c0, c2 = D A c0,
+  // c3 = D c0. ELCH registers c3+c2 onto c0+c1, a well-posed problem (answer D^-1).
+  Eigen::Affine3f a(Eigen::AngleAxisf(0.3f, Eigen::Vector3f::UnitZ()));
+  a.translation() << 0.05f, 0.0f, 0.0f;
+  Eigen::Affine3f drift(Eigen::AngleAxisf(0.02f, Eigen::Vector3f::UnitY()));
+  drift.translation() << 0.004f, -0.003f, 0.002f;
+  clouds.assign(4, nullptr);
+  const Eigen::Affine3f poses[4] = {Eigen::Affine3f::Identity(), a, drift * a, drift};
+  auto elch = [&](pcl::Registration<PointXYZ, PointXYZ>::Ptr reg) {
+    for (int k = 0; k < 4; ++k) {
+      clouds[k].reset(new PointCloud<PointXYZ>);
+      pcl::transformPointCloud(*cloud, *clouds[k], poses[k]);
+    }
+    reg->setMaxCorrespondenceDistance(0.05);
+    reg->setMaximumIterations(50);
+    reg->setTransformationEpsilon(1e-8);
+    pcl::registration::ELCH<PointXYZ> e;
+    e.setReg(reg);
+    for (const auto& c : clouds)
+      e.addPointCloud(c);
+    e.setLoopStart(0);
+    e.setLoopEnd(3);
+    e.compute();
+    EXPECT_TRUE(e.getLoopTransform().isApprox(drift.inverse().matrix(), 1e-2))
+        << e.getLoopTransform();
+    std::vector<Eigen::Vector3f> firsts;
+    auto graph = e.getLoopGraph();
+    for (std::size_t v = 0; v < boost::num_vertices(*graph); ++v)
+      firsts.push_back((*(*graph)[v].cloud)[0].getVector3fMap());
+    return firsts;
+  };
+  const auto e_ours = elch(PIcp::Ptr(new PIcp));
+  const auto e_pcl = elch(pcl::IterativeClosestPoint<PointXYZ, PointXYZ>::Ptr(
+      new pcl::IterativeClosestPoint<PointXYZ, PointXYZ>));
+  ASSERT_EQ(e_ours.size(), e_pcl.size());
+  for (std::size_t v = 0; v < e_ours.size(); ++v)
+    EXPECT_TRUE(e_ours[v].isApprox(e_pcl[v], 1e-3)) << v;
+}
+
+// ---------------------------------------------------------------------------------------
+// Real 3DTK pair scan001 -> scan000, range 50-3000 cm, odometry as guess, 25 cm, 50 it.
+struct Dtk {
+  PointCloud<PointXYZ>::Ptr s0, s1;
+  Eigen::Matrix4f guess;
+};
+Dtk
+loadDtk(const std::string& dir)
+{
+  Dtk d;
+  d.s0 = pcl_parallel::io::loadUosScan(dir + "/scan000.3d", 50, 3000);
+  d.s1 = pcl_parallel::io::loadUosScan(dir + "/scan001.3d", 50, 3000);
+  // pose000 is the identity, so inverse(pose000) * pose001 = pose001.
+  const Eigen::Matrix4d p0 = pcl_parallel::io::loadUosPose(dir + "/scan000.pose");
+  const Eigen::Matrix4d p1 = pcl_parallel::io::loadUosPose(dir + "/scan001.pose");
+  d.guess = (p0.inverse() * p1).cast<float>();
+  return d;
+}
+template <typename Reg>
+void
+setDtkParameters(Reg& reg)
+{
+  reg.setMaximumIterations(50);
+  reg.setMaxCorrespondenceDistance(25.0);
+}
+
+// Full resolution against the paper's own implementation (reference_frames_2009).
+TEST(ParallelIcp, Dtk001To000MatchesPaperImplementation)
+{
+  PCL_PARALLEL_REQUIRE_DATA(scan, "3dtk_dat/scan001.3d");
+  PCL_PARALLEL_REQUIRE_DATA(frames, "3dtk_dat/reference_frames_2009/scan001.frames");
+  const Dtk d = loadDtk(pcl_parallel::test::dataDir() + "/3dtk_dat");
+  PIcp icp;
+  setDtkParameters(icp);
+  icp.setInputSource(d.s1);
+  icp.setInputTarget(d.s0);
+  PointCloud<PointXYZ> out;
+  icp.align(out, d.guess);
+  ASSERT_TRUE(icp.usedFastPath());
+  const Eigen::Matrix4d ours = icp.getFinalTransformation().cast<double>();
+  const auto [deg, cm] = poseDifference(ours, pcl_parallel::io::loadFramesFinalPose(frames));
+  EXPECT_LT(cm, 1.0);
+  EXPECT_LT(deg, 0.3);
+  // ICP moved away from the odometry (the scans are not aligned by it).
+  EXPECT_GT(poseDifference(ours, d.guess.cast<double>()).second, 1.0);
+}
+
+// Against pcl::IterativeClosestPoint on the same full-resolution input (PCL's ICP takes
+// ~5-16 s here depending on load; it is the one slow test). Also checks the iteration
+// count, and that the remaining difference is PCL's float rounding: PCL with Scalar =
+// double is not run here (another ~5 s), the numbers are in docs/benchmarks.md.
+TEST(ParallelIcp, Dtk001To000MatchesPcl)
+{
+  PCL_PARALLEL_REQUIRE_DATA(scan, "3dtk_dat/scan001.3d");
+  const Dtk d = loadDtk(pcl_parallel::test::dataDir() + "/3dtk_dat");
+  PIcp icp;
+  pcl::IterativeClosestPoint<PointXYZ, PointXYZ> ref;
+  for (auto* r : {static_cast<pcl::IterativeClosestPoint<PointXYZ, PointXYZ>*>(&icp), &ref}) {
+    setDtkParameters(*r);
+    r->setInputSource(d.s1);
+    r->setInputTarget(d.s0);
+    PointCloud<PointXYZ> out;
+    r->align(out, d.guess);
+  }
+  EXPECT_TRUE(icp.usedFastPath());
+  const auto [deg, cm] = poseDifference(icp.getFinalTransformation().cast<double>(),
+                                        ref.getFinalTransformation().cast<double>());
+  EXPECT_LT(deg, 0.05);
+  EXPECT_LT(cm, 0.05);
+  EXPECT_EQ(icp.hasConverged(), ref.hasConverged());
+  EXPECT_EQ(Peek<PIcp>::iterations(icp), Peek<decltype(ref)>::iterations(ref));
+}
+
+// ---------------------------------------------------------------------------------------
+// Stanford bunny bun045 -> bun000 from the ground truth perturbed by 3 deg / 5 mm: ends
+// closer to the ground truth than it started. Also checks the bun.conf convention
+// p_world = R(q)^T p + t: under it the scans overlap far better than under R(q).
+Eigen::Matrix4d
+bunPose(const std::string& conf, const std::string& file, bool transpose)
+{
+  std::ifstream in(conf);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream ls(line);
+    std::string kw, name;
+    double t[3], q[4];
+    if (!(ls >> kw >> name) || kw != "bmesh" || name != file)
+      continue;
+    ls >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3];
+    const Eigen::Matrix3d r = Eigen::Quaterniond(q[3], q[0], q[1], q[2]).toRotationMatrix();
+    Eigen::Matrix4d p = Eigen::Matrix4d::Identity();
+    p.topLeftCorner<3, 3>() = transpose ? Eigen::Matrix3d(r.transpose()) : r;
+    p.topRightCorner<3, 1>() << t[0], t[1], t[2];
+    return p;
+  }
+  ADD_FAILURE() << file << " not in " << conf;
+  return Eigen::Matrix4d::Identity();
+}
+
+TEST(ParallelIcp, BunnyFromPerturbedGroundTruth)
+{
+  PCL_PARALLEL_REQUIRE_DATA(conf, "stanford_bunny/bun.conf");
+  PCL_PARALLEL_REQUIRE_DATA(f0, "stanford_bunny/bun000.ply");
+  PCL_PARALLEL_REQUIRE_DATA(f45, "stanford_bunny/bun045.ply");
+  const auto b0 = pcl_parallel::io::loadAsciiPlyVertices(f0);
+  const auto b45 = pcl_parallel::io::loadAsciiPlyVertices(f45);
+  ASSERT_EQ(b0->size(), 40256u);
+  ASSERT_EQ(b45->size(), 40097u);
+  // bun000's pose is the identity: source -> target = pose(bun045).
+  const Eigen::Matrix4d gt = bunPose(conf, "bun045.ply", true);
+  const Eigen::Matrix4d wrong = bunPose(conf, "bun045.ply", false);
+
+  PIcp icp;
+  icp.setInputSource(b45);
+  icp.setInputTarget(b0);
+  icp.setMaxCorrespondenceDistance(0.005);
+  icp.setMaximumIterations(100);
+  icp.setTransformationEpsilon(1e-12);
+  pcl_parallel::search::KdTree<PointXYZ> tree;
+  tree.setInputCloud(b0);
+  auto fitnessAt = [&](const Eigen::Matrix4d& t) { // mean squared NN distance
+    PointCloud<PointXYZ> moved;
+    pcl::transformPointCloud(*b45, moved, t.cast<float>());
+    double sum = 0;
+    pcl::Indices idx;
+    std::vector<float> d2;
+    for (const auto& q : moved)
+      if (tree.nearestKSearch(q, 1, idx, d2) == 1)
+        sum += std::min(d2[0], 1e-4f);
+    return sum / static_cast<double>(moved.size());
+  };
+  const double fit_gt = fitnessAt(gt), fit_wrong = fitnessAt(wrong);
+  EXPECT_LT(fit_gt * 4, fit_wrong) << "bun.conf convention";
+
+  Eigen::Matrix4d perturb = Eigen::Matrix4d::Identity();
+  perturb.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+  perturb.topRightCorner<3, 1>() << 0.005, 0.0, 0.0;
+  const Eigen::Matrix4d start = perturb * gt;
+  icp.setMaximumIterations(100);
+  icp.setMaxCorrespondenceDistance(0.02);
+  PointCloud<PointXYZ> out;
+  icp.align(out, start.cast<float>());
+  const Eigen::Matrix4d result = icp.getFinalTransformation().cast<double>();
+  const auto before = poseDifference(start, gt);
+  const auto after = poseDifference(result, gt);
+  EXPECT_LT(after.first, before.first);
+  EXPECT_LT(after.second, before.second);
+  RecordProperty("deg_after", std::to_string(after.first));
+}
+
+} // namespace
