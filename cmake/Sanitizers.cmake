@@ -79,6 +79,13 @@ function(pcl_parallel_sanitize target)
     list(APPEND flags -fno-sanitize-recover=undefined)
   endif()
   target_compile_options(${target} PRIVATE ${flags})
+  if(PCL_PARALLEL_SANITIZE MATCHES "address")
+    # Under -fsanitize=address Eigen stops trusting glibc's 16-byte aligned malloc
+    # (__SANITIZE_ADDRESS__) and switches to its own offset allocator. Eigen objects then
+    # cross into Debian's uninstrumented PCL, which frees them with plain free(): a bad
+    # free. Keep the allocation scheme PCL was built with.
+    target_compile_definitions(${target} PRIVATE EIGEN_MALLOC_ALREADY_ALIGNED=1)
+  endif()
   target_link_options(${target} PUBLIC -fsanitize=${PCL_PARALLEL_SANITIZE})
   if(PCL_PARALLEL_OPENMP_SHIM_DIR)
     set_property(TARGET ${target} APPEND PROPERTY BUILD_RPATH "${PCL_PARALLEL_OPENMP_SHIM_DIR}")

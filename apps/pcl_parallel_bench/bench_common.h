@@ -23,9 +23,14 @@ struct Options {
   std::vector<unsigned> threads; ///< thread counts to compare (default 1 and all cores)
 };
 
-/** Median wall time in seconds of `repeats` runs of fn (after one untimed warm-up). */
-inline double
-medianSeconds(int repeats, const std::function<void()>& fn)
+/** Median and best wall time in seconds of `repeats` runs of fn, after one untimed
+ *  warm-up. The median is what tables rank by; the best is less sensitive to other
+ *  processes on a shared machine. */
+struct Timing {
+  double median, best;
+};
+inline Timing
+timeRuns(int repeats, const std::function<void()>& fn)
 {
   fn();
   std::vector<double> t;
@@ -34,9 +39,23 @@ medianSeconds(int repeats, const std::function<void()>& fn)
     fn();
     t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
-  std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
-  return t[t.size() / 2];
+  std::sort(t.begin(), t.end());
+  return {t[t.size() / 2], t.front()};
 }
+
+/** Median wall time in seconds (see timeRuns). */
+inline double
+medianSeconds(int repeats, const std::function<void()>& fn)
+{
+  return timeRuns(repeats, fn).median;
+}
+
+/** What the machine gives right now: speed-up of a compute-bound, embarrassingly parallel
+ *  OpenMP loop on `threads` threads over 1 thread (best of 3). On an idle machine it is
+ *  ~threads; on a machine shared with other jobs it shows how much parallelism there was
+ *  to have. Print it with every table that compares thread counts. */
+double
+spinSpeedup(unsigned threads);
 
 /** A markdown table printed to stdout, so the output pastes into docs/benchmarks.md. */
 class Table {

@@ -13,7 +13,7 @@
 #endif
 #include "bench_common.h"
 
-#include <pcl_parallel/io/ply.h>
+#include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/registration/icp.h>
@@ -74,28 +74,6 @@ configure(Reg& reg, const IcpCase& c)
   reg.setInputTarget(c.target);
 }
 
-/** bun.conf pose: p_world = R(q)^T p + t. */
-bool
-bunPose(const std::string& conf, const std::string& file, Eigen::Matrix4f& pose)
-{
-  std::ifstream in(conf);
-  std::string line;
-  while (std::getline(in, line)) {
-    std::istringstream ls(line);
-    std::string kw, name;
-    float t[3], q[4];
-    if (!(ls >> kw >> name) || kw != "bmesh" || name != file)
-      continue;
-    ls >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3];
-    pose.setIdentity();
-    pose.topLeftCorner<3, 3>() =
-        Eigen::Quaternionf(q[3], q[0], q[1], q[2]).toRotationMatrix().transpose();
-    pose.topRightCorner<3, 1>() << t[0], t[1], t[2];
-    return true;
-  }
-  return false;
-}
-
 std::vector<IcpCase>
 loadCases(const Options& opt)
 {
@@ -118,13 +96,14 @@ loadCases(const Options& opt)
     std::printf("(3dtk data not found under %s: skipped)\n", opt.data_dir.c_str());
 
   const std::string bun = opt.data_dir + "/stanford_bunny";
-  Eigen::Matrix4f gt;
   if (std::filesystem::exists(bun + "/bun045.ply") &&
-      bunPose(bun + "/bun.conf", "bun045.ply", gt)) {
+      std::filesystem::exists(bun + "/bun.conf")) {
+    const Eigen::Matrix4f gt =
+        io::stanfordPose(io::loadStanfordConf(bun + "/bun.conf"), "bun045.ply").cast<float>();
     IcpCase c;
     c.name = "bunny bun045->bun000";
-    c.target = io::loadAsciiPlyVertices(bun + "/bun000.ply");
-    c.source = io::loadAsciiPlyVertices(bun + "/bun045.ply");
+    c.target = io::loadStanfordScan(bun + "/bun000.ply");
+    c.source = io::loadStanfordScan(bun + "/bun045.ply");
     Eigen::Matrix4f perturb = Eigen::Matrix4f::Identity();
     perturb.topLeftCorner<3, 3>() =
         Eigen::AngleAxisf(3.0f * static_cast<float>(M_PI) / 180.0f,
@@ -180,55 +159,6 @@ loadCases(const Options& opt)
   return cases;
 }
 
-/** Median and best of `repeats` timed runs after one warm-up. The best is less sensitive
- *  to other processes on a shared machine; the median is what the table ranks by. */
-struct Timing {
-  double median, best;
-};
-Timing
-timeRuns(int repeats, const std::function<void()>& fn)
-{
-  fn();
-  std::vector<double> t;
-  for (int r = 0; r < std::max(1, repeats); ++r) {
-    const auto start = std::chrono::steady_clock::now();
-    fn();
-    t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  }
-  std::sort(t.begin(), t.end());
-  return {t[t.size() / 2], t.front()};
-}
-
-/** What the machine gives right now: speed-up of a compute-bound, embarrassingly parallel
- *  OpenMP loop on `threads` threads over 1 thread (best of 3). On an idle machine it is
- *  ~threads; on a machine shared with other jobs it shows how much parallelism there was
- *  to have. */
-double
-spinSpeedup(unsigned threads)
-{
-  auto spin = [](unsigned t) {
-    double best = 1e30;
-    for (int r = 0; r < 3; ++r) {
-      const auto start = std::chrono::steady_clock::now();
-      double sink = 0.0;
-#pragma omp parallel num_threads(t) reduction(+ : sink)
-      {
-        double y = 0.0;
-        const long n = 200000000L / static_cast<long>(t);
-        for (long i = 0; i < n; ++i)
-          y += static_cast<double>(i) * 1e-9;
-        sink += y;
-      }
-      volatile double keep = sink;
-      (void)keep;
-      best = std::min(
-          best,
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-    }
-    return best;
-  };
-  return spin(1) / spin(threads);
-}
 
 } // namespace
 

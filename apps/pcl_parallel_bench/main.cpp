@@ -12,10 +12,45 @@
 
 #include <pcl/console/print.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <map>
 #include <sstream>
+
+namespace pcl_parallel {
+namespace bench {
+
+double
+spinSpeedup(unsigned threads)
+{
+  auto spin = [](unsigned t) {
+    double best = 1e30;
+    for (int r = 0; r < 3; ++r) {
+      const auto start = std::chrono::steady_clock::now();
+      double sink = 0.0;
+#pragma omp parallel num_threads(t) reduction(+ : sink)
+      {
+        double y = 0.0;
+        const long n = 200000000L / static_cast<long>(t);
+        for (long i = 0; i < n; ++i)
+          y += static_cast<double>(i) * 1e-9;
+        sink += y;
+      }
+      volatile double keep = sink;
+      (void)keep;
+      best = std::min(
+          best,
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    }
+    return best;
+  };
+  return spin(1) / spin(threads);
+}
+
+} // namespace bench
+} // namespace pcl_parallel
 
 namespace {
 

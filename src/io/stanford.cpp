@@ -45,6 +45,15 @@ loadStanfordConf(const std::string& path)
   return out;
 }
 
+Eigen::Matrix4d
+stanfordPose(const std::vector<StanfordConfEntry>& entries, const std::string& file)
+{
+  for (const auto& e : entries)
+    if (e.file == file)
+      return e.pose;
+  throw std::out_of_range("pcl_parallel::io::stanfordPose: " + file + " is not in the .conf");
+}
+
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadStanfordScan(const std::string& path)
 {

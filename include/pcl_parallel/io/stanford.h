@@ -29,6 +29,10 @@ struct StanfordConfEntry {
 std::vector<StanfordConfEntry>
 loadStanfordConf(const std::string& path);
 
+/** The pose of \a file in \a entries; throws std::out_of_range when it is not listed. */
+Eigen::Matrix4d
+stanfordPose(const std::vector<StanfordConfEntry>& entries, const std::string& file);
+
 /** Reads the x, y, z vertices of a Stanford range scan (ASCII PLY with an extra
  *  range_grid element) and drops the empty grid cells, so the cloud is unorganised and
  *  dense. Uses pcl::io::loadPLYFile, which copes with the range_grid element by returning

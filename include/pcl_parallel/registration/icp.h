@@ -256,6 +256,11 @@ rigidTransformFromMoments(const PairMoments& moments, const double ref[3], bool 
 } // namespace detail
 
 } // namespace registration
+
+// The mission's short names: pcl_parallel::ParallelIterativeClosestPoint and friends.
+using registration::ParallelCorrespondenceEstimation;
+using registration::ParallelIterativeClosestPoint;
+
 } // namespace pcl_parallel
 
 #ifdef PCL_NO_PRECOMPILE
