@@ -648,6 +648,11 @@ TEST(ParallelIcp, Dtk001To000MatchesPcl)
 // Stanford bunny bun045 -> bun000 from the ground truth perturbed by 3 deg / 5 mm: ends
 // closer to the ground truth than it started. Also checks the bun.conf convention
 // p_world = R(q)^T p + t: under it the scans overlap far better than under R(q).
+// The mission's short name is the same class.
+static_assert(std::is_same<pcl_parallel::ParallelIterativeClosestPoint<PointXYZ, PointXYZ>,
+                           pcl_parallel::registration::ParallelIterativeClosestPoint<PointXYZ, PointXYZ>>::value,
+              "pcl_parallel::ParallelIterativeClosestPoint");
+
 TEST(ParallelIcp, BunnyFromPerturbedGroundTruth)
 {
   PCL_PARALLEL_REQUIRE_DATA(conf, "stanford_bunny/bun.conf");
