@@ -47,7 +47,7 @@ enum class SlotLayout { kPadded, kPacked };
  *   positions are a function of the point count alone, which lets the two halves be built
  *   by concurrent OpenMP tasks into a preallocated array (Sec. IV-A.2) and makes the tree
  *   identical for every thread count.
- * - Buckets hold at most bucket_size points (default 6, see docs/benchmarks.md). A
+ * - Buckets hold at most bucket_size points (default 12, see docs/benchmarks.md). A
  *   node whose points all coincide becomes one leaf however large, searched by its first
  *   point(s) only, so clouds of duplicates cost O(1) per query instead of O(n).
  * - Search is exact. The bounds-overlap-ball test (Sec. IV-A.3) uses the incremental
@@ -65,7 +65,7 @@ public:
   using ConstPtr = std::shared_ptr<const KdTreeIndex>;
 
   static constexpr std::uint32_t kInvalid = std::numeric_limits<std::uint32_t>::max();
-  static constexpr unsigned kDefaultBucketSize = 6;
+  static constexpr unsigned kDefaultBucketSize = 12;
 
   /** Builds the tree. \a xyz holds \a n points with \a stride floats between consecutive
    *  points (x, y, z first); \a ids (may be null: ids are then 0..n-1) are what id()
