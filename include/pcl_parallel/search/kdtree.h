@@ -111,6 +111,16 @@ protected:
   using pcl::search::Search<PointT>::name_;
 
 private:
+  /** The parallel loop of the batch searches: search_one(point, indices, sqr_distances)
+   *  for every query (all of \a cloud when \a indices is empty, as PCL). */
+  template <typename SearchOne>
+  void
+  searchBatch(const PointCloud& cloud,
+              const pcl::Indices& indices,
+              std::vector<pcl::Indices>& k_indices,
+              std::vector<std::vector<float>>& k_sqr_distances,
+              SearchOne search_one) const;
+
   KdTreeIndex index_;
   unsigned num_threads_ = 0;
   unsigned bucket_size_ = KdTreeIndex::kDefaultBucketSize;

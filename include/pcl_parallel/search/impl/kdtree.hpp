@@ -125,12 +125,13 @@ KdTree<PointT>::radiusSearch(const PointT& point,
 }
 
 template <typename PointT>
+template <typename SearchOne>
 void
-KdTree<PointT>::nearestKSearch(const PointCloud& cloud,
-                               const pcl::Indices& indices,
-                               int k,
-                               std::vector<pcl::Indices>& k_indices,
-                               std::vector<std::vector<float>>& k_sqr_distances) const
+KdTree<PointT>::searchBatch(const PointCloud& cloud,
+                            const pcl::Indices& indices,
+                            std::vector<pcl::Indices>& k_indices,
+                            std::vector<std::vector<float>>& k_sqr_distances,
+                            SearchOne search_one) const
 {
   // As PCL: empty indices mean every point of the cloud.
   const std::size_t n = indices.empty() ? cloud.size() : indices.size();
@@ -140,8 +141,21 @@ KdTree<PointT>::nearestKSearch(const PointCloud& cloud,
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 64) if (threads > 1)
   for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
     const auto q = indices.empty() ? i : indices[i];
-    nearestKSearch(cloud[q], k, k_indices[i], k_sqr_distances[i]);
+    search_one(cloud[q], k_indices[i], k_sqr_distances[i]);
   }
+}
+
+template <typename PointT>
+void
+KdTree<PointT>::nearestKSearch(const PointCloud& cloud,
+                               const pcl::Indices& indices,
+                               int k,
+                               std::vector<pcl::Indices>& k_indices,
+                               std::vector<std::vector<float>>& k_sqr_distances) const
+{
+  searchBatch(cloud, indices, k_indices, k_sqr_distances, [&](const PointT& p, auto& i, auto& d) {
+    nearestKSearch(p, k, i, d);
+  });
 }
 
 template <typename PointT>
@@ -153,15 +167,9 @@ KdTree<PointT>::radiusSearch(const PointCloud& cloud,
                              std::vector<std::vector<float>>& k_sqr_distances,
                              unsigned int max_nn) const
 {
-  const std::size_t n = indices.empty() ? cloud.size() : indices.size();
-  k_indices.resize(n);
-  k_sqr_distances.resize(n);
-  const unsigned threads = resolveNumberOfThreads(num_threads_);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 64) if (threads > 1)
-  for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
-    const auto q = indices.empty() ? i : indices[i];
-    radiusSearch(cloud[q], radius, k_indices[i], k_sqr_distances[i], max_nn);
-  }
+  searchBatch(cloud, indices, k_indices, k_sqr_distances, [&](const PointT& p, auto& i, auto& d) {
+    radiusSearch(p, radius, i, d, max_nn);
+  });
 }
 
 } // namespace search
