@@ -25,6 +25,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <random>
 #include <tuple>
 
@@ -373,6 +374,105 @@ TEST(LumMath, PoseRoundTripAtAnyPitch)
   }
 }
 
+// updateBetween() is the inverse of applyUpdate(), also far from the origin.
+TEST(LumMath, UpdateBetweenInvertsApplyUpdate)
+{
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int k = 0; k < 20; ++k) {
+    Eigen::Matrix4d pose = makePose(100 * u(rng), 50 * u(rng), 10 * u(rng), 3 * u(rng),
+                                    1.5 * u(rng), 3 * u(rng));
+    pcl_parallel::lum::Vector6d d;
+    d << u(rng), u(rng), u(rng), 0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng);
+    Eigen::Matrix4d moved = pose;
+    pcl_parallel::lum::applyUpdate(moved, d);
+    const pcl_parallel::lum::Vector6d back = pcl_parallel::lum::updateBetween(pose, moved);
+    EXPECT_LT((back - d).norm(), 1e-9) << k;
+  }
+}
+
+// addWeighted() with W = I is add(): the same information matrix and gradient.
+TEST(LumMath, WeightedIdentityEqualsPointToPoint)
+{
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  pcl_parallel::lum::LinkAccumulator plain, weighted;
+  for (int k = 0; k < 200; ++k) {
+    const Eigen::Vector3d a(10 + u(rng), 5 + u(rng), u(rng));
+    const Eigen::Vector3d b = a + 0.01 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    plain.add(a, b);
+    weighted.addWeighted(a, b, Eigen::Matrix3d::Identity());
+  }
+  pcl_parallel::lum::Matrix6d h1, h2;
+  pcl_parallel::lum::Vector6d g1, g2;
+  double s1, s2;
+  ASSERT_TRUE(plain.finish(10, 0.0, h1, g1, &s1));
+  ASSERT_TRUE(weighted.finish(10, 0.0, h2, g2, &s2));
+  EXPECT_NEAR(s1, s2, 1e-12 * s1);
+  EXPECT_LT((h1 - h2).norm(), 1e-9 * h1.norm());
+  EXPECT_LT((g1 - g2).norm(), 1e-9 * g1.norm());
+}
+
+// Pairs on the three planes of a box corner, offset along their planes (as closest
+// points on sampled surfaces are): point-to-plane measures the true pose difference,
+// point-to-point is pulled by the offsets.
+TEST(LumMath, PointToPlaneIgnoresOffsetsAlongTheSurface)
+{
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  pcl_parallel::lum::Vector6d truth;
+  truth << 0.01, -0.02, 0.005, 0.01, -0.005, 0.02;
+  pcl_parallel::lum::LinkAccumulator plane, point;
+  for (int k = 0; k < 300; ++k) {
+    const int axis = k % 3;
+    Eigen::Vector3d m(u(rng), u(rng), u(rng));
+    m(axis) = 0.0; // on the plane with normal e_axis
+    const Eigen::Vector3d n = Eigen::Vector3d::Unit(axis);
+    Eigen::Vector3d slide = 0.01 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    slide(axis) = 0.0;
+    Eigen::Matrix<double, 3, 6> jac;
+    jac << Eigen::Matrix3d::Identity(),
+        -(Eigen::Matrix3d() << 0, -m.z(), m.y(), m.z(), 0, -m.x(), -m.y(), m.x(), 0).finished();
+    // Residual r = a - b with midpoint m such that r + M D vanishes at D = truth, up to
+    // the slide along the plane.
+    const Eigen::Vector3d r = -(jac * truth) + slide;
+    plane.addWeighted(m + 0.5 * r, m - 0.5 * r, n * n.transpose());
+    point.add(m + 0.5 * r, m - 0.5 * r);
+  }
+  pcl_parallel::lum::Vector6d d_plane, d_point;
+  ASSERT_TRUE(plane.measurement(10, d_plane));
+  ASSERT_TRUE(point.measurement(10, d_point));
+  EXPECT_LT((d_plane - truth).norm(), 1e-9);
+  EXPECT_GT((d_point - truth).norm(), 1e-3); // the offsets do bias point-to-point
+}
+
+// Normals of points on a sphere are radial; points on a line get none.
+TEST(LumMath, EstimateNormals)
+{
+  std::vector<float> xyz;
+  std::mt19937 rng(6);
+  std::normal_distribution<float> g;
+  for (int k = 0; k < 5000; ++k) {
+    Eigen::Vector3f p(g(rng), g(rng), g(rng));
+    p.normalize();
+    xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+  }
+  pcl_parallel::KdTreeIndex tree;
+  tree.build(xyz.data(), 5000, 3);
+  const auto normals = pcl_parallel::lum::estimateNormals(tree, 10, 2);
+  ASSERT_EQ(normals.size(), tree.size());
+  for (std::uint32_t pos = 0; pos < tree.size(); ++pos) {
+    const Eigen::Vector3f p = Eigen::Vector3f::Map(tree.point(pos));
+    EXPECT_GT(std::abs(normals[pos].dot(p)), 0.99f) << pos;
+  }
+  std::vector<float> line;
+  for (int k = 0; k < 50; ++k)
+    line.insert(line.end(), {0.1f * k, 0.2f * k, 0.0f});
+  tree.build(line.data(), 50, 3);
+  for (const Eigen::Vector3f& n : pcl_parallel::lum::estimateNormals(tree, 10, 1))
+    EXPECT_EQ(n, Eigen::Vector3f::Zero());
+}
+
 // ---------------------------------------------------------------------------------------
 // pLUM mode: pairs re-estimated by the k-d trees every iteration.
 struct PlumScene {
@@ -460,6 +560,59 @@ TEST_F(QuietPcl, PlumIsIdenticalForOneAndTwoThreads)
   const Poses two = runPlum(s, start, links, 2, 3);
   for (std::size_t v = 0; v < one.size(); ++v)
     EXPECT_EQ(one[v], two[v]) << "vertex " << v; // bit-identical
+}
+
+// The gate schedule, the option setters' validation and the iteration callback.
+TEST_F(QuietPcl, PlumOptions)
+{
+  ParallelLUM<pcl::PointXYZ> lum;
+  EXPECT_EQ(lum.getCorrespondenceDistance(), 0.0); // PCL mode by default
+  lum.setCorrespondenceDistanceSchedule(0.01, 0.002, 0.5);
+  EXPECT_DOUBLE_EQ(lum.correspondenceDistanceAt(0), 0.01);
+  EXPECT_DOUBLE_EQ(lum.correspondenceDistanceAt(1), 0.005);
+  EXPECT_DOUBLE_EQ(lum.correspondenceDistanceAt(2), 0.0025);
+  EXPECT_DOUBLE_EQ(lum.correspondenceDistanceAt(3), 0.002);
+  EXPECT_DOUBLE_EQ(lum.correspondenceDistanceAt(100), 0.002);
+  lum.setCorrespondenceDistance(0.03);
+  EXPECT_DOUBLE_EQ(lum.correspondenceDistanceAt(7), 0.03);
+  lum.setCorrespondenceDistance(0.0);
+  EXPECT_EQ(lum.getCorrespondenceDistance(), 0.0);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(lum.setCorrespondenceDistance(nan), std::invalid_argument);
+  EXPECT_THROW(lum.setCorrespondenceDistanceSchedule(0.001, 0.002, 0.9), std::invalid_argument);
+  EXPECT_THROW(lum.setCorrespondenceDistanceSchedule(0.01, 0.0, 0.9), std::invalid_argument);
+  EXPECT_THROW(lum.setCorrespondenceDistanceSchedule(0.01, 0.002, 0.0), std::invalid_argument);
+  EXPECT_THROW(lum.setCorrespondenceDistanceSchedule(0.01, 0.002, 1.5), std::invalid_argument);
+  EXPECT_THROW(lum.setCorrespondenceDistanceSchedule(nan, 0.002, 0.9), std::invalid_argument);
+  EXPECT_THROW(lum.setLinkIterations(0), std::invalid_argument);
+  EXPECT_THROW(lum.setPointToPointWeight(-1.0), std::invalid_argument);
+  EXPECT_THROW(lum.setNormalNeighbours(2), std::invalid_argument);
+
+  // The callback sees every iteration, with the updated poses.
+  const Poses truth = {makePose(0, 0, 0, 0, 0, 0), makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
+                       makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
+  const PlumScene s = plumScene(truth, 51);
+  const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 52);
+  for (std::size_t v = 0; v < s.clouds.size(); ++v)
+    lum.addPointCloud(s.clouds[v], Eigen::Matrix4f(start[v].cast<float>()));
+  lum.addLink(1, 0);
+  lum.addLink(2, 1);
+  lum.setCorrespondenceDistanceSchedule(0.04, 0.02, 0.5);
+  lum.setMaxIterations(4);
+  std::vector<int> seen;
+  Eigen::Matrix4d last;
+  lum.setIterationCallback([&](int it, double mean_update) {
+    seen.push_back(it);
+    EXPECT_GE(mean_update, 0.0);
+    last = lum.getPoseMatrix(2);
+  });
+  lum.compute();
+  EXPECT_EQ(seen, (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(last, lum.getPoseMatrix(2));
+  // Convergence only counts once the gate has shrunk to its end (iteration 1).
+  lum.setConvergenceThreshold(1e30f);
+  lum.compute();
+  EXPECT_EQ(lum.getNumIterationsDone(), 2);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -682,16 +835,40 @@ setUpBunny(const Bunny& b, ParallelLUM<pcl::PointXYZ>& lum)
   lum.setMaxIterations(1);
 }
 
-/** Correspondence distance of iteration k: 10 mm shrinking by 0.9 per iteration to 2 mm.
- *  A wide gate first to pull 2 deg / 3 mm errors in, then a tight one: point-to-point
- *  pairs within 5 mm hold the bunny 1-2.5 deg away from bun.conf (measured from ground
- *  truth), within 2 mm 0.36 deg. */
-double
-bunnyGate(int k)
+/** Max/mean errors vs bun.conf after every iteration of compute() (index 0: the start). */
+std::vector<Errors>
+relaxBunny(const Bunny& b, ParallelLUM<pcl::PointXYZ>& lum)
 {
-  return std::max(0.002, 0.01 * std::pow(0.9, k));
+  std::vector<Errors> trace;
+  auto record = [&](int, double) {
+    Poses got;
+    for (std::size_t v = 0; v < b.clouds.size(); ++v)
+      got.push_back(lum.getPoseMatrix(v));
+    trace.push_back(poseErrors(got, b.truth));
+    const Errors& e = trace.back();
+    if (trace.size() <= 10 || trace.size() % 10 == 1)
+      std::printf("it %2zu: rot max %.3f mean %.3f deg, trans max %.3f mean %.3f mm\n",
+                trace.size() - 1, e.max_rot / kDeg, e.mean_rot / kDeg, e.max_trans * 1e3,
+                e.mean_trans * 1e3);
+  };
+  record(-1, 0.0);
+  lum.setIterationCallback(record);
+  lum.compute();
+  return trace;
 }
 
+void
+expectBunnyTargets(const Errors& e, const Errors& start)
+{
+  EXPECT_LT(e.max_rot, 1.0 * kDeg);
+  EXPECT_LT(e.max_trans, 2e-3);
+  EXPECT_LT(e.mean_rot, 0.5 * kDeg);
+  EXPECT_LT(e.max_rot, start.max_rot);
+}
+
+// The bunny case with the options that make the relaxation monotone:
+// point-to-plane pairs, each link aligned by up to 5 pairing steps per iteration, gate
+// 5 mm -> 2 mm (x0.7 per iteration, the largest start error being ~6 mm per point).
 TEST_F(QuietPcl, BunnyPlumConvergesToGroundTruth)
 {
   PCL_PARALLEL_REQUIRE_DATA(conf, "stanford_bunny/bun.conf");
@@ -708,33 +885,49 @@ TEST_F(QuietPcl, BunnyPlumConvergesToGroundTruth)
   const Poses start = perturbAll(b.truth, 2.0 * kDeg, 0.003, 2007);
   for (std::size_t v = 1; v < b.clouds.size(); ++v)
     lum.setPoseMatrix(v, start[v]);
-  Errors e = poseErrors(start, b.truth);
-  const Errors e_start = e;
-  for (int it = 0; it < 50; ++it) {
-    const Errors prev = e;
-    lum.setCorrespondenceDistance(bunnyGate(it));
-    lum.compute();
-    Poses got;
-    for (std::size_t v = 0; v < b.clouds.size(); ++v)
-      got.push_back(lum.getPoseMatrix(v));
-    e = poseErrors(got, b.truth);
-    if (it % 10 == 0 || it == 49)
-      std::printf("it %2d: rot max %.3f mean %.3f deg, trans max %.3f mean %.3f mm\n", it,
-                  e.max_rot / kDeg, e.mean_rot / kDeg, e.max_trans * 1e3, e.mean_trans * 1e3);
-    // Point-to-point pairs first trade rotation for translation error (up to ~4 deg in
-    // iterations 2-8, as pcl::IterativeClosestPoint does on a single pair, see
-    // TwoScanPlumFollowsPclIcp); from then on the maximum error must not grow by more
-    // than the jitter of re-paired points once converged (sub-micrometre; measured 0.2 um
-    // between iterations 46-48 with clang), far below the 1 deg / 2 mm targets.
-    if (it >= 20) {
-      EXPECT_LE(e.max_rot, prev.max_rot + 1e-5) << "iteration " << it;
-      EXPECT_LE(e.max_trans, prev.max_trans + 1e-6) << "iteration " << it;
-    }
+  lum.setPointToPlane(true);
+  lum.setLinkIterations(5);
+  lum.setCorrespondenceDistanceSchedule(0.005, 0.002, 0.7);
+  lum.setMaxIterations(50);
+  lum.setConvergenceThreshold(1e-6f); // mean update 1 um / 1 urad
+  const std::vector<Errors> trace = relaxBunny(b, lum);
+  ASSERT_GE(trace.size(), 5u);
+  EXPECT_LT(lum.getNumIterationsDone(), 50) << "no convergence";
+  // The maximum error must not grow. Once converged (from iteration ~3), the fixed point
+  // still moves by 0.002 deg / 0.001 mm (measured) as the gate reaches 2 mm, so growth
+  // below 0.01 deg / 0.01 mm, 100x below the targets, is allowed.
+  for (std::size_t k = 1; k < trace.size(); ++k) {
+    EXPECT_LE(trace[k].max_rot, trace[k - 1].max_rot + 0.01 * kDeg) << "iteration " << k;
+    EXPECT_LE(trace[k].max_trans, trace[k - 1].max_trans + 1e-5) << "iteration " << k;
   }
-  EXPECT_LT(e.max_rot, 1.0 * kDeg);
-  EXPECT_LT(e.max_trans, 2e-3);
-  EXPECT_LT(e.mean_rot, 0.5 * kDeg);
-  EXPECT_LT(e.max_rot, e_start.max_rot);
+  expectBunnyTargets(trace.back(), trace.front());
+}
+
+// The paper's pLUM (point-to-point, one pairing per link and iteration) on the same case,
+// gate 10 mm -> 2 mm (x0.9). It reaches the targets too, but first trades rotation for
+// translation error: the maximum rises to ~4.3 deg around iteration 5 (measured; as
+// pcl::IterativeClosestPoint on a single pair, see TwoScanPlumFollowsPclIcp), because
+// one closest-point step sees only part of a pair's misalignment. From iteration 20 the
+// maximum error must not grow by more than the jitter of re-paired points (sub-
+// micrometre once converged; 0.2 um measured between iterations 46-48 with clang).
+TEST_F(QuietPcl, BunnyPaperPlumConvergesToGroundTruth)
+{
+  PCL_PARALLEL_REQUIRE_DATA(conf, "stanford_bunny/bun.conf");
+  const Bunny b = loadBunny(conf, 1);
+  ParallelLUM<pcl::PointXYZ> lum;
+  setUpBunny(b, lum);
+  const Poses start = perturbAll(b.truth, 2.0 * kDeg, 0.003, 2007);
+  for (std::size_t v = 1; v < b.clouds.size(); ++v)
+    lum.setPoseMatrix(v, start[v]);
+  lum.setCorrespondenceDistanceSchedule(0.01, 0.002, 0.9);
+  lum.setMaxIterations(50);
+  const std::vector<Errors> trace = relaxBunny(b, lum);
+  ASSERT_EQ(trace.size(), 51u);
+  for (std::size_t k = 21; k < trace.size(); ++k) {
+    EXPECT_LE(trace[k].max_rot, trace[k - 1].max_rot + 1e-5) << "iteration " << k;
+    EXPECT_LE(trace[k].max_trans, trace[k - 1].max_trans + 1e-6) << "iteration " << k;
+  }
+  expectBunnyTargets(trace.back(), trace.front());
 }
 
 TEST_F(QuietPcl, BunnyPlumIsIdenticalForOneAndTwoThreads)
@@ -742,21 +935,25 @@ TEST_F(QuietPcl, BunnyPlumIsIdenticalForOneAndTwoThreads)
   PCL_PARALLEL_REQUIRE_DATA(conf, "stanford_bunny/bun.conf");
   const Bunny b = loadBunny(conf, 2);
   const Poses start = perturbAll(b.truth, 2.0 * kDeg, 0.003, 2007);
-  Poses result[2];
-  for (unsigned threads : {1u, 2u}) {
-    ParallelLUM<pcl::PointXYZ> lum;
-    lum.setNumberOfThreads(threads);
-    setUpBunny(b, lum);
-    for (std::size_t v = 1; v < b.clouds.size(); ++v)
-      lum.setPoseMatrix(v, start[v]);
-    lum.setCorrespondenceDistance(0.01);
-    lum.setMaxIterations(3);
-    lum.compute();
+  for (bool options : {false, true}) { // the paper's pLUM; point-to-plane, link steps
+    Poses result[2];
+    for (unsigned threads : {1u, 2u}) {
+      ParallelLUM<pcl::PointXYZ> lum;
+      lum.setNumberOfThreads(threads);
+      setUpBunny(b, lum);
+      for (std::size_t v = 1; v < b.clouds.size(); ++v)
+        lum.setPoseMatrix(v, start[v]);
+      lum.setCorrespondenceDistance(0.01);
+      lum.setPointToPlane(options);
+      lum.setLinkIterations(options ? 3 : 1);
+      lum.setMaxIterations(3);
+      lum.compute();
+      for (std::size_t v = 0; v < b.clouds.size(); ++v)
+        result[threads - 1].push_back(lum.getPoseMatrix(v));
+    }
     for (std::size_t v = 0; v < b.clouds.size(); ++v)
-      result[threads - 1].push_back(lum.getPoseMatrix(v));
+      EXPECT_EQ(result[0][v], result[1][v]) << "options " << options << ", vertex " << v;
   }
-  for (std::size_t v = 0; v < b.clouds.size(); ++v)
-    EXPECT_EQ(result[0][v], result[1][v]) << "vertex " << v; // bit-identical
 }
 
 // With two scans pLUM is point-to-point ICP: one iteration = closest points + the
@@ -802,6 +999,51 @@ TEST_F(QuietPcl, TwoScanPlumFollowsPclIcp)
               t * 1e3);
   EXPECT_LT(r, 0.05 * r0);
   EXPECT_LT(t, 0.05 * t0);
+}
+
+// Link iterations: one iteration with k pairing steps per link aligns a two-scan graph as
+// k iterations of one step do (the measurement is the pairwise motion plus the last
+// step). With the fixed vertex as the link's source the motion found for it is applied,
+// negated, to the other vertex: equal to first order, so the two differ by a second-order
+// term (|w|^2 times the scans' distance, here 0.1 mm after a 2 deg step) that the next
+// iteration removes.
+TEST_F(QuietPcl, LinkIterationsMatchOuterIterations)
+{
+  PCL_PARALLEL_REQUIRE_DATA(conf, "stanford_bunny/bun.conf");
+  const Bunny b = loadBunny(conf, 2);
+  std::mt19937 rng(6);
+  const Eigen::Matrix4d start = perturb(b.truth[1], 2.0 * kDeg, 0.003, rng);
+  auto run = [&](int outer, int inner, bool reversed) {
+    ParallelLUM<pcl::PointXYZ> lum;
+    lum.addPointCloud(b.clouds[0], Eigen::Matrix4f(b.truth[0].cast<float>()));
+    lum.addPointCloud(b.clouds[1], Eigen::Matrix4f(start.cast<float>()));
+    if (reversed)
+      lum.addLink(0, 1);
+    else
+      lum.addLink(1, 0);
+    lum.setCorrespondenceDistance(0.005);
+    lum.setPointToPlane(true);
+    lum.setMaxIterations(outer);
+    lum.setLinkIterations(inner);
+    lum.compute();
+    return lum.getPoseMatrix(1);
+  };
+  double r0, t0, r, t;
+  const Eigen::Matrix4d ten_outer = run(10, 1, false);
+  pcl_parallel::lum::poseError(start, ten_outer, r0, t0);
+  pcl_parallel::lum::poseError(run(1, 10, false), ten_outer, r, t);
+  std::printf("start %.3f deg %.3f mm; 1 x 10 steps: %.2e deg %.2e mm apart\n", r0 / kDeg,
+              t0 * 1e3, r / kDeg, t * 1e3);
+  EXPECT_LT(r, 1e-4 * r0);
+  EXPECT_LT(t, 1e-4 * t0);
+  pcl_parallel::lum::poseError(run(1, 10, true), ten_outer, r, t);
+  std::printf("reversed link, 1 x 10 steps: %.2e deg %.2e mm apart\n", r / kDeg, t * 1e3);
+  EXPECT_LT(r, 1e-4 * r0);
+  EXPECT_LT(t, 0.05 * t0);
+  pcl_parallel::lum::poseError(run(2, 10, true), run(11, 1, false), r, t);
+  std::printf("reversed link, 2 x 10 steps: %.2e deg %.2e mm apart\n", r / kDeg, t * 1e3);
+  EXPECT_LT(r, 1e-4 * r0);
+  EXPECT_LT(t, 1e-4 * t0);
 }
 
 } // namespace

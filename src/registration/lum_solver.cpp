@@ -4,6 +4,9 @@
  */
 #include <pcl_parallel/registration/lum_solver.h>
 
+#include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/parallel.h>
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
@@ -91,33 +94,30 @@ poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, dou
 }
 
 bool
-LinkAccumulator::finish(std::size_t min_pairs,
-                        double min_variance,
-                        Matrix6d& info,
-                        Vector6d& grad,
-                        double* variance,
-                        const char** reason) const
+LinkAccumulator::solveCentred(std::size_t min_pairs,
+                              Matrix6d& a,
+                              Vector6d& c,
+                              Vector6d& d_bar,
+                              const char** reason) const
 {
   auto fail = [&](const char* why) {
     if (reason)
       *reason = why;
-    info.setZero();
-    grad.setZero();
     return false;
   };
   if (n_ < std::max<std::size_t>(min_pairs, 3))
     return fail("too few point pairs");
 
   // A' and c' in the frame centred at origin_ (M' = [I, -[m']x]).
-  const double n = static_cast<double>(n_);
-  Matrix6d a;
-  a.topLeftCorner<3, 3>() = n * Eigen::Matrix3d::Identity();
-  a.topRightCorner<3, 3>() = -skew(sum_m_);
-  a.bottomLeftCorner<3, 3>() = skew(sum_m_);
-  a.bottomRightCorner<3, 3>() =
-      sum_mmt_.trace() * Eigen::Matrix3d::Identity() - sum_mmt_;
-  Vector6d c;
-  c << sum_r_, sum_mxr_;
+  a = sum_w_;
+  a.bottomLeftCorner<3, 3>() = sum_w_.topRightCorner<3, 3>().transpose();
+  a.topLeftCorner<3, 3>().diagonal().array() += static_cast<double>(n_identity_);
+  a.topRightCorner<3, 3>() -= skew(sum_m_);
+  a.bottomLeftCorner<3, 3>() += skew(sum_m_);
+  a.bottomRightCorner<3, 3>() += sum_mmt_.trace() * Eigen::Matrix3d::Identity() - sum_mmt_;
+  c = sum_wc_;
+  c.head<3>() += sum_r_;
+  c.tail<3>() += sum_mxr_;
 
   // Singular A: the pairs do not fix all six DoF (e.g. collinear points). Judged on the
   // unit-diagonal scaling, so units and point spread do not matter.
@@ -128,15 +128,49 @@ LinkAccumulator::finish(std::size_t min_pairs,
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(a_scaled, Eigen::EigenvaluesOnly);
   if (eig.info() != Eigen::Success || !(eig.eigenvalues()(0) > 1e-9))
     return fail("singular covariance (the pairs do not constrain all six DoF)");
-
-  // Residual after the fit: sum |r + M D|^2 at D = -A^-1 c is sum |r|^2 - c^T A^-1 c.
-  const Eigen::LDLT<Matrix6d> ldlt(a);
-  const Vector6d d_bar = -ldlt.solve(c);
-  const double ssr = std::max(0.0, sum_rr_ + c.dot(d_bar));
-  const double dof = 3.0 * n - 6.0;
-  const double s2 = std::max(ssr / std::max(dof, 1.0), min_variance);
-  if (!std::isfinite(s2) || !d_bar.allFinite())
+  d_bar = -Eigen::LDLT<Matrix6d>(a).solve(c);
+  if (!d_bar.allFinite())
     return fail("non-finite measurement");
+  return true;
+}
+
+bool
+LinkAccumulator::measurement(std::size_t min_pairs, Vector6d& d_bar, const char** reason) const
+{
+  Matrix6d a;
+  Vector6d c;
+  if (!solveCentred(min_pairs, a, c, d_bar, reason))
+    return false;
+  // Centred D' = T D (see finish()), so D = (t' + o x w', w').
+  d_bar.head<3>() += origin_.cross(Vector6d(d_bar).tail<3>());
+  return true;
+}
+
+bool
+LinkAccumulator::finish(std::size_t min_pairs,
+                        double min_variance,
+                        Matrix6d& info,
+                        Vector6d& grad,
+                        double* variance,
+                        const char** reason) const
+{
+  info.setZero();
+  grad.setZero();
+  Matrix6d a;
+  Vector6d c, d_bar;
+  if (!solveCentred(min_pairs, a, c, d_bar, reason))
+    return false;
+
+  // Residual after the fit: sum r^T W r at D = -A^-1 c is sum r^T W r - c^T A^-1 c; its
+  // expectation for isotropic noise s^2 is s^2 (sum tr W - 6).
+  const double ssr = std::max(0.0, sum_rr_ + c.dot(d_bar));
+  const double dof = 3.0 * static_cast<double>(n_identity_) + trace_w_ - 6.0;
+  const double s2 = std::max(ssr / std::max(dof, 1.0), min_variance);
+  if (!std::isfinite(s2)) {
+    if (reason)
+      *reason = "non-finite measurement";
+    return false;
+  }
 
   // Back to world coordinates: M = M' T with T = [[I, -[o]x], [0, I]].
   Matrix6d t = Matrix6d::Identity();
@@ -145,9 +179,69 @@ LinkAccumulator::finish(std::size_t min_pairs,
   grad = t.transpose() * c / s2;
   if (variance)
     *variance = s2;
-  if (!info.allFinite() || !grad.allFinite())
-    return fail("non-finite measurement");
+  if (!info.allFinite() || !grad.allFinite()) {
+    info.setZero();
+    grad.setZero();
+    if (reason)
+      *reason = "non-finite measurement";
+    return false;
+  }
   return true;
+}
+
+Vector6d
+updateBetween(const Eigen::Matrix4d& before, const Eigen::Matrix4d& after)
+{
+  // after = D before with D = [r, c - r c + t + w x c] (applyUpdate), c = before's position.
+  const Eigen::Matrix4d d = after * before.inverse();
+  const Eigen::Matrix3d r = d.topLeftCorner<3, 3>();
+  const Eigen::AngleAxisd aa(r);
+  const Eigen::Vector3d w = aa.angle() * aa.axis();
+  const Eigen::Vector3d c = before.topRightCorner<3, 1>();
+  Vector6d delta;
+  delta.head<3>() = d.topRightCorner<3, 1>() - c + r * c - w.cross(c);
+  delta.tail<3>() = w;
+  return delta;
+}
+
+std::vector<Eigen::Vector3f>
+estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
+{
+  const std::size_t n = tree.size();
+  std::vector<Eigen::Vector3f> normals(n, Eigen::Vector3f::Zero());
+  k = std::max<std::size_t>(k, 3);
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+#pragma omp parallel num_threads(threads) if (threads > 1)
+  {
+    std::vector<std::uint32_t> pos(k);
+    std::vector<float> sqr(k);
+#pragma omp for schedule(static, 4096)
+    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+      const std::uint32_t p = static_cast<std::uint32_t>(i);
+      const std::size_t got = tree.knn(tree.point(p), k, pos.data(), sqr.data());
+      if (got < 3)
+        continue;
+      // Covariance about the neighbours' mean, relative to the query point for precision.
+      const Eigen::Vector3d q = Eigen::Vector3f::Map(tree.point(p)).cast<double>();
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero();
+      for (std::size_t j = 0; j < got; ++j) {
+        const Eigen::Vector3d d = Eigen::Vector3f::Map(tree.point(pos[j])).cast<double>() - q;
+        sum += d;
+        sum_sq += d * d.transpose();
+      }
+      const double m = static_cast<double>(got);
+      const Eigen::Matrix3d cov = sum_sq / m - (sum / m) * (sum / m).transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+      eig.computeDirect(cov);
+      const Eigen::Vector3d ev = eig.eigenvalues();
+      // A plane needs two clearly non-zero spreads; the normal's must be the smallest.
+      if (!(ev(1) > 1e-6 * ev(2)) || !eig.eigenvectors().allFinite())
+        continue;
+      normals[i] = eig.eigenvectors().col(0).normalized().cast<float>();
+    }
+  }
+  return normals;
 }
 
 struct PoseGraphSolver::Impl {

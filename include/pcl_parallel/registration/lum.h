@@ -11,6 +11,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/registration/lum.h>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <utility>
@@ -31,8 +32,11 @@ namespace pcl_parallel {
  *   frame by the current poses and searched there, by default in both directions
  *   (setSymmetricCorrespondences). Links come from setCorrespondences() (the given pairs
  *   are then ignored), addLink(), detectLinksByDistance() (loop_detection.h) or
- *   findOverlappingPairs(). To shrink the distance over the iterations, call compute()
- *   with setMaxIterations(1) in a loop (see docs/design.md).
+ *   findOverlappingPairs(). The distance may shrink over the iterations
+ *   (setCorrespondenceDistanceSchedule). Options beyond the paper, off by default:
+ *   point-to-plane pairs (setPointToPlane) and several pairing steps per link and
+ *   iteration (setLinkIterations); together they make the relaxation converge in a few
+ *   iterations without first moving poses away from the truth (docs/design.md).
  *
  * Per iteration, for all links in parallel (OpenMP, dynamic schedule): pairs, then the
  * link's measurement and covariance (step 2, lum::LinkAccumulator). The per-link blocks
@@ -171,16 +175,97 @@ public:
 
   // ---- pLUM ------------------------------------------------------------------------
   /** > 0 turns on pLUM mode: pairs re-estimated every iteration within this distance
-   *  (metres); 0 (default) uses the fixed correspondences. */
+   *  (metres); 0 or less (default 0) uses the fixed correspondences. The same distance
+   *  in every iteration (see setCorrespondenceDistanceSchedule). Throws
+   *  std::invalid_argument for a non-finite distance. */
   void
-  setCorrespondenceDistance(double distance)
-  {
-    correspondence_distance_ = distance;
-  }
+  setCorrespondenceDistance(double distance);
+  /** The distance of the first iteration (0: fixed correspondences). */
   double
   getCorrespondenceDistance() const
   {
     return correspondence_distance_;
+  }
+  /** pLUM mode with a shrinking gate: iteration k of compute() pairs within
+   *  max(final_distance, initial_distance * factor^k). A wide gate first pulls large pose
+   *  errors in; a tight one at the end keeps pairs from the borders of the overlap and
+   *  from sampling offsets out of the fixed point (measured on the bunny in
+   *  docs/design.md). compute() only stops on the convergence threshold once the gate
+   *  has reached final_distance. Throws std::invalid_argument unless
+   *  initial_distance >= final_distance > 0 and 0 < factor <= 1. */
+  void
+  setCorrespondenceDistanceSchedule(double initial_distance,
+                                    double final_distance,
+                                    double factor);
+  double
+  getFinalCorrespondenceDistance() const
+  {
+    return final_correspondence_distance_;
+  }
+  double
+  getCorrespondenceDistanceFactor() const
+  {
+    return correspondence_distance_factor_;
+  }
+  /** The pair distance iteration k (from 0) of compute() uses. */
+  double
+  correspondenceDistanceAt(int k) const;
+
+  /** pLUM mode: point-to-plane pairs (default false: the paper's point-to-point). Each
+   *  pair's residual is weighted by W = n n^T + w I, n the normal of the matched point
+   *  (from its scan's k nearest neighbours, estimated once per scan in its own frame),
+   *  w = getPointToPointWeight(). Sliding along a surface then costs (almost) nothing,
+   *  so a pair's offset along the surface from sampling no longer drags the poses; the
+   *  small point-to-point share keeps a link well posed where its overlap is planar. */
+  void
+  setPointToPlane(bool point_to_plane)
+  {
+    point_to_plane_ = point_to_plane;
+  }
+  bool
+  getPointToPlane() const
+  {
+    return point_to_plane_;
+  }
+  /** Weight w of the point-to-point term in point-to-plane mode (default 0.01, >= 0). */
+  void
+  setPointToPointWeight(double weight);
+  double
+  getPointToPointWeight() const
+  {
+    return point_to_point_weight_;
+  }
+  /** Neighbours per normal in point-to-plane mode (default 10, >= 3). */
+  void
+  setNormalNeighbours(std::size_t k);
+  std::size_t
+  getNormalNeighbours() const
+  {
+    return normal_neighbours_;
+  }
+  /** pLUM mode: pairing steps per link and iteration (default 1, the paper's step 1).
+   *  With k > 1 each link first aligns its two scans by up to k - 1 steps of pairwise
+   *  ICP (re-pairing each time, poses of the graph unchanged), and its measurement D-bar
+   *  is the whole pairwise motion plus the last step's, with the last pairs' covariance.
+   *  This is Lu/Milios's original measurement (the result of matching the pair) rather
+   *  than one linearisation step: on smooth surfaces one closest-point step sees only
+   *  part of a pair's misalignment, and the graph then moves some poses away from the
+   *  truth before it converges (docs/design.md). Costs up to k pairings per link. */
+  void
+  setLinkIterations(int iterations);
+  int
+  getLinkIterations() const
+  {
+    return link_iterations_;
+  }
+  /** Called after every iteration of compute() with the iteration's number (from 0)
+   *  and mean update norm, once the poses are updated (getPose/getPoseMatrix return the
+   *  new ones): progress reports, or recording the trajectory of a relaxation. */
+  using IterationCallback = std::function<void(int iteration, double mean_update)>;
+  void
+  setIterationCallback(IterationCallback callback)
+  {
+    iteration_callback_ = std::move(callback);
   }
   /** Adds link source -> target without correspondences (for pLUM mode). Throws
    *  std::out_of_range for a missing vertex, std::invalid_argument for source == target. */
@@ -283,11 +368,25 @@ private:
   validate(const std::vector<LinkRef>& links) const;
   void
   buildTrees();
+  /** One pairing step of a link within max_distance, the source scan moved by `motion`
+   *  (world frame) on top of its pose; pairs go to acc (and out, if given). */
   void
   computeLinkPairs(const LinkRef& link,
+                   double max_distance,
+                   const Eigen::Matrix4d& motion,
                    ThreadState& state,
                    lum::LinkAccumulator& acc,
                    pcl::Correspondences* out);
+  /** Steps 1-2 of the paper for one link in pLUM mode, with getLinkIterations() pairing
+   *  steps; fills the block, false (with a reason) if the link is to be dropped. */
+  bool
+  measureLink(const LinkRef& link,
+              double max_distance,
+              ThreadState& state,
+              lum::LinkBlock& block,
+              pcl::Correspondences* out,
+              std::size_t& num_pairs,
+              const char** reason);
   void
   computeLinkFixed(const LinkRef& link, lum::LinkAccumulator& acc) const;
   void
@@ -300,6 +399,13 @@ private:
   int max_iterations_ = 5;
   float convergence_threshold_ = 0.0f;
   double correspondence_distance_ = 0.0;
+  double final_correspondence_distance_ = 0.0;
+  double correspondence_distance_factor_ = 1.0;
+  bool point_to_plane_ = false;
+  double point_to_point_weight_ = 0.01;
+  std::size_t normal_neighbours_ = 10;
+  int link_iterations_ = 1;
+  IterationCallback iteration_callback_;
   std::size_t min_correspondences_ = 10;
   bool symmetric_ = true;
   std::size_t query_step_ = 1;
@@ -314,6 +420,10 @@ private:
   // Per-vertex k-d trees in the scan's own frame, rebuilt when the cloud changes.
   std::vector<std::shared_ptr<KdTreeIndex>> trees_;
   std::vector<std::pair<const PointCloud*, std::size_t>> tree_source_;
+  // Point-to-plane mode: per-vertex normals by tree position, computed with neighbours k
+  // (0 = not computed), in the scan's own frame.
+  std::vector<std::vector<Eigen::Vector3f>> normals_;
+  std::vector<std::size_t> normals_k_;
   // Per-link warm-start hints (last iteration's matches), by (source, target).
   std::map<std::pair<Vertex, Vertex>, std::vector<std::uint32_t>> hints_;
 

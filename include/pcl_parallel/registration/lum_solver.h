@@ -16,6 +16,7 @@
 #include <vector>
 
 namespace pcl_parallel {
+class KdTreeIndex;
 namespace lum {
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
@@ -55,13 +56,15 @@ poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, dou
  * M = [I, -[m]x] (the second-order terms w x (a - m) are dropped, as Lu/Milios and
  * Borrmann et al. 2008, Sec. 3, do with the pair averages). The link's least-squares
  * problem is thus linear in the pose difference D = delta_i - delta_j:
- *   min_D sum |r + M D|^2,  A = sum M^T M,  c = sum M^T r,
+ *   min_D sum (r + M D)^T W (r + M D),  A = sum M^T W M,  c = sum M^T W r,
  * D-bar = -A^-1 c is the measurement and C = s^2 A^-1 its covariance, s^2 the residual
- * variance after the fit (Borrmann et al. 2008, Eq. 9-11).
+ * variance after the fit (Borrmann et al. 2008, Eq. 9-11). add() is the paper's
+ * point-to-point pair (W = I), summed as moments; addWeighted() takes any 3x3 weight,
+ * e.g. point-to-plane n n^T + lambda I (Chen/Medioni 1992). Both kinds may be mixed.
  *
  * Midpoints are accumulated relative to the first one (origin_) and shifted back in
  * finish(), so large world coordinates do not cancel away the precision of the sums.
- * add() is inline: it runs once per point pair on the hot path.
+ * add() and addWeighted() are inline: they run once per point pair on the hot path.
  */
 class LinkAccumulator {
 public:
@@ -69,10 +72,8 @@ public:
   add(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
   {
     const Eigen::Vector3d r = a - b;
-    if (n_ == 0)
-      origin_ = 0.5 * (a + b);
-    const Eigen::Vector3d m = 0.5 * (a + b) - origin_;
-    ++n_;
+    const Eigen::Vector3d m = midpoint(a, b);
+    ++n_identity_;
     sum_m_ += m;
     sum_mmt_ += m * m.transpose();
     sum_r_ += r;
@@ -80,11 +81,38 @@ public:
     sum_rr_ += r.squaredNorm();
   }
 
+  /** A pair whose residual is weighted by the symmetric positive semi-definite w. */
+  void
+  addWeighted(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Matrix3d& w)
+  {
+    const Eigen::Vector3d r = a - b;
+    const Eigen::Vector3d m = midpoint(a, b);
+    Eigen::Matrix3d mx; // [m]x
+    mx << 0.0, -m.z(), m.y(), m.z(), 0.0, -m.x(), -m.y(), m.x(), 0.0;
+    const Eigen::Matrix3d w_mx = w * mx;
+    // M^T W M = [[W, -W [m]x], [[m]x W, -[m]x W [m]x]]; the lower-left block is the
+    // transpose of the upper-right one and is filled in finish().
+    sum_w_.topLeftCorner<3, 3>() += w;
+    sum_w_.topRightCorner<3, 3>() -= w_mx;
+    sum_w_.bottomRightCorner<3, 3>() -= mx * w_mx;
+    const Eigen::Vector3d wr = w * r;
+    sum_wc_.head<3>() += wr;
+    sum_wc_.tail<3>() += m.cross(wr);
+    sum_rr_ += r.dot(wr);
+    trace_w_ += w.trace();
+  }
+
+  /** Number of pairs added. */
   std::size_t
   size() const
   {
     return n_;
   }
+
+  /** The link's measurement D-bar = -A^-1 c alone (e.g. for a step of pairwise ICP).
+   *  False on the same conditions as finish(). */
+  bool
+  measurement(std::size_t min_pairs, Vector6d& d_bar, const char** reason = nullptr) const;
 
   /** Fills the link's normal-equation blocks in world coordinates: information matrix
    *  H = A / s^2 (= C^-1) and g = c / s^2 (= -C^-1 D-bar). Returns false (with a reason)
@@ -99,14 +127,47 @@ public:
          const char** reason = nullptr) const;
 
 private:
+  Eigen::Vector3d
+  midpoint(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+  {
+    if (n_++ == 0)
+      origin_ = 0.5 * (a + b);
+    return 0.5 * (a + b) - origin_;
+  }
+  /** A and c in the frame centred at origin_, and the measurement; false with a reason. */
+  bool
+  solveCentred(std::size_t min_pairs,
+               Matrix6d& a,
+               Vector6d& c,
+               Vector6d& d_bar,
+               const char** reason) const;
+
   std::size_t n_ = 0;
+  std::size_t n_identity_ = 0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
+  // add(): moments of the midpoints and residuals.
   Eigen::Vector3d sum_m_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d sum_mmt_ = Eigen::Matrix3d::Zero();
   Eigen::Vector3d sum_r_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d sum_mxr_ = Eigen::Vector3d::Zero();
-  double sum_rr_ = 0.0;
+  // addWeighted(): A and c directly (upper blocks of A), and the trace of the weights.
+  Matrix6d sum_w_ = Matrix6d::Zero();
+  Vector6d sum_wc_ = Vector6d::Zero();
+  double trace_w_ = 0.0;
+  double sum_rr_ = 0.0; ///< sum r^T W r over both kinds
 };
+
+/** The delta with applyUpdate(before, delta) == after (up to rounding): the inverse of
+ *  applyUpdate, e.g. to express a link's pairwise alignment as a measurement. */
+Vector6d
+updateBetween(const Eigen::Matrix4d& before, const Eigen::Matrix4d& after);
+
+/** Unit surface normals of a tree's points, indexed by tree position (KdTreeIndex::
+ *  point()): the direction of least variance of each point's k nearest neighbours
+ *  (itself included), in the tree's frame. Zero where the neighbourhood does not define
+ *  a plane (fewer than 3 distinct points, or collinear ones). Parallel over points. */
+std::vector<Eigen::Vector3f>
+estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads);
 
 /** One link's contribution to G X = B: cost (D + H^-1 g)^T H (D + H^-1 g) with
  *  D = delta_source - delta_target. */

@@ -252,6 +252,77 @@ ParallelLUM<PointT>::getCorrespondences(const Vertex& source_vertex,
 }
 
 template <typename PointT>
+void
+ParallelLUM<PointT>::setCorrespondenceDistance(double distance)
+{
+  if (!std::isfinite(distance))
+    throw std::invalid_argument(
+        "[pcl_parallel::ParallelLUM::setCorrespondenceDistance] distance must be finite");
+  if (distance <= 0.0) { // PCL mode: fixed correspondences
+    correspondence_distance_ = final_correspondence_distance_ = 0.0;
+    correspondence_distance_factor_ = 1.0;
+    return;
+  }
+  setCorrespondenceDistanceSchedule(distance, distance, 1.0);
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setCorrespondenceDistanceSchedule(double initial_distance,
+                                                       double final_distance,
+                                                       double factor)
+{
+  // Negated comparisons so that NaN fails them too.
+  if (!(final_distance > 0.0) || !(initial_distance >= final_distance) ||
+      !std::isfinite(initial_distance) || !(factor > 0.0 && factor <= 1.0))
+    throw std::invalid_argument(
+        "[pcl_parallel::ParallelLUM::setCorrespondenceDistanceSchedule] needs "
+        "initial_distance >= final_distance > 0 and 0 < factor <= 1");
+  correspondence_distance_ = initial_distance;
+  final_correspondence_distance_ = final_distance;
+  correspondence_distance_factor_ = factor;
+}
+
+template <typename PointT>
+double
+ParallelLUM<PointT>::correspondenceDistanceAt(int k) const
+{
+  return std::max(final_correspondence_distance_,
+                  correspondence_distance_ *
+                      std::pow(correspondence_distance_factor_, std::max(k, 0)));
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setPointToPointWeight(double weight)
+{
+  if (!(weight >= 0.0) || !std::isfinite(weight))
+    throw std::invalid_argument(
+        "[pcl_parallel::ParallelLUM::setPointToPointWeight] weight must be finite and >= 0");
+  point_to_point_weight_ = weight;
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setNormalNeighbours(std::size_t k)
+{
+  if (k < 3)
+    throw std::invalid_argument(
+        "[pcl_parallel::ParallelLUM::setNormalNeighbours] a normal needs k >= 3 neighbours");
+  normal_neighbours_ = k;
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::setLinkIterations(int iterations)
+{
+  if (iterations < 1)
+    throw std::invalid_argument(
+        "[pcl_parallel::ParallelLUM::setLinkIterations] needs at least 1 iteration");
+  link_iterations_ = iterations;
+}
+
+template <typename PointT>
 std::vector<typename ParallelLUM<PointT>::LinkRef>
 ParallelLUM<PointT>::collectLinks() const
 {
@@ -319,6 +390,8 @@ ParallelLUM<PointT>::buildTrees()
   const std::size_t n = getNumVertices();
   trees_.resize(n);
   tree_source_.resize(n, {nullptr, 0});
+  normals_.resize(n);
+  normals_k_.resize(n, 0);
   std::vector<std::size_t> todo;
   for (std::size_t v = 0; v < n; ++v) {
     const PointCloud* c = (*slam_graph_)[v].cloud_.get();
@@ -337,22 +410,34 @@ ParallelLUM<PointT>::buildTrees()
     trees_[v] = tree;
     const PointCloud* c = (*slam_graph_)[v].cloud_.get();
     tree_source_[v] = {c, c ? c->size() : 0};
+    normals_k_[v] = 0;
   }
+  if (!point_to_plane_)
+    return;
+  for (std::size_t v = 0; v < n; ++v)
+    if (normals_k_[v] != normal_neighbours_) {
+      normals_[v] = lum::estimateNormals(*trees_[v], normal_neighbours_, threads);
+      normals_k_[v] = normal_neighbours_;
+    }
 }
 
 template <typename PointT>
 void
 ParallelLUM<PointT>::computeLinkPairs(const LinkRef& link,
+                                      double max_distance,
+                                      const Eigen::Matrix4d& motion,
                                       ThreadState& state,
                                       lum::LinkAccumulator& acc,
                                       pcl::Correspondences* out)
 {
   if (out)
     out->clear();
-  const float max_sqr = registration::sqrDistanceBound(correspondence_distance_);
+  const float max_sqr = registration::sqrDistanceBound(max_distance);
+  const double plane_lambda = point_to_point_weight_;
   NearestSlot& slot = state.slot;
   float* q = state.query;
   slot.query = q;
+  const Eigen::Matrix4d source_pose = motion * poses_[link.source];
   // Pass 0: source points searched in the target's tree; pass 1 (symmetric mode): the
   // reverse. Both feed one accumulator with the residual always source - target, so
   // overlap borders pull from both sides and the bias of one-sided pairing cancels.
@@ -361,8 +446,9 @@ ParallelLUM<PointT>::computeLinkPairs(const LinkRef& link,
     const Vertex to = pass == 0 ? link.target : link.source;
     const PointCloud& cloud = *(*slam_graph_)[from].cloud_;
     const KdTreeIndex& tree = *trees_[to];
-    const Eigen::Matrix4d& t_from = poses_[from];
-    const Eigen::Matrix4d& t_to = poses_[to];
+    const Eigen::Matrix4d& t_from = pass == 0 ? source_pose : poses_[from];
+    const Eigen::Matrix4d& t_to = pass == 0 ? poses_[to] : source_pose;
+    const std::vector<Eigen::Vector3f>* normals = point_to_plane_ ? &normals_[to] : nullptr;
     // Query points into the other scan's own frame, where its tree was built.
     const Eigen::Matrix4f rel = (t_to.inverse() * t_from).template cast<float>();
     std::vector<std::uint32_t>& hints = hints_.at({from, to});
@@ -383,17 +469,66 @@ ParallelLUM<PointT>::computeLinkPairs(const LinkRef& link,
           t_to.topLeftCorner<3, 3>() *
               Eigen::Vector3f::Map(tree.point(pos)).template cast<double>() +
           t_to.topRightCorner<3, 1>();
-      if (pass == 0) {
-        acc.add(a, b);
-        if (out)
-          out->emplace_back(static_cast<pcl::index_t>(k),
-                            static_cast<pcl::index_t>(tree.id(pos)),
-                            slot.sqr_dist);
+      const Eigen::Vector3d& src = pass == 0 ? a : b;
+      const Eigen::Vector3d& tgt = pass == 0 ? b : a;
+      if (normals) {
+        // The matched point's normal, in the world frame.
+        const Eigen::Vector3d n =
+            t_to.topLeftCorner<3, 3>() * (*normals)[pos].template cast<double>();
+        Eigen::Matrix3d w = n * n.transpose();
+        w.diagonal().array() += plane_lambda;
+        acc.addWeighted(src, tgt, w);
       }
       else
-        acc.add(b, a);
+        acc.add(src, tgt);
+      if (pass == 0 && out)
+        out->emplace_back(static_cast<pcl::index_t>(k),
+                          static_cast<pcl::index_t>(tree.id(pos)),
+                          slot.sqr_dist);
     }
   }
+}
+
+template <typename PointT>
+bool
+ParallelLUM<PointT>::measureLink(const LinkRef& link,
+                                 double max_distance,
+                                 ThreadState& state,
+                                 lum::LinkBlock& block,
+                                 pcl::Correspondences* out,
+                                 std::size_t& num_pairs,
+                                 const char** reason)
+{
+  // Pairwise ICP on the link: the source scan moves by `motion` on top of its pose.
+  Eigen::Matrix4d motion = Eigen::Matrix4d::Identity();
+  lum::LinkAccumulator acc;
+  for (int step = 0;; ++step) {
+    acc = lum::LinkAccumulator();
+    computeLinkPairs(link, max_distance, motion, state, acc, out);
+    if (step + 1 >= link_iterations_)
+      break;
+    lum::Vector6d d;
+    if (!acc.measurement(min_correspondences_, d))
+      break; // finish() below reports why
+    const Eigen::Matrix4d& pose = poses_[link.source];
+    Eigen::Matrix4d moved = motion * pose;
+    lum::applyUpdate(moved, d);
+    motion = moved * pose.inverse();
+    // Converged: another pairing would find the same pairs.
+    if (d.norm() < 1e-9)
+      break;
+  }
+  num_pairs = acc.size();
+  if (!acc.finish(min_correspondences_, 1e-12, block.info, block.grad, nullptr, reason))
+    return false;
+  if (link_iterations_ > 1) {
+    // D-bar = the pairwise motion so far plus the last step's: g = -H (D_motion + D_last)
+    // = g_last - H D_motion.
+    const lum::Vector6d d_motion =
+        lum::updateBetween(poses_[link.source], motion * poses_[link.source]);
+    block.grad -= block.info * d_motion;
+  }
+  return true;
 }
 
 template <typename PointT>
@@ -441,21 +576,23 @@ ParallelLUM<PointT>::compute()
   iterations_done_ = 0;
 
   for (int it = 0; it < max_iterations_; ++it) {
+    const double gate = correspondenceDistanceAt(it);
     // Steps 1-2 for all links in parallel; each link's sums run in a fixed order.
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
     for (std::int64_t li = 0; li < static_cast<std::int64_t>(links.size()); ++li) {
       const LinkRef& link = links[li];
-      lum::LinkAccumulator acc;
-      if (plum) {
-        if (!link_corrs[li])
-          link_corrs[li].reset(new pcl::Correspondences);
-        computeLinkPairs(link, states[omp_get_thread_num()], acc, link_corrs[li].get());
-      }
-      else
-        computeLinkFixed(link, acc);
       lum::LinkBlock& b = blocks[li];
       b.source = static_cast<std::uint32_t>(link.source);
       b.target = static_cast<std::uint32_t>(link.target);
+      if (plum) {
+        if (!link_corrs[li])
+          link_corrs[li].reset(new pcl::Correspondences);
+        b.valid = measureLink(link, gate, states[omp_get_thread_num()], b,
+                              link_corrs[li].get(), pair_counts[li], &reasons[li]);
+        continue;
+      }
+      lum::LinkAccumulator acc;
+      computeLinkFixed(link, acc);
       pair_counts[li] = acc.size();
       b.valid = acc.finish(min_correspondences_, 1e-12, b.info, b.grad, nullptr, &reasons[li]);
     }
@@ -501,7 +638,13 @@ ParallelLUM<PointT>::compute()
     }
     ++iterations_done_;
     last_mean_update_ = sum / static_cast<double>(n - 1);
-    if (last_mean_update_ <= convergence_threshold_)
+    if (iteration_callback_) {
+      writeBackPoses();
+      iteration_callback_(it, last_mean_update_);
+    }
+    // A shrinking gate must reach its end before convergence counts.
+    if (last_mean_update_ <= convergence_threshold_ &&
+        (!plum || gate <= final_correspondence_distance_))
       break;
   }
 
