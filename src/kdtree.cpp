@@ -193,9 +193,10 @@ struct KdTreeIndex::Builder {
     }
 
     const std::uint32_t mid = begin + n / 2;
-    std::nth_element(pts + begin, pts + mid, pts + end, [axis](const BuildPoint& a, const BuildPoint& b) {
-      return a.p[axis] < b.p[axis];
-    });
+    std::nth_element(
+        pts + begin, pts + mid, pts + end, [axis](const BuildPoint& a, const BuildPoint& b) {
+          return a.p[axis] < b.p[axis];
+        });
     float left_max = pts[begin].p[axis];
     for (std::uint32_t i = begin + 1; i < mid; ++i)
       left_max = std::max(left_max, pts[i].p[axis]);
@@ -307,9 +308,9 @@ KdTreeIndex::rootDistance(const float* q, float* off) const
 {
   float d2 = 0.0f;
   for (int a = 0; a < 3; ++a) {
-    off[a] = q[a] < bbox_min_[a] ? bbox_min_[a] - q[a]
-           : q[a] > bbox_max_[a] ? q[a] - bbox_max_[a]
-                                 : 0.0f;
+    off[a] = q[a] < bbox_min_[a]   ? bbox_min_[a] - q[a]
+             : q[a] > bbox_max_[a] ? q[a] - bbox_max_[a]
+                                   : 0.0f;
     d2 += off[a] * off[a];
   }
   return d2;

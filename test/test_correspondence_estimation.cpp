@@ -5,23 +5,23 @@
  * ParallelCorrespondenceEstimation against PCL's expected tables, PCL's own estimator
  * and brute force.
  */
-#include <pcl_parallel/registration/correspondence_estimation.h>
-
 #include "random_clouds.h"
 #include "test_data.h"
+
+#include <pcl_parallel/registration/correspondence_estimation.h>
 
 #include <pcl/io/pcd_io.h>
 #include <pcl/registration/correspondence_estimation.h>
 #include <pcl/registration/icp.h>
 
-#include <gtest/gtest.h>
-
 #include <fstream>
+#include <gtest/gtest.h>
 #include <sstream>
 
 using namespace pcl_parallel::test;
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
-using Estimation = pcl_parallel::registration::ParallelCorrespondenceEstimation<pcl::PointXYZ, pcl::PointXYZ>;
+using Estimation =
+    pcl_parallel::registration::ParallelCorrespondenceEstimation<pcl::PointXYZ, pcl::PointXYZ>;
 
 namespace {
 
@@ -128,7 +128,8 @@ TEST(ParallelCorrespondenceEstimation, EqualsBruteForceForAnyThreadCount)
   const double max_distance = 0.4;
   pcl::Correspondences expected;
   for (std::size_t i = 0; i < source->size(); ++i) {
-    const auto [m, d2] = bruteNearest((*source)[i], *target, static_cast<float>(max_distance * max_distance));
+    const auto [m, d2] =
+        bruteNearest((*source)[i], *target, static_cast<float>(max_distance * max_distance));
     if (m >= 0)
       expected.emplace_back(static_cast<int>(i), m, d2);
   }
@@ -156,7 +157,9 @@ TEST(ParallelCorrespondenceEstimation, HonoursSourceAndTargetIndices)
     tgt_idx->push_back(i);
   pcl::registration::CorrespondenceEstimation<pcl::PointXYZ, pcl::PointXYZ> reference;
   Estimation ours;
-  for (auto* est : std::vector<pcl::registration::CorrespondenceEstimationBase<pcl::PointXYZ, pcl::PointXYZ>*>{&reference, &ours}) {
+  for (auto* est : std::vector<
+           pcl::registration::CorrespondenceEstimationBase<pcl::PointXYZ, pcl::PointXYZ>*>{
+           &reference, &ours}) {
     est->setInputSource(source);
     est->setInputTarget(target);
     est->setIndicesSource(src_idx);
@@ -185,7 +188,8 @@ TEST(ParallelCorrespondenceEstimation, MixedPointTypes)
   }
   pcl::PointCloud<pcl::PointNormal>::Ptr target(new pcl::PointCloud<pcl::PointNormal>);
   pcl::copyPointCloud(*target_xyz, *target);
-  pcl_parallel::registration::ParallelCorrespondenceEstimation<pcl::PointXYZ, pcl::PointNormal> mixed;
+  pcl_parallel::registration::ParallelCorrespondenceEstimation<pcl::PointXYZ, pcl::PointNormal>
+      mixed;
   mixed.setInputSource(source);
   mixed.setInputTarget(target);
   Estimation same;
@@ -214,7 +218,8 @@ TEST(ParallelCorrespondenceEstimation, SearchMethodTargetSemantics)
   pcl::Correspondences corr;
 
   // force_no_recompute: the given tree is trusted as built, even on another cloud.
-  pcl_parallel::search::KdTree<pcl::PointXYZ>::Ptr tree_a(new pcl_parallel::search::KdTree<pcl::PointXYZ>);
+  pcl_parallel::search::KdTree<pcl::PointXYZ>::Ptr tree_a(
+      new pcl_parallel::search::KdTree<pcl::PointXYZ>);
   tree_a->setInputCloud(cloud_a);
   Estimation est;
   est.setInputSource(source);
@@ -239,7 +244,9 @@ TEST(ParallelCorrespondenceEstimation, SearchMethodTargetSemantics)
   EXPECT_EQ(flann->getInputCloud(), cloud_a);
 
   // A never-built tree with force_no_recompute is an error, not a crash.
-  est.setSearchMethodTarget(pcl_parallel::search::KdTree<pcl::PointXYZ>::Ptr(new pcl_parallel::search::KdTree<pcl::PointXYZ>), true);
+  est.setSearchMethodTarget(pcl_parallel::search::KdTree<pcl::PointXYZ>::Ptr(
+                                new pcl_parallel::search::KdTree<pcl::PointXYZ>),
+                            true);
   est.determineCorrespondences(corr);
   EXPECT_TRUE(corr.empty());
 }
@@ -254,8 +261,10 @@ TEST(ParallelCorrespondenceEstimation, BadInputGivesNoCorrespondences)
   Estimation est;
   est.determineCorrespondences(corr); // nothing set at all
   EXPECT_TRUE(corr.empty());
-  for (const auto& [source, target] : {std::make_pair(good, empty), std::make_pair(good, nan_cloud),
-                                       std::make_pair(empty, good), std::make_pair(nan_cloud, good)}) {
+  for (const auto& [source, target] : {std::make_pair(good, empty),
+                                       std::make_pair(good, nan_cloud),
+                                       std::make_pair(empty, good),
+                                       std::make_pair(nan_cloud, good)}) {
     est.setInputSource(source);
     est.setInputTarget(target);
     corr.assign(3, pcl::Correspondence(1, 2, 3.0f));

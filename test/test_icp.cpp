@@ -261,10 +261,12 @@ TEST(ParallelIcp, UserTransformationEstimatorMatchesPcl)
   shift.translation() << 0.01f, 0.0f, 0.005f;
   pcl::transformPointCloudWithNormals(*src, *tgt, shift);
 
-  using Lls = pcl::registration::TransformationEstimationPointToPlaneLLS<PointNormal, PointNormal>;
+  using Lls =
+      pcl::registration::TransformationEstimationPointToPlaneLLS<PointNormal, PointNormal>;
   pcl_parallel::registration::ParallelIterativeClosestPoint<PointNormal, PointNormal> icp;
   pcl::IterativeClosestPoint<PointNormal, PointNormal> ref;
-  for (auto* r : {static_cast<pcl::IterativeClosestPoint<PointNormal, PointNormal>*>(&icp), &ref}) {
+  for (auto* r :
+       {static_cast<pcl::IterativeClosestPoint<PointNormal, PointNormal>*>(&icp), &ref}) {
     setPclTestParameters(*r);
     r->setTransformationEstimation(Lls::Ptr(new Lls));
     r->setInputSource(src);
@@ -291,7 +293,9 @@ TEST(ParallelIcp, ReciprocalAndVisualiserMatchPcl)
   ref.setUseReciprocalCorrespondences(true);
   int calls = 0;
   std::function<pcl::Registration<PointXYZ, PointXYZ>::UpdateVisualizerCallbackSignature> cb =
-      [&](const PointCloud<PointXYZ>&, const pcl::Indices& s, const PointCloud<PointXYZ>&,
+      [&](const PointCloud<PointXYZ>&,
+          const pcl::Indices& s,
+          const PointCloud<PointXYZ>&,
           const pcl::Indices& t) {
         EXPECT_EQ(s.size(), t.size());
         ++calls;
@@ -417,7 +421,8 @@ TEST(ParallelIcp, EmptyAndNanClouds)
   struct Case {
     PointCloud<PointXYZ>::Ptr src, tgt;
   };
-  for (const Case& c : {Case{empty, good}, Case{good, empty}, Case{nan, good}, Case{good, nan}}) {
+  for (const Case& c :
+       {Case{empty, good}, Case{good, empty}, Case{nan, good}, Case{good, nan}}) {
     PIcp icp;
     icp.setInputSource(c.src);
     icp.setInputTarget(c.tgt);
@@ -453,7 +458,8 @@ TEST(ParallelIcp, SearchMethodTargetAndFitness)
   EXPECT_EQ(run(prebuilt), expected);
 
   PIcp flann;
-  flann.setSearchMethodTarget(pcl::search::KdTree<PointXYZ>::Ptr(new pcl::search::KdTree<PointXYZ>));
+  flann.setSearchMethodTarget(
+      pcl::search::KdTree<PointXYZ>::Ptr(new pcl::search::KdTree<PointXYZ>));
   EXPECT_EQ(run(flann), expected);
 
   pcl::Registration<PointXYZ, PointXYZ>& base = plain; // PCL's serial fitness
@@ -468,7 +474,8 @@ TEST(ParallelIcp, MixedPointTypes)
   PCL_PARALLEL_REQUIRE_DATA(bun0, "pcl_test/bun0.pcd");
   PCL_PARALLEL_REQUIRE_DATA(bun4, "pcl_test/bun4.pcd");
   const BunnyPair p = loadBun04(bun0, bun4);
-  PointCloud<PointNormal>::Ptr tgt_n(new PointCloud<PointNormal>), src_n(new PointCloud<PointNormal>);
+  PointCloud<PointNormal>::Ptr tgt_n(new PointCloud<PointNormal>),
+      src_n(new PointCloud<PointNormal>);
   pcl::copyPointCloud(*p.tgt, *tgt_n);
   pcl::copyPointCloud(*p.src, *src_n);
 
@@ -494,7 +501,8 @@ TEST(ParallelIcp, MixedPointTypes)
   back.align(out_n);
   EXPECT_EQ(back.getFinalTransformation(), same.getFinalTransformation());
 
-  pcl::IterativeClosestPoint<PointXYZ, PointNormal> ref; // compiles thanks to mixed_point_types.h
+  pcl::IterativeClosestPoint<PointXYZ, PointNormal>
+      ref; // compiles thanks to mixed_point_types.h
   setPclTestParameters(ref);
   ref.setInputSource(p.src);
   ref.setInputTarget(tgt_n);
@@ -527,9 +535,8 @@ TEST(ParallelIcp, InsidePclPipelines)
     return Eigen::Matrix4f(iicp.getAbsoluteTransform());
   };
   const Eigen::Matrix4f ours = incremental(PIcp::Ptr(new PIcp));
-  const Eigen::Matrix4f pcls =
-      incremental(pcl::IterativeClosestPoint<PointXYZ, PointXYZ>::Ptr(
-          new pcl::IterativeClosestPoint<PointXYZ, PointXYZ>));
+  const Eigen::Matrix4f pcls = incremental(pcl::IterativeClosestPoint<PointXYZ, PointXYZ>::Ptr(
+      new pcl::IterativeClosestPoint<PointXYZ, PointXYZ>));
   EXPECT_TRUE(ours.isApprox(pcls, 1e-3)) << ours << "\n" << pcls;
 
   // ELCH: a loop whose end drifted by D from its start: c0, c1 = A c0, c2 = D A c0,
@@ -649,9 +656,11 @@ TEST(ParallelIcp, Dtk001To000MatchesPcl)
 // closer to the ground truth than it started. Also checks the bun.conf convention
 // p_world = R(q)^T p + t: under it the scans overlap far better than under R(q).
 // The mission's short name is the same class.
-static_assert(std::is_same<pcl_parallel::ParallelIterativeClosestPoint<PointXYZ, PointXYZ>,
-                           pcl_parallel::registration::ParallelIterativeClosestPoint<PointXYZ, PointXYZ>>::value,
-              "pcl_parallel::ParallelIterativeClosestPoint");
+static_assert(
+    std::is_same<
+        pcl_parallel::ParallelIterativeClosestPoint<PointXYZ, PointXYZ>,
+        pcl_parallel::registration::ParallelIterativeClosestPoint<PointXYZ, PointXYZ>>::value,
+    "pcl_parallel::ParallelIterativeClosestPoint");
 
 TEST(ParallelIcp, BunnyFromPerturbedGroundTruth)
 {
@@ -692,7 +701,8 @@ TEST(ParallelIcp, BunnyFromPerturbedGroundTruth)
 
   Eigen::Matrix4d perturb = Eigen::Matrix4d::Identity();
   perturb.topLeftCorner<3, 3>() =
-      Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();
+      Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d(1, 1, 0).normalized())
+          .toRotationMatrix();
   perturb.topRightCorner<3, 1>() << 0.005, 0.0, 0.0;
   const Eigen::Matrix4d start = perturb * gt;
   icp.setMaximumIterations(100);

@@ -2,16 +2,15 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include <pcl_parallel/io/uos.h>
-
 #include "test_data.h"
+
+#include <pcl_parallel/io/uos.h>
 
 #include <Eigen/Geometry>
 
-#include <gtest/gtest.h>
-
 #include <filesystem>
 #include <fstream>
+#include <gtest/gtest.h>
 
 using namespace pcl_parallel::io;
 
@@ -24,8 +23,9 @@ protected:
   SetUp() override
   {
     dir_ = std::filesystem::temp_directory_path() /
-           ("pcl_parallel_io_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
-            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+           ("pcl_parallel_io_" +
+            std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::create_directories(dir_);
   }
   void
@@ -68,7 +68,8 @@ TEST_F(TempFiles, MalformedAndTruncatedFilesThrowWithTheLine)
   }
   EXPECT_THROW(loadUosScan(write("nan.3d", "1 2 3\nnan 1 1\n")), std::runtime_error);
   EXPECT_THROW(loadUosPose(write("short.pose", "1 2 3\n4 5\n")), std::runtime_error);
-  EXPECT_THROW(loadFramesFinalPose(write("short.frames", "1 0 0 0 0 1 0 0\n")), std::runtime_error);
+  EXPECT_THROW(loadFramesFinalPose(write("short.frames", "1 0 0 0 0 1 0 0\n")),
+               std::runtime_error);
   EXPECT_THROW(loadUosScan((dir_ / "missing.3d").string()), std::runtime_error);
   EXPECT_THROW(loadUosPose(dir_.string()), std::runtime_error); // a directory
 }

@@ -5,12 +5,11 @@
  * KdTreeIndex against brute force: random, clustered and degenerate clouds, every
  * search kind, warm starts, bucket sizes and thread counts.
  */
-#include <pcl_parallel/kdtree.h>
-
 #include "random_clouds.h"
 
-#include <gtest/gtest.h>
+#include <pcl_parallel/kdtree.h>
 
+#include <gtest/gtest.h>
 #include <random>
 
 using pcl_parallel::KdTreeIndex;
@@ -24,8 +23,8 @@ buildTree(const pcl::PointCloud<pcl::PointXYZ>& cloud,
           unsigned bucket = KdTreeIndex::kDefaultBucketSize)
 {
   KdTreeIndex tree;
-  tree.build(cloud.empty() ? nullptr : cloud.front().data, cloud.size(), 4, nullptr, threads,
-             bucket);
+  tree.build(
+      cloud.empty() ? nullptr : cloud.front().data, cloud.size(), 4, nullptr, threads, bucket);
   return tree;
 }
 
@@ -132,9 +131,8 @@ TEST(KdTreeIndex, DegenerateClouds)
     same.push_back(pcl::PointXYZ(0.25f, -0.5f, 0.125f));
   for (int i = 0; i < 3000; ++i) {
     line.push_back(pcl::PointXYZ(0.001f * static_cast<float>(i % 1000), 0.3f, -0.2f));
-    plane.push_back(pcl::PointXYZ(0.02f * static_cast<float>(i % 50),
-                                  0.02f * static_cast<float>(i / 50),
-                                  0.5f));
+    plane.push_back(pcl::PointXYZ(
+        0.02f * static_cast<float>(i % 50), 0.02f * static_cast<float>(i / 50), 0.5f));
   }
   one.push_back(pcl::PointXYZ(0.1f, 0.2f, 0.3f));
   for (const auto* cloud : {&same, &line, &plane, &one}) {
@@ -165,7 +163,8 @@ TEST(KdTreeIndex, NonFinitePointsAreNeverInsertedOrMatched)
     EXPECT_NE(tree.id(p) % 3, 0u);
     EXPECT_NE(tree.id(p), 1u);
   }
-  expectMatchesBruteForce(tree, cloud, uniformCloud(200, 8), std::numeric_limits<float>::infinity());
+  expectMatchesBruteForce(
+      tree, cloud, uniformCloud(200, 8), std::numeric_limits<float>::infinity());
 
   // A non-finite query finds nothing.
   float d2;
@@ -212,14 +211,16 @@ TEST(KdTreeIndex, WarmStartNeverChangesTheAnswer)
   const auto queries = clusteredCloud(2000, 10);
   const auto tree = buildTree(cloud);
   std::mt19937 rng(11);
-  std::uniform_int_distribution<std::uint32_t> any(0, static_cast<std::uint32_t>(tree.size() - 1));
+  std::uniform_int_distribution<std::uint32_t> any(0,
+                                                   static_cast<std::uint32_t>(tree.size() - 1));
   for (const float max_sqr : {std::numeric_limits<float>::infinity(), 0.01f}) {
     for (const auto& q : queries) {
       float cold_d2, warm_d2, good_d2;
       const std::uint32_t cold = tree.nearest(q.data, max_sqr, cold_d2);
       // a random hint (usually far and useless) and the right answer as hint
       const std::uint32_t warm = tree.nearest(q.data, max_sqr, warm_d2, any(rng));
-      const std::uint32_t good = tree.nearest(q.data, max_sqr, good_d2, cold == KdTreeIndex::kInvalid ? 0 : cold);
+      const std::uint32_t good =
+          tree.nearest(q.data, max_sqr, good_d2, cold == KdTreeIndex::kInvalid ? 0 : cold);
       EXPECT_EQ(warm == KdTreeIndex::kInvalid, cold == KdTreeIndex::kInvalid);
       EXPECT_EQ(good == KdTreeIndex::kInvalid, cold == KdTreeIndex::kInvalid);
       if (cold != KdTreeIndex::kInvalid) {
@@ -241,8 +242,8 @@ TEST(KdTreeIndex, ThreadCountDoesNotChangeTreeOrResults)
   const auto reference = buildTree(cloud, 1);
   std::vector<std::uint32_t> ref_pos(queries.size());
   std::vector<float> ref_d2(queries.size());
-  reference.nearestBatch(queries.front().data, queries.size(), 4, 0.01f, ref_pos.data(),
-                         ref_d2.data(), 1);
+  reference.nearestBatch(
+      queries.front().data, queries.size(), 4, 0.01f, ref_pos.data(), ref_d2.data(), 1);
   for (unsigned threads : {2u, 3u, 4u}) {
     SCOPED_TRACE(threads);
     const auto tree = buildTree(cloud, threads);
@@ -253,8 +254,14 @@ TEST(KdTreeIndex, ThreadCountDoesNotChangeTreeOrResults)
     for (auto layout : {pcl_parallel::SlotLayout::kPadded, pcl_parallel::SlotLayout::kPacked}) {
       std::vector<std::uint32_t> pos(queries.size());
       std::vector<float> d2(queries.size());
-      tree.nearestBatch(queries.front().data, queries.size(), 4, 0.01f, pos.data(), d2.data(),
-                        threads, layout);
+      tree.nearestBatch(queries.front().data,
+                        queries.size(),
+                        4,
+                        0.01f,
+                        pos.data(),
+                        d2.data(),
+                        threads,
+                        layout);
       EXPECT_EQ(pos, ref_pos);
       EXPECT_EQ(d2, ref_d2);
     }
@@ -270,8 +277,10 @@ TEST(KdTreeIndex, BadArgumentsAreRejected)
   EXPECT_THROW(tree.build(cloud.front().data, cloud.size(), 2), std::invalid_argument);
   EXPECT_THROW(tree.build(nullptr, 5, 3), std::invalid_argument);
   // A thread count that is really a negative int is clamped, not honoured.
-  EXPECT_NO_THROW(tree.build(cloud.front().data, cloud.size(), 4, nullptr, static_cast<unsigned>(-1)));
+  EXPECT_NO_THROW(
+      tree.build(cloud.front().data, cloud.size(), 4, nullptr, static_cast<unsigned>(-1)));
   EXPECT_EQ(tree.size(), 10u);
-  EXPECT_EQ(pcl_parallel::resolveNumberOfThreads(static_cast<unsigned>(-1)), pcl_parallel::kMaxThreads);
+  EXPECT_EQ(pcl_parallel::resolveNumberOfThreads(static_cast<unsigned>(-1)),
+            pcl_parallel::kMaxThreads);
   EXPECT_GE(pcl_parallel::resolveNumberOfThreads(0), 1u);
 }

@@ -9,15 +9,13 @@
 #include "test_data.h"
 
 #include <pcl_parallel/io/stanford.h>
-#include <pcl_parallel/registration/lum.h>
 #include <pcl_parallel/registration/loop_detection.h>
+#include <pcl_parallel/registration/lum.h>
 
-#include <pcl/console/print.h>
-#include <pcl/registration/lum.h>
-#include <pcl/registration/icp.h>
 #include <pcl/common/transforms.h>
-
-#include <gtest/gtest.h>
+#include <pcl/console/print.h>
+#include <pcl/registration/icp.h>
+#include <pcl/registration/lum.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -25,6 +23,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <gtest/gtest.h>
 #include <limits>
 #include <random>
 #include <tuple>
@@ -59,8 +58,8 @@ perturb(const Eigen::Matrix4d& t, double angle, double dist, std::mt19937& rng)
   const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
   const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
   Eigen::Matrix4d out = t;
-  out.topLeftCorner<3, 3>() = Eigen::AngleAxisd(angle, axis).toRotationMatrix() *
-                              t.topLeftCorner<3, 3>();
+  out.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(angle, axis).toRotationMatrix() * t.topLeftCorner<3, 3>();
   out.topRightCorner<3, 1>() += dist * dir;
   return out;
 }
@@ -120,9 +119,8 @@ makeGraph(const Poses& truth,
     const Eigen::Matrix4d inv = truth[v].inverse();
     const Eigen::Vector3d p = inv.topLeftCorner<3, 3>() * w + inv.topRightCorner<3, 1>() +
                               Eigen::Vector3d(g(rng), g(rng), g(rng));
-    sg.clouds[v]->push_back(pcl::PointXYZ(static_cast<float>(p.x()),
-                                          static_cast<float>(p.y()),
-                                          static_cast<float>(p.z())));
+    sg.clouds[v]->push_back(pcl::PointXYZ(
+        static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
     return static_cast<int>(sg.clouds[v]->size() - 1);
   };
   for (const auto& [i, j] : pairs) {
@@ -161,8 +159,7 @@ smallGraph()
                        makePose(1.5, 1.2, -0.1, -0.06, 0.04, 0.15),
                        makePose(0.3, 1.6, 0.2, 0.08, 0.02, -0.1),
                        makePose(-0.5, 0.8, 0.0, -0.03, -0.07, 0.05)};
-  return makeGraph(truth, {{0, 1}, {1, 2}, {2, 3}, {3, 4}, {4, 0}, {1, 3}}, 200, 1.0, 0.001,
-                   7);
+  return makeGraph(truth, {{0, 1}, {1, 2}, {2, 3}, {3, 4}, {4, 0}, {1, 3}}, 200, 1.0, 0.001, 7);
 }
 
 template <typename Lum>
@@ -224,13 +221,16 @@ TYPED_TEST(LumApiTest, SameCodeCompilesAndRecoversTruth)
   const Errors e = poseErrors(posesOf(lum), sg.truth);
   EXPECT_LT(e.max_rot, 0.05 * kDeg);
   EXPECT_LT(e.max_trans, 1e-3);
-  const Eigen::Matrix4f from_pose = pcl_parallel::lum::poseToMatrix(lum.getPose(3)).template cast<float>();
+  const Eigen::Matrix4f from_pose =
+      pcl_parallel::lum::poseToMatrix(lum.getPose(3)).template cast<float>();
   EXPECT_TRUE(lum.getTransformation(3).matrix().isApprox(from_pose, 1e-4f));
   const typename Lum::PointCloudPtr moved = lum.getTransformedCloud(1);
   ASSERT_EQ(moved->size(), sg.clouds[1]->size());
   // A pair of link (0, 1) lands on itself in the world frame.
   const pcl::Correspondence& c = (*std::get<2>(sg.links[0]))[0];
-  EXPECT_LT(((*moved)[c.index_match].getVector3fMap() - (*sg.clouds[0])[c.index_query].getVector3fMap()).norm(),
+  EXPECT_LT(((*moved)[c.index_match].getVector3fMap() -
+             (*sg.clouds[0])[c.index_query].getVector3fMap())
+                .norm(),
             0.02f);
   std::size_t total = 0;
   for (const auto& cl : sg.clouds)
@@ -291,13 +291,20 @@ oneIterationBoth(double angle, double dist)
   pcl_lum.compute();
   ours.compute();
   const Poses p_pcl = posesOf(pcl_lum), p_ours = posesOf(ours);
-  OneStep r{poseErrors(start, sg.truth), poseErrors(p_pcl, sg.truth),
-            poseErrors(p_ours, sg.truth), poseErrors(p_ours, p_pcl)};
+  OneStep r{poseErrors(start, sg.truth),
+            poseErrors(p_pcl, sg.truth),
+            poseErrors(p_ours, sg.truth),
+            poseErrors(p_ours, p_pcl)};
   std::printf("start %.4f deg %.3f mm | pcl %.4f deg %.3f mm | ours %.4f deg %.3f mm | "
               "diff %.4f deg %.4f mm\n",
-              r.start.max_rot / kDeg, r.start.max_trans * 1e3, r.pcl.max_rot / kDeg,
-              r.pcl.max_trans * 1e3, r.ours.max_rot / kDeg, r.ours.max_trans * 1e3,
-              r.diff.max_rot / kDeg, r.diff.max_trans * 1e3);
+              r.start.max_rot / kDeg,
+              r.start.max_trans * 1e3,
+              r.pcl.max_rot / kDeg,
+              r.pcl.max_trans * 1e3,
+              r.ours.max_rot / kDeg,
+              r.ours.max_trans * 1e3,
+              r.diff.max_rot / kDeg,
+              r.diff.max_trans * 1e3);
   return r;
 }
 
@@ -380,8 +387,8 @@ TEST(LumMath, UpdateBetweenInvertsApplyUpdate)
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int k = 0; k < 20; ++k) {
-    Eigen::Matrix4d pose = makePose(100 * u(rng), 50 * u(rng), 10 * u(rng), 3 * u(rng),
-                                    1.5 * u(rng), 3 * u(rng));
+    Eigen::Matrix4d pose =
+        makePose(100 * u(rng), 50 * u(rng), 10 * u(rng), 3 * u(rng), 1.5 * u(rng), 3 * u(rng));
     pcl_parallel::lum::Vector6d d;
     d << u(rng), u(rng), u(rng), 0.2 * u(rng), 0.2 * u(rng), 0.2 * u(rng);
     Eigen::Matrix4d moved = pose;
@@ -501,8 +508,8 @@ plumScene(const Poses& truth, std::uint32_t seed)
       if (w.dot(dir) < -0.3)
         continue;
       const Eigen::Vector3d p = inv.topLeftCorner<3, 3>() * w + inv.topRightCorner<3, 1>();
-      c->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                 static_cast<float>(p.z())));
+      c->push_back(pcl::PointXYZ(
+          static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
     }
     s.clouds.push_back(c);
   }
@@ -534,7 +541,8 @@ runPlum(const PlumScene& s,
 
 TEST_F(QuietPcl, PlumRecoversTruthIncludingGimbalLock)
 {
-  const Poses truth = {makePose(0, 0, 0, 0, 0, 0), makePose(0.05, 0.1, 0, 0.2, M_PI / 2, 0.1),
+  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
+                       makePose(0.05, 0.1, 0, 0.2, M_PI / 2, 0.1),
                        makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0),
                        makePose(0.1, -0.1, 0.05, -1.0, 0.3, -2.5),
                        makePose(0.0, 0.1, -0.1, 0.5, -M_PI / 2, 2.9)};
@@ -550,7 +558,8 @@ TEST_F(QuietPcl, PlumRecoversTruthIncludingGimbalLock)
 
 TEST_F(QuietPcl, PlumIsIdenticalForOneAndTwoThreads)
 {
-  const Poses truth = {makePose(0, 0, 0, 0, 0, 0), makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
+  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
+                       makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
                        makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0),
                        makePose(0.1, -0.1, 0.05, -1.0, 0.3, -2.5)};
   const PlumScene s = plumScene(truth, 41);
@@ -589,7 +598,8 @@ TEST_F(QuietPcl, PlumOptions)
   EXPECT_THROW(lum.setNormalNeighbours(2), std::invalid_argument);
 
   // The callback sees every iteration, with the updated poses.
-  const Poses truth = {makePose(0, 0, 0, 0, 0, 0), makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
+  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
+                       makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
                        makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
   const PlumScene s = plumScene(truth, 51);
   const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 52);
@@ -624,9 +634,12 @@ TEST_F(QuietPcl, LoopOf200PosesCloses)
   Poses truth;
   for (int i = 0; i < n; ++i) {
     const double a = 2.0 * M_PI * i / n;
-    truth.push_back(makePose(radius * std::sin(a), radius * (1.0 - std::cos(a)),
-                             0.5 * std::sin(3 * a), 0.05 * std::sin(5 * a),
-                             0.05 * std::cos(4 * a), a));
+    truth.push_back(makePose(radius * std::sin(a),
+                             radius * (1.0 - std::cos(a)),
+                             0.5 * std::sin(3 * a),
+                             0.05 * std::sin(5 * a),
+                             0.05 * std::cos(4 * a),
+                             a));
   }
   std::vector<std::pair<int, int>> pairs;
   for (int i = 0; i + 1 < n; ++i)
@@ -657,7 +670,10 @@ TEST_F(QuietPcl, LoopOf200PosesCloses)
     got.push_back(lum.getPoseMatrix(v));
   const Errors e1 = poseErrors(got, truth);
   std::printf("loop: odometry max %.3f m %.2f deg -> %.5f m %.4f deg in %d iterations\n",
-              e0.max_trans, e0.max_rot / kDeg, e1.max_trans, e1.max_rot / kDeg,
+              e0.max_trans,
+              e0.max_rot / kDeg,
+              e1.max_trans,
+              e1.max_rot / kDeg,
               lum.getNumIterationsDone());
   EXPECT_GT(e0.max_trans, 0.5); // the drift is real
   EXPECT_LT(e1.max_trans, e0.max_trans / 10.0);
@@ -675,8 +691,8 @@ TEST_F(QuietPcl, LoopOf200PosesCloses)
   EXPECT_TRUE(lum.getPoseCovariance(0).isZero());
   // The closure itself: the last pose is where it should be relative to the first.
   double r, t;
-  pcl_parallel::lum::poseError(got[0].inverse() * got[n - 1], truth[0].inverse() * truth[n - 1],
-                               r, t);
+  pcl_parallel::lum::poseError(
+      got[0].inverse() * got[n - 1], truth[0].inverse() * truth[n - 1], r, t);
   EXPECT_LT(t, 0.01);
 }
 
@@ -684,8 +700,8 @@ TEST(LoopDetection, ChainPlusCloseNonConsecutivePairs)
 {
   // A square loop: 0..7 around, 8 back near 0.
   Poses p;
-  const double xy[9][2] = {{0, 0}, {1, 0}, {2, 0}, {2, 1}, {2, 2}, {1, 2}, {0, 2}, {0, 1},
-                           {0, 0.1}};
+  const double xy[9][2] = {
+      {0, 0}, {1, 0}, {2, 0}, {2, 1}, {2, 2}, {1, 2}, {0, 2}, {0, 1}, {0, 0.1}};
   for (const auto& c : xy)
     p.push_back(makePose(c[0], c[1], 0, 0, 0, 0));
   const auto links = pcl_parallel::detectLinksByDistance(p, 0.5, 3);
@@ -756,7 +772,10 @@ TEST_F(QuietPcl, BadInputIsAClearError)
   { // fixed mode without correspondences on a link
     auto lum = make();
     lum->addLink(0, 1);
-    lum->getLoopGraph()->operator[](boost::edge(0, 1, *lum->getLoopGraph()).first).corrs_.reset();
+    lum->getLoopGraph()
+        ->
+        operator[](boost::edge(0, 1, *lum->getLoopGraph()).first)
+        .corrs_.reset();
     EXPECT_THROW(lum->compute(), std::invalid_argument);
   }
 }
@@ -848,8 +867,11 @@ relaxBunny(const Bunny& b, ParallelLUM<pcl::PointXYZ>& lum)
     const Errors& e = trace.back();
     if (trace.size() <= 10 || trace.size() % 10 == 1)
       std::printf("it %2zu: rot max %.3f mean %.3f deg, trans max %.3f mean %.3f mm\n",
-                trace.size() - 1, e.max_rot / kDeg, e.mean_rot / kDeg, e.max_trans * 1e3,
-                e.mean_trans * 1e3);
+                  trace.size() - 1,
+                  e.max_rot / kDeg,
+                  e.mean_rot / kDeg,
+                  e.max_trans * 1e3,
+                  e.mean_trans * 1e3);
   };
   record(-1, 0.0);
   lum.setIterationCallback(record);
@@ -992,11 +1014,11 @@ TEST_F(QuietPcl, TwoScanPlumFollowsPclIcp)
   icp.align(aligned, start.cast<float>());
 
   double r, t, r0, t0;
-  pcl_parallel::lum::poseError(lum.getPoseMatrix(1),
-                               icp.getFinalTransformation().cast<double>(), r, t);
+  pcl_parallel::lum::poseError(
+      lum.getPoseMatrix(1), icp.getFinalTransformation().cast<double>(), r, t);
   pcl_parallel::lum::poseError(start, b.truth[1], r0, t0);
-  std::printf("pLUM vs PCL ICP after %d iterations: %.4f deg %.4f mm\n", iterations, r / kDeg,
-              t * 1e3);
+  std::printf(
+      "pLUM vs PCL ICP after %d iterations: %.4f deg %.4f mm\n", iterations, r / kDeg, t * 1e3);
   EXPECT_LT(r, 0.05 * r0);
   EXPECT_LT(t, 0.05 * t0);
 }
@@ -1032,8 +1054,11 @@ TEST_F(QuietPcl, LinkIterationsMatchOuterIterations)
   const Eigen::Matrix4d ten_outer = run(10, 1, false);
   pcl_parallel::lum::poseError(start, ten_outer, r0, t0);
   pcl_parallel::lum::poseError(run(1, 10, false), ten_outer, r, t);
-  std::printf("start %.3f deg %.3f mm; 1 x 10 steps: %.2e deg %.2e mm apart\n", r0 / kDeg,
-              t0 * 1e3, r / kDeg, t * 1e3);
+  std::printf("start %.3f deg %.3f mm; 1 x 10 steps: %.2e deg %.2e mm apart\n",
+              r0 / kDeg,
+              t0 * 1e3,
+              r / kDeg,
+              t * 1e3);
   EXPECT_LT(r, 1e-4 * r0);
   EXPECT_LT(t, 1e-4 * t0);
   pcl_parallel::lum::poseError(run(1, 10, true), ten_outer, r, t);

@@ -4,9 +4,9 @@
  *
  * pcl_parallel::search::KdTree against PCL's FLANN-backed pcl::search::KdTree.
  */
-#include <pcl_parallel/search/kdtree.h>
-
 #include "random_clouds.h"
+
+#include <pcl_parallel/search/kdtree.h>
 
 #include <pcl/features/normal_3d.h>
 #include <pcl/search/kdtree.h>
@@ -83,7 +83,8 @@ TYPED_TEST(SearchKdTreeTyped, MatchesPclKdTreeThroughBasePointer)
     }
     ASSERT_EQ(ours->radiusSearch(q, 0.05, oi, od), reference.radiusSearch(q, 0.05, pi, pd));
     expectSameNeighbours(oi, od, pi, pd);
-    ASSERT_EQ(ours->radiusSearch(q, 0.05, oi, od, 4), reference.radiusSearch(q, 0.05, pi, pd, 4));
+    ASSERT_EQ(ours->radiusSearch(q, 0.05, oi, od, 4),
+              reference.radiusSearch(q, 0.05, pi, pd, 4));
     expectSameNeighbours(oi, od, pi, pd);
   }
 }
@@ -171,7 +172,8 @@ TEST(SearchKdTree, EmptyAllNaNAndNullCloudsFindNothing)
   pcl::Indices idx;
   std::vector<float> d2;
   for (const auto& cloud :
-       {pcl::PointCloud<pcl::PointXYZ>::Ptr(new pcl::PointCloud<pcl::PointXYZ>), nan_cloud,
+       {pcl::PointCloud<pcl::PointXYZ>::Ptr(new pcl::PointCloud<pcl::PointXYZ>),
+        nan_cloud,
         pcl::PointCloud<pcl::PointXYZ>::Ptr()}) {
     tree.setInputCloud(cloud);
     EXPECT_EQ(tree.nearestKSearch(pcl::PointXYZ(0, 0, 0), 3, idx, d2), 0);
@@ -187,7 +189,8 @@ TEST(SearchKdTree, DropsIntoPclNormalEstimation)
   ne.setInputCloud(cloud);
   ne.setKSearch(12);
   pcl::PointCloud<pcl::Normal> with_pcl, with_ours;
-  ne.setSearchMethod(pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
+  ne.setSearchMethod(
+      pcl::search::KdTree<pcl::PointXYZ>::Ptr(new pcl::search::KdTree<pcl::PointXYZ>));
   ne.compute(with_pcl);
   ne.setSearchMethod(pcl_parallel::search::KdTree<pcl::PointXYZ>::Ptr(
       new pcl_parallel::search::KdTree<pcl::PointXYZ>));
@@ -195,8 +198,9 @@ TEST(SearchKdTree, DropsIntoPclNormalEstimation)
   ASSERT_EQ(with_pcl.size(), with_ours.size());
   std::size_t same = 0;
   for (std::size_t i = 0; i < with_pcl.size(); ++i)
-    same += std::abs(with_pcl[i].getNormalVector3fMap().dot(with_ours[i].getNormalVector3fMap())) >
-            1.0f - 1e-4f;
+    same +=
+        std::abs(with_pcl[i].getNormalVector3fMap().dot(with_ours[i].getNormalVector3fMap())) >
+        1.0f - 1e-4f;
   // Neighbourhoods can differ only where the 12th and 13th neighbour tie.
   EXPECT_GE(same, with_pcl.size() - 2);
 }

@@ -37,7 +37,8 @@ timeRuns(int repeats, const std::function<void()>& fn)
   for (int r = 0; r < std::max(1, repeats); ++r) {
     const auto start = std::chrono::steady_clock::now();
     fn();
-    t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    t.push_back(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
   }
   std::sort(t.begin(), t.end());
   return {t[t.size() / 2], t.front()};
@@ -60,7 +61,9 @@ spinSpeedup(unsigned threads);
 /** A markdown table printed to stdout, so the output pastes into docs/benchmarks.md. */
 class Table {
 public:
-  explicit Table(std::vector<std::string> header) : header_(std::move(header)) {}
+  explicit Table(std::vector<std::string> header)
+      : header_(std::move(header))
+  {}
   void
   addRow(std::vector<std::string> row)
   {

@@ -6,7 +6,8 @@
  * threads), and Open3D's point-to-point ICP when built with it, on the 3DTK pair, the
  * Stanford bunny pair and a synthetic 300k-point pair. Same parameters for every column.
  */
-// GCC 12 false positives inside PCL's TransformationEstimationSVD (see src/registration/icp.cpp).
+// GCC 12 false positives inside PCL's TransformationEstimationSVD (see
+// src/registration/icp.cpp).
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Warray-bounds"
 #pragma GCC diagnostic ignored "-Wuse-after-free"
@@ -25,18 +26,18 @@
 
 #include <algorithm>
 #include <chrono>
-#include <functional>
-
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <sstream>
 
 #ifdef PCL_PARALLEL_HAVE_OPEN3D
+#include <omp.h>
+
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/pipelines/registration/Registration.h>
 #include <open3d/utility/Logging.h>
-#include <omp.h>
 #endif
 
 namespace pcl_parallel {
@@ -105,10 +106,9 @@ loadCases(const Options& opt)
     c.target = io::loadStanfordScan(bun + "/bun000.ply");
     c.source = io::loadStanfordScan(bun + "/bun045.ply");
     Eigen::Matrix4f perturb = Eigen::Matrix4f::Identity();
-    perturb.topLeftCorner<3, 3>() =
-        Eigen::AngleAxisf(3.0f * static_cast<float>(M_PI) / 180.0f,
-                          Eigen::Vector3f(1, 1, 0).normalized())
-            .toRotationMatrix();
+    perturb.topLeftCorner<3, 3>() = Eigen::AngleAxisf(3.0f * static_cast<float>(M_PI) / 180.0f,
+                                                      Eigen::Vector3f(1, 1, 0).normalized())
+                                        .toRotationMatrix();
     perturb.topRightCorner<3, 1>() << 0.005f, 0.0f, 0.0f;
     c.guess = perturb * gt; // ground truth perturbed by 3 deg / 5 mm
     c.max_distance = 0.02;
@@ -146,7 +146,8 @@ loadCases(const Options& opt)
     IcpCase c;
     c.name = "synthetic 300k";
     c.target = sample(1);
-    Eigen::Affine3f motion(Eigen::AngleAxisf(0.05f, Eigen::Vector3f(0.2f, 0.3f, 1.0f).normalized()));
+    Eigen::Affine3f motion(
+        Eigen::AngleAxisf(0.05f, Eigen::Vector3f(0.2f, 0.3f, 1.0f).normalized()));
     motion.translation() << 0.08f, -0.05f, 0.03f;
     c.source.reset(new Cloud);
     pcl::transformPointCloud(*sample(2), *c.source, motion);
@@ -158,7 +159,6 @@ loadCases(const Options& opt)
   }
   return cases;
 }
-
 
 } // namespace
 
@@ -182,8 +182,7 @@ runIcp(const Options& opt)
                "speed-up vs PCL",
                "speed-up vs 1 thread"});
   for (const IcpCase& c : cases) {
-    const std::string pts =
-        fmt("%zu / %zu", c.source->size(), c.target->size());
+    const std::string pts = fmt("%zu / %zu", c.source->size(), c.target->size());
     Cloud out;
 
     pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> ref;
@@ -220,7 +219,8 @@ runIcp(const Options& opt)
           M_PI;
       table.addRow({c.name,
                     pts,
-                    fmt("pcl_parallel pICP (vs PCL: %.4f deg, %.2g)", deg,
+                    fmt("pcl_parallel pICP (vs PCL: %.4f deg, %.2g)",
+                        deg,
                         static_cast<double>(d.topRightCorner<3, 1>().norm())),
                     fmt("%u", resolveNumberOfThreads(threads)),
                     fmt("%.3f", t),

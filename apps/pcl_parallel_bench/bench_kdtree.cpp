@@ -83,10 +83,11 @@ runKdTree(const Options& opt)
   build.addRow({"pcl::search::KdTree (FLANN)", "1", fmt("%.1f", 1e3 * t_flann), "1.00x"});
   KdTreeIndex tree;
   for (unsigned t : opt.threads) {
-    const double s = medianSeconds(opt.repeats, [&] {
-      tree.build(target->front().data, target->size(), 4, nullptr, t);
-    });
-    build.addRow({"pcl_parallel::KdTreeIndex", std::to_string(t), fmt("%.1f", 1e3 * s),
+    const double s = medianSeconds(
+        opt.repeats, [&] { tree.build(target->front().data, target->size(), 4, nullptr, t); });
+    build.addRow({"pcl_parallel::KdTreeIndex",
+                  std::to_string(t),
+                  fmt("%.1f", 1e3 * s),
                   fmt("%.2fx", t_flann / s)});
   }
   build.print();
@@ -108,7 +109,9 @@ runKdTree(const Options& opt)
     for (const auto& q : queries)
       ours_search.nearestKSearch(q, 1, idx, d2);
   });
-  nn.addRow({"pcl_parallel::search::KdTree::nearestKSearch(k=1)", "1", rate(t_ours_search),
+  nn.addRow({"pcl_parallel::search::KdTree::nearestKSearch(k=1)",
+             "1",
+             rate(t_ours_search),
              fmt("%.2fx", t_pcl / t_ours_search)});
 
   std::vector<std::uint32_t> pos(nq);
@@ -118,24 +121,27 @@ runKdTree(const Options& opt)
     for (std::size_t i = 0; i < nq; ++i)
       pos[i] = tree.nearest(qdata + 4 * i, inf, dd);
   });
-  nn.addRow({"KdTreeIndex::nearest (one query at a time)", "1", rate(t_single),
+  nn.addRow({"KdTreeIndex::nearest (one query at a time)",
+             "1",
+             rate(t_single),
              fmt("%.2fx", t_pcl / t_single)});
   double t_batch1 = 0.0;
   for (unsigned t : opt.threads) {
-    const double s = medianSeconds(opt.repeats, [&] {
-      tree.nearestBatch(qdata, nq, 4, inf, pos.data(), dist.data(), t);
-    });
+    const double s = medianSeconds(
+        opt.repeats, [&] { tree.nearestBatch(qdata, nq, 4, inf, pos.data(), dist.data(), t); });
     if (t == 1)
       t_batch1 = s;
-    nn.addRow({"KdTreeIndex::nearestBatch", std::to_string(t), rate(s),
-               fmt("%.2fx", t_pcl / s)});
+    nn.addRow(
+        {"KdTreeIndex::nearestBatch", std::to_string(t), rate(s), fmt("%.2fx", t_pcl / s)});
   }
   for (unsigned t : opt.threads) {
     const double s = medianSeconds(opt.repeats, [&] {
       tree.nearestBatch(qdata, nq, 4, 25.0f * 25.0f, pos.data(), dist.data(), t);
     });
-    nn.addRow({"KdTreeIndex::nearestBatch, max distance 25 (as ICP)", std::to_string(t),
-               rate(s), fmt("%.2fx", t_pcl / s)});
+    nn.addRow({"KdTreeIndex::nearestBatch, max distance 25 (as ICP)",
+               std::to_string(t),
+               rate(s),
+               fmt("%.2fx", t_pcl / s)});
   }
   nn.print();
   if (t_batch1 > 0.0)
@@ -153,8 +159,8 @@ runKdTree(const Options& opt)
       tree.nearestBatch(qdata, nq, 4, inf, pos.data(), dist.data(), t, SlotLayout::kPacked);
     });
     pad.addRow({"padded (64 B, alignas)", std::to_string(t), rate(padded), ""});
-    pad.addRow({"packed (16 B)", std::to_string(t), rate(packed),
-                fmt("%.3f", packed / padded)});
+    pad.addRow(
+        {"packed (16 B)", std::to_string(t), rate(packed), fmt("%.3f", packed / padded)});
   }
   pad.print();
 
@@ -162,14 +168,12 @@ runKdTree(const Options& opt)
   Table bucket({"bucket size", "nodes", "build ms (1 thread)", "Mqueries/s (1 thread)"});
   for (unsigned b : {1u, 2u, 4u, 6u, 8u, 12u, 16u, 32u}) {
     KdTreeIndex t;
-    const double sb = medianSeconds(opt.repeats, [&] {
-      t.build(target->front().data, target->size(), 4, nullptr, 1, b);
-    });
-    const double sq = medianSeconds(opt.repeats, [&] {
-      t.nearestBatch(qdata, nq, 4, inf, pos.data(), dist.data(), 1);
-    });
-    bucket.addRow({std::to_string(b), std::to_string(t.numNodes()), fmt("%.1f", 1e3 * sb),
-                   rate(sq)});
+    const double sb = medianSeconds(
+        opt.repeats, [&] { t.build(target->front().data, target->size(), 4, nullptr, 1, b); });
+    const double sq = medianSeconds(
+        opt.repeats, [&] { t.nearestBatch(qdata, nq, 4, inf, pos.data(), dist.data(), 1); });
+    bucket.addRow(
+        {std::to_string(b), std::to_string(t.numNodes()), fmt("%.1f", 1e3 * sb), rate(sq)});
   }
   bucket.print();
   std::printf("Machine check: a compute-bound OpenMP loop ran %.2fx faster on %u threads than "

@@ -123,8 +123,8 @@ runBunny(const Options& opt)
   Poses truth;
   std::size_t points = 0;
   for (const auto& e : io::loadStanfordConf(conf)) {
-    clouds.push_back(io::loadStanfordScan(
-        (std::filesystem::path(conf).parent_path() / e.file).string()));
+    clouds.push_back(
+        io::loadStanfordScan((std::filesystem::path(conf).parent_path() / e.file).string()));
     truth.push_back(e.pose);
     points += clouds.back()->size();
   }
@@ -152,11 +152,17 @@ runBunny(const Options& opt)
               "ParallelLUM::compute (1 iteration, k-d trees built once beforehand, timed "
               "separately), median of %d; repeats start from the same poses with the previous "
               "run's matches as warm-start hints, as in an iteration loop.\n\n",
-              points, opt.repeats);
-  Table t({"links", "PCL 1 thread [s]", "ours, pairs as PCL (one direction) [s]",
-           "same, cold (no warm-start hints) [s]", "ours, default (symmetric pairs) [s]",
-           "tree build (once) [s]", "ours, point-to-plane, 5 link steps [s]",
-           "trees + normals (once) [s]", "speed-up (same pairs)"});
+              points,
+              opt.repeats);
+  Table t({"links",
+           "PCL 1 thread [s]",
+           "ours, pairs as PCL (one direction) [s]",
+           "same, cold (no warm-start hints) [s]",
+           "ours, default (symmetric pairs) [s]",
+           "tree build (once) [s]",
+           "ours, point-to-plane, 5 link steps [s]",
+           "trees + normals (once) [s]",
+           "speed-up (same pairs)"});
   for (const auto* links : {&overlap_links, &all_links}) {
     const double pcl_s = pclOneIteration(clouds, start, *links);
     for (unsigned threads : opt.threads) {
@@ -192,9 +198,15 @@ runBunny(const Options& opt)
           plane.setPoseMatrix(v, start[v]);
         plane.compute();
       });
-      t.addRow({fmt("%zu, %u thread(s)", links->size(), threads), fmt("%.2f", pcl_s),
-                fmt("%.3f", one_dir), fmt("%.3f", cold), fmt("%.3f", sym), fmt("%.3f", build),
-                fmt("%.3f", plane_s), fmt("%.3f", plane_build), fmt("%.0fx", pcl_s / one_dir)});
+      t.addRow({fmt("%zu, %u thread(s)", links->size(), threads),
+                fmt("%.2f", pcl_s),
+                fmt("%.3f", one_dir),
+                fmt("%.3f", cold),
+                fmt("%.3f", sym),
+                fmt("%.3f", build),
+                fmt("%.3f", plane_s),
+                fmt("%.3f", plane_build),
+                fmt("%.0fx", pcl_s / one_dir)});
     }
   }
   t.print();
@@ -247,7 +259,8 @@ runBunny(const Options& opt)
     double r0, t0, r1, t1;
     maxError(start, truth, r0, t0);
     maxError(got, truth, r1, t1);
-    r.addRow({"PCL LUM, 1 thread, 50 iterations", fmt("%.2f", s),
+    r.addRow({"PCL LUM, 1 thread, 50 iterations",
+              fmt("%.2f", s),
               fmt("%.2f deg, %.2f mm", r0 / kDeg, t0 * 1e3),
               fmt("%.2f deg (peak %.2f deg), %.2f mm", r1 / kDeg, peak / kDeg, t1 * 1e3)});
   }
@@ -286,8 +299,10 @@ runBunny(const Options& opt)
       maxError(got, truth, r1, t1);
       r.addRow({fmt("ours, %s, %u thread(s), %d iterations",
                     mode == 0 ? "paper (point-to-point)" : "point-to-plane, 5 link steps",
-                    threads, lum.getNumIterationsDone()),
-                fmt("%.2f", s), fmt("%.2f deg, %.2f mm", r0 / kDeg, t0 * 1e3),
+                    threads,
+                    lum.getNumIterationsDone()),
+                fmt("%.2f", s),
+                fmt("%.2f deg, %.2f mm", r0 / kDeg, t0 * 1e3),
                 fmt("%.2f deg (peak %.2f deg), %.2f mm", r1 / kDeg, peak / kDeg, t1 * 1e3)});
     }
   r.print();
@@ -326,8 +341,8 @@ scalingGraph(int n)
     const Eigen::Matrix4d inv = g.truth[v].inverse();
     const Eigen::Vector3d p = inv.topLeftCorner<3, 3>() * w + inv.topRightCorner<3, 1>() +
                               Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
-    g.clouds[v]->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                                         static_cast<float>(p.z())));
+    g.clouds[v]->push_back(pcl::PointXYZ(
+        static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
     return static_cast<int>(g.clouds[v]->size() - 1);
   };
   for (const auto& [i, j] : detectLinksByDistance(g.truth, 1.5, 10)) {
@@ -356,8 +371,13 @@ runScaling(const Options& opt)
               "it would take more than a minute (O(n^3) extrapolation from the smaller "
               "size). Ours: median of %d; 'solve' = assembly + SimplicialLDLT alone.\n\n",
               opt.repeats);
-  Table t({"poses", "links", "PCL LUM 1 iteration [s]", "ours 1 iteration [s]",
-           "ours solve only [s]", "ours final max error", "speed-up"});
+  Table t({"poses",
+           "links",
+           "PCL LUM 1 iteration [s]",
+           "ours 1 iteration [s]",
+           "ours solve only [s]",
+           "ours final max error",
+           "speed-up"});
   double pcl_prev = 0.0;
   int n_prev = 0;
   for (int n : {100, 500, 2000}) {
@@ -422,9 +442,11 @@ runScaling(const Options& opt)
       got.push_back(lum.getPoseMatrix(v));
     double r, tr;
     maxError(got, g.truth, r, tr);
-    t.addRow({fmt("%d", n), fmt("%zu", g.links.size()),
+    t.addRow({fmt("%d", n),
+              fmt("%zu", g.links.size()),
               pcl_s >= 0 ? fmt("%.3f", pcl_s) : fmt("skipped (~%.0f s predicted)", predicted),
-              fmt("%.4f", ours), fmt("%.4f", solve),
+              fmt("%.4f", ours),
+              fmt("%.4f", solve),
               fmt("%.3f deg, %.1f mm", r / kDeg, tr * 1e3),
               pcl_s >= 0 ? fmt("%.0fx", pcl_s / ours) : std::string("-")});
   }

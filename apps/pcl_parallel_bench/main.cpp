@@ -106,11 +106,12 @@ main(int argc, char** argv)
       opt.threads.push_back(pcl_parallel::hardwareThreads());
   }
 
-  const std::map<std::string, int (*)(const Options&)> benches = {{"kdtree", runKdTree},
-                                                                   {"lum", runLum},
-                                                                   {"lum-bunny", runLumBunny},
-                                                                   {"lum-scaling", runLumScaling},
-                                                                   {"icp", runIcp}};
+  const std::map<std::string, int (*)(const Options&)> benches = {
+      {"kdtree", runKdTree},
+      {"lum", runLum},
+      {"lum-bunny", runLumBunny},
+      {"lum-scaling", runLumScaling},
+      {"icp", runIcp}};
   if (what == "all") {
     int rc = 0;
     for (const auto& b : benches)

@@ -196,8 +196,8 @@ private:
   scanLeaf(const Node& node, const float* q, Result& result) const;
   template <typename Result>
   void
-  search(std::uint32_t node, const float* q, float min_sqr_dist, float* off, Result& result)
-      const;
+  search(
+      std::uint32_t node, const float* q, float min_sqr_dist, float* off, Result& result) const;
   template <typename Slot>
   std::uint32_t
   nearestImpl(Slot& slot, float max_sqr_dist, std::uint32_t hint) const;
@@ -212,8 +212,8 @@ private:
                    unsigned num_threads) const;
 
   std::vector<Node> nodes_;
-  std::vector<float> points_;       ///< 3 floats per point, in leaf order
-  std::vector<std::uint32_t> ids_;  ///< caller's id per position
+  std::vector<float> points_;      ///< 3 floats per point, in leaf order
+  std::vector<std::uint32_t> ids_; ///< caller's id per position
   float bbox_min_[3] = {0, 0, 0};
   float bbox_max_[3] = {0, 0, 0};
   unsigned bucket_size_ = kDefaultBucketSize;

@@ -6,6 +6,6 @@
 
 /** Point types every template of pcl_parallel is compiled for in src/ (PCL's
  *  explicit-instantiation pattern). For another type, include the matching impl/ header. */
-#define PCL_PARALLEL_XYZ_POINT_TYPES                                                       \
-  (pcl::PointXYZ)(pcl::PointXYZI)(pcl::PointXYZRGB)(pcl::PointXYZRGBA)(pcl::PointNormal)    \
-  (pcl::PointXYZINormal)(pcl::PointXYZRGBNormal)
+#define PCL_PARALLEL_XYZ_POINT_TYPES                                                           \
+  (pcl::PointXYZ)(pcl::PointXYZI)(pcl::PointXYZRGB)(pcl::PointXYZRGBA)(pcl::PointNormal)(      \
+      pcl::PointXYZINormal)(pcl::PointXYZRGBNormal)

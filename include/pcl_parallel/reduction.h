@@ -43,7 +43,8 @@ deterministicReduce(std::size_t n,
   const std::size_t blocks = (n + block_size - 1) / block_size;
   std::vector<Slot> partial(blocks, Slot{identity});
   const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1 && blocks > 1)
+#pragma omp parallel for num_threads(threads)                                                  \
+    schedule(dynamic, 1) if (threads > 1 && blocks > 1)
   for (std::int64_t b = 0; b < static_cast<std::int64_t>(blocks); ++b) {
     const std::size_t begin = static_cast<std::size_t>(b) * block_size;
     const std::size_t end = begin + block_size < n ? begin + block_size : n;

@@ -4,11 +4,11 @@
  */
 #include <pcl_parallel/io/stanford.h>
 
-#include <cmath>
 #include <pcl/io/ply_io.h>
 
 #include <Eigen/Geometry>
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -32,8 +32,7 @@ loadStanfordConf(const std::string& path)
     StanfordConfEntry e;
     double t[3], q[4];
     if (!(ss >> e.file >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3]))
-      throw std::runtime_error(path + ":" + std::to_string(line_no) +
-                               ": malformed bmesh line");
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": malformed bmesh line");
     const Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]); // (w, x, y, z)
     if (!(quat.norm() > 0.5))
       throw std::runtime_error(path + ":" + std::to_string(line_no) + ": bad quaternion");

@@ -75,9 +75,8 @@ loadUosScan(const std::string& path, double min_range, double max_range)
     const double r = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     if (r < min_range || r > max_range)
       continue;
-    cloud->push_back(pcl::PointXYZ(static_cast<float>(v[0]),
-                                   static_cast<float>(v[1]),
-                                   static_cast<float>(v[2])));
+    cloud->push_back(pcl::PointXYZ(
+        static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])));
   }
   if (in.bad())
     fail(path, line_no, "read error");

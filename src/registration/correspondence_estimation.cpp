@@ -31,10 +31,10 @@ sqrDistanceBound(double max_distance)
 } // namespace registration
 } // namespace pcl_parallel
 
-#define PCL_PARALLEL_INSTANTIATE_CE(S, T, SCALAR)                                         \
+#define PCL_PARALLEL_INSTANTIATE_CE(S, T, SCALAR)                                              \
   template class pcl_parallel::registration::ParallelCorrespondenceEstimation<S, T, SCALAR>;
 // PCL_INSTANTIATE(X, types) expands PCL_INSTANTIATE_X(T) for each type.
-#define PCL_INSTANTIATE_ParallelCorrespondenceEstimation(T)                               \
+#define PCL_INSTANTIATE_ParallelCorrespondenceEstimation(T)                                    \
   PCL_PARALLEL_INSTANTIATE_CE(T, T, float) PCL_PARALLEL_INSTANTIATE_CE(T, T, double)
 PCL_INSTANTIATE(ParallelCorrespondenceEstimation, PCL_PARALLEL_XYZ_POINT_TYPES)
 PCL_PARALLEL_INSTANTIATE_CE(pcl::PointXYZ, pcl::PointNormal, float)

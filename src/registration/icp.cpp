@@ -42,7 +42,10 @@ spreadBits(std::uint64_t v)
 } // namespace
 
 void
-spatialOrder(const float* xyz, std::size_t n, std::size_t stride, std::vector<std::uint32_t>& order)
+spatialOrder(const float* xyz,
+             std::size_t n,
+             std::size_t stride,
+             std::vector<std::uint32_t>& order)
 {
   order.clear();
   float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
@@ -123,10 +126,10 @@ rigidTransformFromMoments(const PairMoments& mo, const double ref[3], bool horn)
 template class pcl_parallel::registration::FusedConvergenceCriteria<float>;
 template class pcl_parallel::registration::FusedConvergenceCriteria<double>;
 
-#define PCL_PARALLEL_INSTANTIATE_ICP(S, T, SCALAR)                                        \
+#define PCL_PARALLEL_INSTANTIATE_ICP(S, T, SCALAR)                                             \
   template class pcl_parallel::registration::ParallelIterativeClosestPoint<S, T, SCALAR>;
 // PCL_INSTANTIATE(X, types) expands PCL_INSTANTIATE_X(T) for each type.
-#define PCL_INSTANTIATE_ParallelIterativeClosestPoint(T)                                  \
+#define PCL_INSTANTIATE_ParallelIterativeClosestPoint(T)                                       \
   PCL_PARALLEL_INSTANTIATE_ICP(T, T, float) PCL_PARALLEL_INSTANTIATE_ICP(T, T, double)
 PCL_INSTANTIATE(ParallelIterativeClosestPoint, PCL_PARALLEL_XYZ_POINT_TYPES)
 PCL_PARALLEL_INSTANTIATE_ICP(pcl::PointXYZ, pcl::PointNormal, float)

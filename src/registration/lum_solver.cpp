@@ -2,10 +2,9 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include <pcl_parallel/registration/lum_solver.h>
-
 #include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/registration/lum_solver.h>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SparseCholesky>
@@ -94,11 +93,8 @@ poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, dou
 }
 
 bool
-LinkAccumulator::solveCentred(std::size_t min_pairs,
-                              Matrix6d& a,
-                              Vector6d& c,
-                              Vector6d& d_bar,
-                              const char** reason) const
+LinkAccumulator::solveCentred(
+    std::size_t min_pairs, Matrix6d& a, Vector6d& c, Vector6d& d_bar, const char** reason) const
 {
   auto fail = [&](const char* why) {
     if (reason)
@@ -251,7 +247,9 @@ struct PoseGraphSolver::Impl {
   bool factorised = false;
 };
 
-PoseGraphSolver::PoseGraphSolver() : impl_(new Impl) {}
+PoseGraphSolver::PoseGraphSolver()
+    : impl_(new Impl)
+{}
 PoseGraphSolver::~PoseGraphSolver() = default;
 
 bool

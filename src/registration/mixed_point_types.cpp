@@ -67,64 +67,64 @@ mixedReciprocalCorrespondences(pcl::search::KdTree<T>& tree,
 
 } // namespace
 
-#define PCL_PARALLEL_DEFINE_MIXED_CE(S, T, SCALAR)                                        \
-  template <>                                                                              \
-  void CorrespondenceEstimation<S, T, SCALAR>::determineCorrespondences(                   \
-      pcl::Correspondences& correspondences, double max_distance)                          \
-  {                                                                                        \
-    correspondences.clear();                                                               \
-    if (!initCompute())                                                                    \
-      return;                                                                              \
-    mixedCorrespondences<S, T>(*tree_, *input_, *indices_, max_distance, correspondences); \
-    deinitCompute();                                                                       \
-  }                                                                                        \
-  template <>                                                                              \
-  void CorrespondenceEstimation<S, T, SCALAR>::determineReciprocalCorrespondences(         \
-      pcl::Correspondences& correspondences, double max_distance)                          \
-  {                                                                                        \
-    correspondences.clear();                                                               \
-    if (!initCompute())                                                                    \
-      return;                                                                              \
-    mixedReciprocalCorrespondences<S, T>(                                                  \
-        *tree_, *input_, *indices_, *target_, max_distance, correspondences);              \
-    deinitCompute();                                                                       \
+#define PCL_PARALLEL_DEFINE_MIXED_CE(S, T, SCALAR)                                             \
+  template <>                                                                                  \
+  void CorrespondenceEstimation<S, T, SCALAR>::determineCorrespondences(                       \
+      pcl::Correspondences& correspondences, double max_distance)                              \
+  {                                                                                            \
+    correspondences.clear();                                                                   \
+    if (!initCompute())                                                                        \
+      return;                                                                                  \
+    mixedCorrespondences<S, T>(*tree_, *input_, *indices_, max_distance, correspondences);     \
+    deinitCompute();                                                                           \
+  }                                                                                            \
+  template <>                                                                                  \
+  void CorrespondenceEstimation<S, T, SCALAR>::determineReciprocalCorrespondences(             \
+      pcl::Correspondences& correspondences, double max_distance)                              \
+  {                                                                                            \
+    correspondences.clear();                                                                   \
+    if (!initCompute())                                                                        \
+      return;                                                                                  \
+    mixedReciprocalCorrespondences<S, T>(                                                      \
+        *tree_, *input_, *indices_, *target_, max_distance, correspondences);                  \
+    deinitCompute();                                                                           \
   }
 
 // Same member initialisation as PCL 1.13's constructor, except that the reciprocal tree
 // gets the type its member is declared with (KdTree<PointTarget>).
-#define PCL_PARALLEL_DEFINE_MIXED_BASE_CTOR(S, T, SCALAR)                                  \
-  template <>                                                                              \
-  CorrespondenceEstimationBase<S, T, SCALAR>::CorrespondenceEstimationBase()               \
-  : corr_name_("CorrespondenceEstimationBase")                                             \
-  , tree_(new pcl::search::KdTree<T>)                                                      \
-  , tree_reciprocal_(new pcl::search::KdTree<T>)                                           \
-  , target_()                                                                              \
-  , point_representation_()                                                                \
-  , input_transformed_()                                                                   \
-  , target_cloud_updated_(true)                                                            \
-  , source_cloud_updated_(true)                                                            \
-  , force_no_recompute_(false)                                                             \
-  , force_no_recompute_reciprocal_(false)                                                  \
+#define PCL_PARALLEL_DEFINE_MIXED_BASE_CTOR(S, T, SCALAR)                                      \
+  template <>                                                                                  \
+  CorrespondenceEstimationBase<S, T, SCALAR>::CorrespondenceEstimationBase()                   \
+      : corr_name_("CorrespondenceEstimationBase")                                             \
+      , tree_(new pcl::search::KdTree<T>)                                                      \
+      , tree_reciprocal_(new pcl::search::KdTree<T>)                                           \
+      , target_()                                                                              \
+      , point_representation_()                                                                \
+      , input_transformed_()                                                                   \
+      , target_cloud_updated_(true)                                                            \
+      , source_cloud_updated_(true)                                                            \
+      , force_no_recompute_(false)                                                             \
+      , force_no_recompute_reciprocal_(false)                                                  \
   {}
 
 // PCL 1.13's Registration::initCompute without handing the (differently typed)
 // reciprocal tree to the correspondence estimation.
-#define PCL_PARALLEL_DEFINE_MIXED_INIT(S, T, SCALAR)                                      \
-  template <>                                                                              \
-  bool Registration<S, T, SCALAR>::initCompute()                                           \
-  {                                                                                        \
-    if (!target_) {                                                                        \
-      PCL_ERROR("[pcl::registration::%s::compute] No input target dataset was given!\n",   \
-                getClassName().c_str());                                                   \
-      return false;                                                                        \
-    }                                                                                      \
-    if (target_cloud_updated_ && !force_no_recompute_) {                                   \
-      tree_->setInputCloud(target_);                                                       \
-      target_cloud_updated_ = false;                                                       \
-    }                                                                                      \
-    if (correspondence_estimation_)                                                        \
-      correspondence_estimation_->setSearchMethodTarget(tree_, force_no_recompute_);       \
-    return PCLBase<S>::initCompute();                                                      \
+#define PCL_PARALLEL_DEFINE_MIXED_INIT(S, T, SCALAR)                                           \
+  template <>                                                                                  \
+  bool Registration<S, T, SCALAR>::initCompute()                                               \
+  {                                                                                            \
+    if (!target_) {                                                                            \
+      PCL_ERROR("[pcl::registration::%s::compute] No input target dataset was given!\n",       \
+                getClassName().c_str());                                                       \
+      return false;                                                                            \
+    }                                                                                          \
+    if (target_cloud_updated_ && !force_no_recompute_) {                                       \
+      tree_->setInputCloud(target_);                                                           \
+      target_cloud_updated_ = false;                                                           \
+    }                                                                                          \
+    if (correspondence_estimation_)                                                            \
+      correspondence_estimation_->setSearchMethodTarget(tree_, force_no_recompute_);           \
+    return PCLBase<S>::initCompute();                                                          \
   }
 
 namespace pcl {

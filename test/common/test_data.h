@@ -4,9 +4,8 @@
  */
 #pragma once
 
-#include <gtest/gtest.h>
-
 #include <filesystem>
+#include <gtest/gtest.h>
 #include <string>
 
 namespace pcl_parallel {
@@ -34,9 +33,9 @@ dataFile(const std::string& relative)
 } // namespace pcl_parallel
 
 /** Sets `var` to the data file's path, or skips the test with a clear message. */
-#define PCL_PARALLEL_REQUIRE_DATA(var, relative)                                           \
-  const std::string var = ::pcl_parallel::test::dataFile(relative);                        \
-  if (var.empty())                                                                         \
-  GTEST_SKIP() << "reference data " << (relative) << " not found under "                   \
-               << ::pcl_parallel::test::dataDir()                                          \
+#define PCL_PARALLEL_REQUIRE_DATA(var, relative)                                               \
+  const std::string var = ::pcl_parallel::test::dataFile(relative);                            \
+  if (var.empty())                                                                             \
+  GTEST_SKIP() << "reference data " << (relative) << " not found under "                       \
+               << ::pcl_parallel::test::dataDir()                                              \
                << " (set -DPCL_PARALLEL_DATA_DIR or the environment variable)"

@@ -35,10 +35,12 @@ namespace registration {
  */
 template <typename PointSource, typename PointTarget, typename Scalar = float>
 class ParallelCorrespondenceEstimation
-: public pcl::registration::CorrespondenceEstimationBase<PointSource, PointTarget, Scalar> {
+    : public pcl::registration::CorrespondenceEstimationBase<PointSource, PointTarget, Scalar> {
 public:
-  using Base = pcl::registration::CorrespondenceEstimationBase<PointSource, PointTarget, Scalar>;
-  using Ptr = pcl::shared_ptr<ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>>;
+  using Base =
+      pcl::registration::CorrespondenceEstimationBase<PointSource, PointTarget, Scalar>;
+  using Ptr =
+      pcl::shared_ptr<ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>>;
   using ConstPtr =
       pcl::shared_ptr<const ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>>;
   using TargetTree = pcl_parallel::search::KdTree<PointTarget>;

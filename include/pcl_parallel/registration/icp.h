@@ -39,7 +39,7 @@ public:
   FusedConvergenceCriteria(const int& iterations,
                            const Matrix4& transform,
                            const pcl::Correspondences& correspondences)
-  : Base(iterations, transform, correspondences)
+      : Base(iterations, transform, correspondences)
   {}
 
   /** The MSE the next hasConverged() calls use instead of the correspondences'. */
@@ -115,7 +115,7 @@ private:
  */
 template <typename PointSource, typename PointTarget, typename Scalar = float>
 class ParallelIterativeClosestPoint
-: public pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar> {
+    : public pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar> {
 public:
   using Base = pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>;
   using Ptr = pcl::shared_ptr<ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>>;
@@ -224,9 +224,9 @@ private:
   unsigned num_threads_ = 0;
   RotationMethod rotation_method_ = RotationMethod::kSvd;
   bool used_fast_path_ = false;
-  typename TargetTree::Ptr private_tree_;  ///< when tree_ is not a pcl_parallel tree
-  std::vector<std::uint32_t> order_;       ///< source points in spatial (Morton) order
-  std::vector<std::uint32_t> warm_;        ///< per order_ entry: last match (tree position)
+  typename TargetTree::Ptr private_tree_; ///< when tree_ is not a pcl_parallel tree
+  std::vector<std::uint32_t> order_;      ///< source points in spatial (Morton) order
+  std::vector<std::uint32_t> warm_;       ///< per order_ entry: last match (tree position)
 };
 
 namespace detail {
@@ -246,7 +246,10 @@ struct PairMoments {
  *  of the target tree, so it stays in cache (large clouds in arbitrary order otherwise
  *  miss on almost every node). The order is a function of the input alone. */
 void
-spatialOrder(const float* xyz, std::size_t n, std::size_t stride, std::vector<std::uint32_t>& order);
+spatialOrder(const float* xyz,
+             std::size_t n,
+             std::size_t stride,
+             std::vector<std::uint32_t>& order);
 
 /** Rigid transform that maps d onto m in the least-squares sense (Eq. 7 and 9), from
  *  the moments of \a n pairs shifted by \a ref. \a horn: Horn's quaternion instead of

@@ -46,9 +46,9 @@ namespace pcl_parallel {
  * thread count.
  *
  * Poses are kept internally as 4x4 matrices in double and linearised with a local
- * (world-frame) perturbation of each pose (lum::applyUpdate), so no orientation is special; PCL's
- * (x, y, z, roll, pitch, yaw) vectors are converted only at the API boundary. Near
- * pitch = +-90 deg the 6-vector is ambiguous, the matrix (getPoseMatrix) is not.
+ * (world-frame) perturbation of each pose (lum::applyUpdate), so no orientation is special;
+ * PCL's (x, y, z, roll, pitch, yaw) vectors are converted only at the API boundary. Near pitch
+ * = +-90 deg the 6-vector is ambiguous, the matrix (getPoseMatrix) is not.
  *
  * Deviations from pcl::registration::LUM, all on invalid input or by design:
  * - invalid input (missing vertex, empty cloud, non-finite pose, no links, a vertex not
@@ -432,7 +432,9 @@ private:
   struct SolverSlot {
     std::unique_ptr<lum::PoseGraphSolver> ptr{new lum::PoseGraphSolver};
     SolverSlot() = default;
-    SolverSlot(const SolverSlot&) : ptr(new lum::PoseGraphSolver) {}
+    SolverSlot(const SolverSlot&)
+        : ptr(new lum::PoseGraphSolver)
+    {}
     SolverSlot&
     operator=(const SolverSlot&)
     {

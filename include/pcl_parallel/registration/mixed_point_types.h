@@ -37,20 +37,20 @@
 #include <pcl/registration/correspondence_estimation.h>
 #include <pcl/registration/registration.h>
 
-#define PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(S, T, SCALAR)                                 \
-  template <>                                                                              \
+#define PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(S, T, SCALAR)                                     \
+  template <>                                                                                  \
   CorrespondenceEstimationBase<S, T, SCALAR>::CorrespondenceEstimationBase();
 
-#define PCL_PARALLEL_DECLARE_MIXED_CE(S, T, SCALAR)                                       \
-  template <>                                                                              \
-  void CorrespondenceEstimation<S, T, SCALAR>::determineCorrespondences(                   \
-      pcl::Correspondences& correspondences, double max_distance);                         \
-  template <>                                                                              \
-  void CorrespondenceEstimation<S, T, SCALAR>::determineReciprocalCorrespondences(         \
+#define PCL_PARALLEL_DECLARE_MIXED_CE(S, T, SCALAR)                                            \
+  template <>                                                                                  \
+  void CorrespondenceEstimation<S, T, SCALAR>::determineCorrespondences(                       \
+      pcl::Correspondences& correspondences, double max_distance);                             \
+  template <>                                                                                  \
+  void CorrespondenceEstimation<S, T, SCALAR>::determineReciprocalCorrespondences(             \
       pcl::Correspondences& correspondences, double max_distance);
 
-#define PCL_PARALLEL_DECLARE_MIXED_INIT(S, T, SCALAR)                                     \
-  template <>                                                                              \
+#define PCL_PARALLEL_DECLARE_MIXED_INIT(S, T, SCALAR)                                          \
+  template <>                                                                                  \
   bool Registration<S, T, SCALAR>::initCompute();
 
 namespace pcl {

@@ -39,8 +39,9 @@ main()
   // Parallel closest-point search inside PCL's ICP.
   Eigen::Affine3f motion(Eigen::Translation3f(0.02f, -0.03f, 0.01f));
   pcl::transformPointCloud(*target, *source, motion);
-  using Estimation = pcl_parallel::registration::ParallelCorrespondenceEstimation<pcl::PointXYZ,
-                                                                                  pcl::PointXYZ>;
+  using Estimation =
+      pcl_parallel::registration::ParallelCorrespondenceEstimation<pcl::PointXYZ,
+                                                                   pcl::PointXYZ>;
   pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
   icp.setCorrespondenceEstimation(Estimation::Ptr(new Estimation));
   icp.setSearchMethodTarget(tree, true); // reuse the tree built above

@@ -122,9 +122,10 @@ ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>::
   const KdTreeIndex* target = initSearch();
   if (!target)
     return;
-  // The source changes every ICP iteration, so PCL rebuilds its reciprocal tree each unless force_no_recompute_reciprocal says it is current.
-  // call; we do the same unless force_no_recompute_reciprocal says it is current. A new
-  // source cloud or index vector always counts as a change.
+  // The source changes every ICP iteration, so PCL rebuilds its reciprocal tree each unless
+  // force_no_recompute_reciprocal says it is current. call; we do the same unless
+  // force_no_recompute_reciprocal says it is current. A new source cloud or index vector always
+  // counts as a change.
   const bool same_source =
       source_key_ == std::make_tuple(input_.get(), indices_.get(), indices_->size());
   if ((source_cloud_updated_ && !force_no_recompute_reciprocal_) || !same_source ||

@@ -126,8 +126,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::targetIndex()
   if (ours) {
     // PCL semantics: rebuild for a new target unless force_no_recompute promised the
     // tree is current (Registration::initCompute normally did it already).
-    if (!force_no_recompute_ &&
-        (target_cloud_updated_ || ours->getInputCloud() != target_)) {
+    if (!force_no_recompute_ && (target_cloud_updated_ || ours->getInputCloud() != target_)) {
       ours->setNumberOfThreads(num_threads_);
       ours->setInputCloud(target_);
       target_cloud_updated_ = false;
@@ -188,7 +187,8 @@ void
 ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransformationFused(
     PointCloudSource& output, const Matrix4& guess)
 {
-  using State = typename pcl::registration::DefaultConvergenceCriteria<Scalar>::ConvergenceState;
+  using State =
+      typename pcl::registration::DefaultConvergenceCriteria<Scalar>::ConvergenceState;
   auto& criteria = static_cast<ConvergenceCriteria&>(*this->convergence_criteria_);
 
   nr_iterations_ = 0;
@@ -283,10 +283,9 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
         break;
       }
 
-      transformation_ =
-          detail::rigidTransformFromMoments(
-              total, ref, rotation_method_ == RotationMethod::kHornQuaternion)
-              .template cast<Scalar>();
+      transformation_ = detail::rigidTransformFromMoments(
+                            total, ref, rotation_method_ == RotationMethod::kHornQuaternion)
+                            .template cast<Scalar>();
       final_transformation_ = transformation_ * final_transformation_;
       ++nr_iterations_;
 
@@ -311,8 +310,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::getFitnessScore
     double max_range)
 {
   if (!input_) {
-    PCL_ERROR("[pcl_parallel::%s::getFitnessScore] No input source.\n",
-              getClassName().c_str());
+    PCL_ERROR("[pcl_parallel::%s::getFitnessScore] No input source.\n", getClassName().c_str());
     return std::numeric_limits<double>::max();
   }
   const KdTreeIndex* target = targetIndex();

@@ -21,7 +21,9 @@
 namespace pcl_parallel {
 
 template <typename PointT>
-ParallelLUM<PointT>::ParallelLUM() : slam_graph_(new SLAMGraph) {}
+ParallelLUM<PointT>::ParallelLUM()
+    : slam_graph_(new SLAMGraph)
+{}
 
 template <typename PointT>
 ParallelLUM<PointT>::~ParallelLUM() = default;
@@ -50,8 +52,8 @@ void
 ParallelLUM<PointT>::checkVertex(const Vertex& v, const char* where) const
 {
   if (v >= getNumVertices())
-    throw std::out_of_range(std::string("[pcl_parallel::ParallelLUM::") + where +
-                            "] vertex " + std::to_string(v) + " does not exist (" +
+    throw std::out_of_range(std::string("[pcl_parallel::ParallelLUM::") + where + "] vertex " +
+                            std::to_string(v) + " does not exist (" +
                             std::to_string(getNumVertices()) + " vertices)");
 }
 
@@ -214,7 +216,10 @@ ParallelLUM<PointT>::setCorrespondences(const Vertex& source_vertex,
   bool present;
   std::tie(e, present) = edge(source_vertex, target_vertex, *slam_graph_);
   if (!present)
-    std::tie(e, present) = add_edge(source_vertex, target_vertex, detail::zeroEdgeProperties<EdgeProperties>(), *slam_graph_);
+    std::tie(e, present) = add_edge(source_vertex,
+                                    target_vertex,
+                                    detail::zeroEdgeProperties<EdgeProperties>(),
+                                    *slam_graph_);
   (*slam_graph_)[e].corrs_ = corrs;
 }
 
@@ -405,8 +410,8 @@ ParallelLUM<PointT>::buildTrees()
   for (std::int64_t k = 0; k < static_cast<std::int64_t>(todo.size()); ++k) {
     const std::size_t v = todo[k];
     auto tree = std::make_shared<KdTreeIndex>();
-    search::detail::buildIndex(*tree, (*slam_graph_)[v].cloud_.get(), nullptr, 1,
-                               KdTreeIndex::kDefaultBucketSize);
+    search::detail::buildIndex(
+        *tree, (*slam_graph_)[v].cloud_.get(), nullptr, 1, KdTreeIndex::kDefaultBucketSize);
     trees_[v] = tree;
     const PointCloud* c = (*slam_graph_)[v].cloud_.get();
     tree_source_[v] = {c, c ? c->size() : 0};
@@ -587,8 +592,13 @@ ParallelLUM<PointT>::compute()
       if (plum) {
         if (!link_corrs[li])
           link_corrs[li].reset(new pcl::Correspondences);
-        b.valid = measureLink(link, gate, states[omp_get_thread_num()], b,
-                              link_corrs[li].get(), pair_counts[li], &reasons[li]);
+        b.valid = measureLink(link,
+                              gate,
+                              states[omp_get_thread_num()],
+                              b,
+                              link_corrs[li].get(),
+                              pair_counts[li],
+                              &reasons[li]);
         continue;
       }
       lum::LinkAccumulator acc;
@@ -723,7 +733,8 @@ ParallelLUM<PointT>::overlap(const Vertex& source_vertex,
 }
 
 template <typename PointT>
-std::vector<std::pair<typename ParallelLUM<PointT>::Vertex, typename ParallelLUM<PointT>::Vertex>>
+std::vector<
+    std::pair<typename ParallelLUM<PointT>::Vertex, typename ParallelLUM<PointT>::Vertex>>
 ParallelLUM<PointT>::findOverlappingPairs(double max_distance, double min_fraction)
 {
   syncPoses();

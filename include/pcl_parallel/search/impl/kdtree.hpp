@@ -66,7 +66,8 @@ buildIndex(KdTreeIndex& index,
 } // namespace detail
 
 template <typename PointT>
-KdTree<PointT>::KdTree(bool sorted) : pcl::search::KdTree<PointT>(sorted)
+KdTree<PointT>::KdTree(bool sorted)
+    : pcl::search::KdTree<PointT>(sorted)
 {
   name_ = "pcl_parallel::KdTree";
 }
@@ -153,9 +154,10 @@ KdTree<PointT>::nearestKSearch(const PointCloud& cloud,
                                std::vector<pcl::Indices>& k_indices,
                                std::vector<std::vector<float>>& k_sqr_distances) const
 {
-  searchBatch(cloud, indices, k_indices, k_sqr_distances, [&](const PointT& p, auto& i, auto& d) {
-    nearestKSearch(p, k, i, d);
-  });
+  searchBatch(
+      cloud, indices, k_indices, k_sqr_distances, [&](const PointT& p, auto& i, auto& d) {
+        nearestKSearch(p, k, i, d);
+      });
 }
 
 template <typename PointT>
@@ -167,9 +169,10 @@ KdTree<PointT>::radiusSearch(const PointCloud& cloud,
                              std::vector<std::vector<float>>& k_sqr_distances,
                              unsigned int max_nn) const
 {
-  searchBatch(cloud, indices, k_indices, k_sqr_distances, [&](const PointT& p, auto& i, auto& d) {
-    radiusSearch(p, radius, i, d, max_nn);
-  });
+  searchBatch(
+      cloud, indices, k_indices, k_sqr_distances, [&](const PointT& p, auto& i, auto& d) {
+        radiusSearch(p, radius, i, d, max_nn);
+      });
 }
 
 } // namespace search
