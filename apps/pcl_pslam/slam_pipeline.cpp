@@ -1,0 +1,223 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "slam_pipeline.h"
+
+#include <pcl_parallel/registration/icp.h>
+#include <pcl_parallel/registration/loop_detection.h>
+#include <pcl_parallel/registration/lum.h>
+#include <pcl_parallel/registration/lum_solver.h>
+
+#include <pcl/common/transforms.h>
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/io/png_io.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <stdexcept>
+
+namespace pcl_pslam {
+
+Cloud::Ptr
+reduce(const Cloud& scan, double voxel_size)
+{
+  Cloud::Ptr out(new Cloud);
+  if (!(voxel_size > 0.0)) {
+    *out = scan;
+    return out;
+  }
+  Cloud::Ptr in(new Cloud(scan));
+  pcl::VoxelGrid<pcl::PointXYZ> grid;
+  grid.setInputCloud(in);
+  const float leaf = static_cast<float>(voxel_size);
+  grid.setLeafSize(leaf, leaf, leaf);
+  grid.filter(*out);
+  return out;
+}
+
+Result
+run(const std::vector<Cloud::Ptr>& scans,
+    const Poses& initial,
+    const Parameters& params,
+    const Progress& progress)
+{
+  const int n = static_cast<int>(scans.size());
+  if (n < 2)
+    throw std::invalid_argument("pcl_pslam: needs at least 2 scans, got " + std::to_string(n));
+  if (initial.size() != scans.size())
+    throw std::invalid_argument("pcl_pslam: " + std::to_string(initial.size()) +
+                                " initial poses for " + std::to_string(n) + " scans");
+  for (int i = 0; i < n; ++i) {
+    if (!scans[i] || scans[i]->empty())
+      throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
+    if (!initial[i].allFinite())
+      throw std::invalid_argument("pcl_pslam: initial pose " + std::to_string(i) +
+                                  " is not finite");
+  }
+  auto report = [&](const char* stage, int done, int total) {
+    if (progress)
+      progress(stage, done, total);
+  };
+
+  Result result;
+  for (int i = 0; i < n; ++i) {
+    result.reduced.push_back(reduce(*scans[i], params.voxel_size));
+    report("reduce", i + 1, n);
+  }
+
+  // Sequential pICP (paper Sec. II): scan i against scan i-1, starting from the odometry
+  // step put on top of scan i-1's matched pose.
+  pcl_parallel::ParallelIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
+  icp.setNumberOfThreads(params.num_threads);
+  icp.setMaxCorrespondenceDistance(params.icp_distance);
+  icp.setMaximumIterations(params.icp_iterations);
+  icp.setTransformationEpsilon(1e-10);
+  result.icp.push_back(initial[0]);
+  for (int i = 1; i < n; ++i) {
+    const Eigen::Matrix4d step =
+        params.odometry ? Eigen::Matrix4d(initial[i - 1].inverse() * initial[i])
+        : i >= 2        ? Eigen::Matrix4d(result.icp[i - 2].inverse() * result.icp[i - 1])
+                        : Eigen::Matrix4d::Identity();
+    icp.setInputSource(result.reduced[i]);
+    icp.setInputTarget(result.reduced[i - 1]);
+    Cloud aligned;
+    icp.align(aligned, step.cast<float>());
+    // A failed match keeps the odometry step rather than a wrong one.
+    const Eigen::Matrix4d matched =
+        icp.hasConverged() ? icp.getFinalTransformation().cast<double>() : step;
+    result.icp.push_back(result.icp.back() * matched);
+    report("icp", i, n - 1);
+  }
+
+  // Loops by pose distance (paper Sec. VI-C), then pLUM over all links (Sec. III, V).
+  result.links = pcl_parallel::detectLinksByDistance(result.icp, params.loop_distance,
+                                                     static_cast<std::size_t>(params.loop_size));
+  pcl_parallel::ParallelLUM<pcl::PointXYZ> lum;
+  lum.setNumberOfThreads(params.num_threads);
+  for (int i = 0; i < n; ++i)
+    lum.addPointCloud(result.reduced[i], Eigen::Matrix4f(result.icp[i].cast<float>()));
+  for (const auto& [i, j] : result.links)
+    lum.addLink(i, j);
+  lum.setCorrespondenceDistanceSchedule(
+      params.lum_distance, std::min(params.lum_distance, params.lum_final_distance), 0.7);
+  lum.setPointToPlane(params.lum_point_to_plane);
+  lum.setLinkIterations(params.lum_link_iterations);
+  lum.setMaxIterations(params.lum_iterations);
+  lum.setConvergenceThreshold(1e-5f);
+  lum.setIterationCallback(
+      [&](int it, double) { report("lum", it + 1, params.lum_iterations); });
+  lum.compute();
+  result.lum_iterations = lum.getNumIterationsDone();
+  for (int i = 0; i < n; ++i)
+    result.final.push_back(lum.getPoseMatrix(i));
+  return result;
+}
+
+Cloud::Ptr
+mergedMap(const std::vector<Cloud::Ptr>& scans, const Poses& poses, double voxel_size)
+{
+  Cloud::Ptr map(new Cloud);
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    Cloud moved;
+    pcl::transformPointCloud(*scans[i], moved, poses[i]);
+    *map += moved;
+  }
+  return reduce(*map, voxel_size);
+}
+
+void
+writeTopView(const std::string& path,
+             const Cloud& map,
+             const Poses& trajectory,
+             int up,
+             int size)
+{
+  const int u = (up + 1) % 3, v = (up + 2) % 3; // image axes, right-handed about `up`
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  auto extend = [&](double a, double b) {
+    lo = lo.cwiseMin(Eigen::Vector2d(a, b));
+    hi = hi.cwiseMax(Eigen::Vector2d(a, b));
+  };
+  for (const auto& p : map)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      extend(p.data[u], p.data[v]);
+  for (const auto& t : trajectory)
+    extend(t(u, 3), t(v, 3));
+  if (!(hi.x() >= lo.x()))
+    lo = hi = Eigen::Vector2d::Zero();
+  const double extent = std::max({hi.x() - lo.x(), hi.y() - lo.y(), 1e-6});
+  const double scale = (size - 1) / extent;
+  const int width = std::max(1, static_cast<int>((hi.x() - lo.x()) * scale) + 1);
+  const int height = std::max(1, static_cast<int>((hi.y() - lo.y()) * scale) + 1);
+  auto pixel = [&](double a, double b) {
+    return std::make_pair(static_cast<int>((a - lo.x()) * scale),
+                          height - 1 - static_cast<int>((b - lo.y()) * scale));
+  };
+  std::vector<unsigned> count(static_cast<std::size_t>(width) * height, 0);
+  for (const auto& p : map) {
+    if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
+      continue;
+    const auto [x, y] = pixel(p.data[u], p.data[v]);
+    ++count[static_cast<std::size_t>(y) * width + x];
+  }
+  const unsigned peak = std::max(1u, *std::max_element(count.begin(), count.end()));
+  std::vector<unsigned char> rgb(count.size() * 3, 255);
+  for (std::size_t k = 0; k < count.size(); ++k)
+    if (count[k]) { // log density: walls dark, sparse returns light
+      const double g = std::log1p(count[k]) / std::log1p(peak);
+      const auto shade = static_cast<unsigned char>(200.0 * (1.0 - g));
+      rgb[3 * k] = rgb[3 * k + 1] = rgb[3 * k + 2] = shade;
+    }
+  for (const auto& t : trajectory) { // 3x3 red dot per pose
+    const auto [x, y] = pixel(t(u, 3), t(v, 3));
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int px = x + dx, py = y + dy;
+        if (px < 0 || py < 0 || px >= width || py >= height)
+          continue;
+        unsigned char* c = &rgb[3 * (static_cast<std::size_t>(py) * width + px)];
+        c[0] = 220, c[1] = 0, c[2] = 0;
+      }
+  }
+  std::ofstream probe(path, std::ios::binary); // PCL's writer does not report failures
+  if (!probe)
+    throw std::runtime_error("pcl_pslam: cannot write " + path);
+  probe.close();
+  pcl::io::saveRgbPNGFile(path, rgb.data(), width, height);
+}
+
+void
+writePoses(const std::string& path, const Poses& poses)
+{
+  std::ofstream out(path);
+  if (!out)
+    throw std::runtime_error("pcl_pslam: cannot write " + path);
+  out.precision(10);
+  for (const auto& p : poses) {
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        out << p(r, c) << (r == 2 && c == 3 ? '\n' : ' ');
+  }
+  if (!out)
+    throw std::runtime_error("pcl_pslam: error writing " + path);
+}
+
+Errors
+poseErrors(const Poses& a, const Poses& b)
+{
+  Errors e;
+  const std::size_t n = std::min(a.size(), b.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    double r, t;
+    pcl_parallel::lum::poseError(a[i], b[i], r, t);
+    e.max_rot = std::max(e.max_rot, r);
+    e.max_trans = std::max(e.max_trans, t);
+    e.mean_rot += r / static_cast<double>(n);
+    e.mean_trans += t / static_cast<double>(n);
+  }
+  return e;
+}
+
+} // namespace pcl_pslam
