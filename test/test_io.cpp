@@ -4,13 +4,22 @@
  */
 #include "test_data.h"
 
+#include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/uos.h>
+
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
 
 #include <Eigen/Geometry>
 
+#include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <initializer_list>
+#include <limits>
 
 using namespace pcl_parallel::io;
 
@@ -37,11 +46,56 @@ protected:
   write(const std::string& name, const std::string& content)
   {
     const auto p = dir_ / name;
-    std::ofstream(p) << content;
+    std::ofstream(p, std::ios::binary) << content;
     return p.string();
   }
   std::filesystem::path dir_;
 };
+
+/** The message of the Exception that f throws (a test failure, and "", if it throws none). */
+template <typename Exception, typename F>
+std::string
+messageOf(F&& f)
+{
+  try {
+    f();
+  }
+  catch (const Exception& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no exception";
+  return "";
+}
+
+bool
+mentions(const std::string& message, const std::string& part)
+{
+  return message.find(part) != std::string::npos;
+}
+
+/** KITTI .bin bytes: the values as float32, little-endian whatever the host. */
+std::string
+kittiBytes(std::initializer_list<float> values)
+{
+  std::string bytes;
+  for (float v : values) {
+    std::uint32_t u;
+    std::memcpy(&u, &v, sizeof u);
+    for (int i = 0; i < 4; ++i)
+      bytes.push_back(static_cast<char>((u >> (8 * i)) & 0xffu));
+  }
+  return bytes;
+}
+
+void
+expectPoint(const pcl::PointXYZ& p, float x, float y, float z)
+{
+  EXPECT_EQ(p.x, x);
+  EXPECT_EQ(p.y, y);
+  EXPECT_EQ(p.z, z);
+}
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 } // namespace
 
@@ -102,4 +156,253 @@ TEST(UosData, OdometryReproducesTheInitialFrameOf3dtk)
   EXPECT_TRUE(loadUosPose(pose).isApprox(first, 1e-5)) << loadUosPose(pose) << "\n" << first;
   EXPECT_NEAR(loadFramesFinalPose(frames)(2, 3), 337.79, 0.01); // PROVENANCE.txt
   EXPECT_EQ(loadUosScan(scan)->size(), 81360u);
+}
+
+TEST_F(TempFiles, XyzScanSkipsCommentsAndBlankLinesAndReadsAnySeparator)
+{
+  const auto path = write("s.xyz",
+                          "# x y z intensity\n"
+                          "\n"
+                          "1 2 3 0.5\n"
+                          "  \t\r\n"
+                          "4\t5\t6\n"
+                          "   # indented comment\n"
+                          "7,8,9,255,0,0\n"
+                          "-1.5 , +2.5,3e1 label\r\n"
+                          "nan nan nan 0\n"
+                          "1 inf 0\n");
+  const auto cloud = loadXyzScan(path);
+  ASSERT_EQ(cloud->size(), 4u); // the non-finite points are dropped
+  EXPECT_EQ(cloud->width, 4u);
+  EXPECT_EQ(cloud->height, 1u);
+  EXPECT_TRUE(cloud->is_dense);
+  expectPoint((*cloud)[0], 1, 2, 3);
+  expectPoint((*cloud)[1], 4, 5, 6);
+  expectPoint((*cloud)[2], 7, 8, 9);
+  expectPoint((*cloud)[3], -1.5f, 2.5f, 30);
+}
+
+TEST_F(TempFiles, XyzScanRangeFilterKeepsTheClosedInterval)
+{
+  const auto path = write("s.txt", "0 0 0.05\n1 0 0\n3 4 0\n0 0 3276.7\n");
+  EXPECT_EQ(loadXyzScan(path)->size(), 4u);
+  const auto filtered = loadXyzScan(path, 1.0, 5.0); // ranges 1 and 5 are inside
+  ASSERT_EQ(filtered->size(), 2u);
+  EXPECT_EQ(filtered->width, 2u);
+  expectPoint((*filtered)[0], 1, 0, 0);
+  expectPoint((*filtered)[1], 3, 4, 0);
+  ASSERT_EQ(loadXyzScan(path, 1.5, 4.9)->size(), 0u);
+}
+
+TEST_F(TempFiles, XyzScanMalformedLineThrowsWithTheLine)
+{
+  const auto short_line = write("short.xyz", "1 2 3\n# comment\n\n4 5\n");
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadXyzScan(short_line); }),
+                       "short.xyz:4:"));
+  const auto word = write("word.xyz", "1 2 3\n4 5 six 7\n");
+  const std::string msg = messageOf<std::runtime_error>([&] { loadXyzScan(word); });
+  EXPECT_TRUE(mentions(msg, "word.xyz:2:")) << msg;
+  EXPECT_TRUE(mentions(msg, "\"six\"")) << msg;
+  const auto empty_field = write("empty.xyz", "1,,2,3\n");
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadXyzScan(empty_field); }),
+                       "empty.xyz:1:"));
+  EXPECT_THROW(loadXyzScan(write("leading_comma.xyz", ",1,2,3\n")), std::runtime_error);
+  const auto suffix = write("suffix.xyz", "1 2 3m\n");
+  EXPECT_THROW(loadXyzScan(suffix), std::runtime_error);
+  const auto overflow = write("overflow.xyz", "1 2 1e999\n");
+  EXPECT_THROW(loadXyzScan(overflow), std::runtime_error);
+}
+
+TEST_F(TempFiles, XyzScanUnreadablePathThrows)
+{
+  const std::string missing = (dir_ / "missing.xyz").string();
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadXyzScan(missing); }), missing));
+  EXPECT_THROW(loadXyzScan(dir_.string()), std::runtime_error); // a directory
+}
+
+TEST_F(TempFiles, KittiScanReadsFloat32Records)
+{
+  const auto path = write("000000.bin",
+                          kittiBytes({1.25f,
+                                      -2.5f,
+                                      0.125f,
+                                      0.75f, // range 2.80
+                                      10.0f,
+                                      0.0f,
+                                      -0.5f,
+                                      0.25f, // range 10.01
+                                      kNaN,
+                                      1.0f,
+                                      1.0f,
+                                      0.5f, // dropped
+                                      0.01f,
+                                      0.02f,
+                                      0.03f,
+                                      1.0f})); // range 0.037
+  const auto all = loadKittiScan(path);
+  ASSERT_EQ(all->size(), 3u);
+  EXPECT_EQ(all->width, 3u);
+  expectPoint((*all)[0], 1.25f, -2.5f, 0.125f);
+  expectPoint((*all)[1], 10.0f, 0.0f, -0.5f);
+  expectPoint((*all)[2], 0.01f, 0.02f, 0.03f);
+  const auto near = loadKittiScan(path, 0.5, 5.0);
+  ASSERT_EQ(near->size(), 1u);
+  expectPoint((*near)[0], 1.25f, -2.5f, 0.125f);
+}
+
+TEST_F(TempFiles, KittiScanTruncatedThrowsAndEmptyIsEmpty)
+{
+  std::string bytes = kittiBytes({1, 2, 3, 4, 5, 6, 7, 8});
+  bytes.pop_back(); // 31 bytes
+  const auto truncated = write("truncated.bin", bytes);
+  const std::string msg = messageOf<std::runtime_error>([&] { loadKittiScan(truncated); });
+  EXPECT_TRUE(mentions(msg, "truncated.bin")) << msg;
+  EXPECT_TRUE(mentions(msg, "31")) << msg;
+  const auto empty = loadKittiScan(write("empty.bin", ""));
+  EXPECT_TRUE(empty->empty());
+  EXPECT_EQ(empty->width, 0u);
+  EXPECT_THROW(loadKittiScan((dir_ / "missing.bin").string()), std::runtime_error);
+  EXPECT_THROW(loadKittiScan(dir_.string()), std::runtime_error); // a directory
+}
+
+TEST_F(TempFiles, KittiPosesAreRowMajor3x4)
+{
+  const auto path = write("00.txt",
+                          "1 0 0 1.5 0 1 0 -2 0 0 1 3\n"
+                          "\n"
+                          "0 -1 0 10 1 0 0 20 0 0 1 3.000000e+01\n");
+  const auto poses = loadKittiPoses(path);
+  ASSERT_EQ(poses.size(), 2u);
+  EXPECT_EQ((poses[0].topRightCorner<3, 1>()), Eigen::Vector3d(1.5, -2, 3));
+  EXPECT_TRUE((poses[0].topLeftCorner<3, 3>().isIdentity(0)));
+  EXPECT_EQ(poses[1](0, 1), -1.0);
+  EXPECT_EQ(poses[1](1, 0), 1.0);
+  EXPECT_EQ((poses[1].topRightCorner<3, 1>()), Eigen::Vector3d(10, 20, 30));
+  EXPECT_EQ((poses[1].bottomRows<1>()), Eigen::RowVector4d(0, 0, 0, 1));
+}
+
+TEST_F(TempFiles, KittiPosesMalformedLineThrowsWithTheLine)
+{
+  const auto eleven = write("eleven.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n");
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadKittiPoses(eleven); }),
+                       "eleven.txt:2:"));
+  EXPECT_THROW(loadKittiPoses(write("thirteen.txt", "1 0 0 0 0 1 0 0 0 0 1 0 7\n")),
+               std::runtime_error);
+  EXPECT_THROW(loadKittiPoses(write("nan.txt", "1 0 0 nan 0 1 0 0 0 0 1 0\n")),
+               std::runtime_error);
+  EXPECT_THROW(loadKittiPoses((dir_ / "missing.txt").string()), std::runtime_error);
+}
+
+TEST_F(TempFiles, LoadScanDispatchesOnTheExtension)
+{
+  const auto xyz = loadScan(write("a.xyz", "1 2 3\n0 0 100\n"), 0.0, 10.0);
+  ASSERT_EQ(xyz->size(), 1u);
+  expectPoint((*xyz)[0], 1, 2, 3);
+
+  const auto bin = loadScan(write("b.bin", kittiBytes({4, 5, 6, 0.5f})));
+  ASSERT_EQ(bin->size(), 1u);
+  expectPoint((*bin)[0], 4, 5, 6);
+
+  const auto txt = loadScan(write("t.txt", "# x,y,z\n1.5,2,3\n"));
+  ASSERT_EQ(txt->size(), 1u);
+  expectPoint((*txt)[0], 1.5f, 2, 3);
+
+  const auto uos = loadScan(write("c.3d", "360 x 225\n7 8 9\n"));
+  ASSERT_EQ(uos->size(), 1u);
+  expectPoint((*uos)[0], 7, 8, 9);
+
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  cloud.push_back(pcl::PointXYZ(0.5f, -1.25f, 2.0f));
+  cloud.push_back(pcl::PointXYZ(kNaN, kNaN, kNaN));
+  cloud.push_back(pcl::PointXYZ(30.0f, 40.0f, 0.0f));
+  cloud.is_dense = false;
+  const std::string pcd = (dir_ / "d.pcd").string();
+  ASSERT_EQ(pcl::io::savePCDFileBinary(pcd, cloud), 0);
+  const auto from_pcd = loadScan(pcd);
+  ASSERT_EQ(from_pcd->size(), 2u); // the NaN point is dropped
+  EXPECT_EQ(from_pcd->width, 2u);
+  EXPECT_TRUE(from_pcd->is_dense);
+  expectPoint((*from_pcd)[0], 0.5f, -1.25f, 2.0f);
+  expectPoint((*from_pcd)[1], 30.0f, 40.0f, 0.0f);
+  ASSERT_EQ(loadScan(pcd, 0.0, 49.0)->size(), 1u); // the range filter applies
+
+  const std::string ply = (dir_ / "e.ply").string();
+  ASSERT_EQ(pcl::io::savePLYFileBinary(ply, cloud), 0);
+  const auto from_ply = loadScan(ply);
+  ASSERT_EQ(from_ply->size(), 2u);
+  expectPoint((*from_ply)[0], 0.5f, -1.25f, 2.0f);
+  expectPoint((*from_ply)[1], 30.0f, 40.0f, 0.0f);
+  ASSERT_EQ(loadScan(ply, 3.0)->size(), 1u);
+
+  const std::string upper = (dir_ / "F.PCD").string();
+  std::filesystem::copy_file(pcd, upper);
+  EXPECT_EQ(loadScan(upper)->size(), 2u);
+  EXPECT_EQ(loadScan(write("g.Xyz", "1 1 1\n"))->size(), 1u);
+}
+
+TEST_F(TempFiles, LoadScanErrors)
+{
+  const auto las = write("h.las", "1 2 3\n");
+  const std::string msg = messageOf<std::invalid_argument>([&] { loadScan(las); });
+  for (const char* ext : {".3d", ".xyz", ".txt", ".bin", ".pcd", ".ply"})
+    EXPECT_TRUE(mentions(msg, ext)) << msg;
+  EXPECT_THROW(loadScan(write("noext", "1 2 3\n")), std::invalid_argument);
+
+  const std::string missing = (dir_ / "missing.pcd").string();
+  const std::string missing_msg = messageOf<std::runtime_error>([&] { loadScan(missing); });
+  EXPECT_TRUE(mentions(missing_msg, missing)) << missing_msg;
+  EXPECT_TRUE(mentions(missing_msg, "no such file")) << missing_msg; // ours, not PCL's
+  std::filesystem::create_directories(dir_ / "dir.ply");
+  EXPECT_THROW(loadScan((dir_ / "dir.ply").string()), std::runtime_error);
+
+  const auto corrupt_pcd =
+      write("corrupt.pcd", "this is not a point cloud\n\x01\x02 garbage\n");
+  EXPECT_TRUE(
+      mentions(messageOf<std::runtime_error>([&] { loadScan(corrupt_pcd); }), corrupt_pcd));
+  EXPECT_THROW(loadScan(write("corrupt.ply", "ply\nformat nonsense\n")), std::runtime_error);
+  EXPECT_THROW(loadScan(write("empty.pcd", "")), std::runtime_error);
+  EXPECT_THROW(loadScan(write("short.pcd",
+                              "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 3\n"
+                              "HEIGHT 1\nPOINTS 3\nDATA binary\nabcdef")),
+               std::runtime_error); // body shorter than the header says
+  EXPECT_THROW(loadScan(write("no_vertex.ply", "ply\nformat ascii 1.0\nend_header\n")),
+               std::runtime_error);
+}
+
+TEST_F(TempFiles, LoadScanRejectsPcdWithoutFloatXyz)
+{
+  const std::string header = "VERSION 0.7\n"
+                             "FIELDS x y z\n";
+  const std::string tail = "COUNT 1 1 1\nWIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
+                           "POINTS 1\nDATA ascii\n1 2 3\n";
+  // Sanity check: the same file with float32 fields reads.
+  const auto ok = loadScan(write("float.pcd", header + "SIZE 4 4 4\nTYPE F F F\n" + tail));
+  ASSERT_EQ(ok->size(), 1u);
+  expectPoint((*ok)[0], 1, 2, 3);
+  // PCL would convert these to points at the origin, with a warning only.
+  const auto doubles = write("double.pcd", header + "SIZE 8 8 8\nTYPE F F F\n" + tail);
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(doubles); }), "float32"));
+  const auto no_z =
+      write("no_z.pcd", "VERSION 0.7\nFIELDS x y intensity\nSIZE 4 4 4\nTYPE F F F\n" + tail);
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(no_z); }), "\"z\""));
+}
+
+TEST(ScanIo, IsScanFileFollowsTheExtension)
+{
+  for (const char* yes : {"a.3d", "b.xyz", "c.txt", "d.bin", "e.pcd", "f.ply", "dir/G.PLY"})
+    EXPECT_TRUE(isScanFile(yes)) << yes;
+  for (const char* no : {"a.las", "b.pose", "pcd", ".pcd", "scan.pcd.gz", "dir.pcd/readme", ""})
+    EXPECT_FALSE(isScanFile(no)) << no;
+}
+
+TEST(UosData, LoadScanEqualsLoadUosScan)
+{
+  PCL_PARALLEL_REQUIRE_DATA(scan, "3dtk_dat/scan000.3d");
+  const auto direct = loadUosScan(scan, 50.0, 3000.0);
+  const auto dispatched = loadScan(scan, 50.0, 3000.0);
+  ASSERT_GT(direct->size(), 1000u);
+  ASSERT_LT(direct->size(), 81360u); // the range filter did drop points
+  ASSERT_EQ(dispatched->size(), direct->size());
+  for (std::size_t i = 0; i < direct->size(); ++i)
+    ASSERT_EQ((*dispatched)[i].getVector3fMap(), (*direct)[i].getVector3fMap()) << i;
 }

@@ -2,6 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "detail.h"
+
 #include <pcl_parallel/io/stanford.h>
 
 #include <pcl/io/ply_io.h>
@@ -10,6 +12,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -59,14 +62,11 @@ loadStanfordScan(const std::string& path)
   pcl::PointCloud<pcl::PointXYZ> grid;
   if (pcl::io::loadPLYFile(path, grid) < 0)
     throw std::runtime_error("cannot read PLY " + path);
-  pcl::PointCloud<pcl::PointXYZ>::Ptr out(new pcl::PointCloud<pcl::PointXYZ>);
-  out->reserve(grid.size());
+  detail::RangeFilteredCloud finite(0.0, std::numeric_limits<double>::infinity());
+  finite.reserve(grid.size());
   for (const auto& p : grid)
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-      out->push_back(p);
-  out->width = static_cast<std::uint32_t>(out->size());
-  out->height = 1;
-  out->is_dense = true;
+    finite.add(p.x, p.y, p.z);
+  const pcl::PointCloud<pcl::PointXYZ>::Ptr out = finite.finish();
   if (out->empty())
     throw std::runtime_error("no finite points in " + path);
   return out;

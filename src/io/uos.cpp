@@ -2,6 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "detail.h"
+
 #include <pcl_parallel/io/uos.h>
 
 #include <Eigen/Geometry>
@@ -17,25 +19,8 @@ namespace io {
 
 namespace {
 
-[[noreturn]] void
-fail(const std::string& path, std::size_t line, const std::string& what)
-{
-  std::ostringstream msg;
-  msg << "pcl_parallel::io: " << path;
-  if (line > 0)
-    msg << ":" << line;
-  msg << ": " << what;
-  throw std::runtime_error(msg.str());
-}
-
-std::ifstream
-openOrThrow(const std::string& path)
-{
-  std::ifstream in(path);
-  if (!in)
-    fail(path, 0, "cannot open file for reading");
-  return in;
-}
+using detail::fail;
+using detail::openOrThrow;
 
 /** Parses up to n numbers from the start of a line; returns how many it read. */
 std::size_t
@@ -53,37 +38,22 @@ parseNumbers(const std::string& line, double* out, std::size_t n)
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadUosScan(const std::string& path, double min_range, double max_range)
 {
-  std::ifstream in = openOrThrow(path);
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  std::string line;
-  std::size_t line_no = 0;
+  detail::RangeFilteredCloud cloud(min_range, max_range);
   std::size_t header_lines = 0;
   bool data_started = false;
   constexpr std::size_t kMaxHeaderLines = 10; // as 3DTK's ScanIO_uos
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (line.find_first_not_of(" \t\r") == std::string::npos)
-      continue;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
     double v[3];
     if (parseNumbers(line, v, 3) != 3 || !std::isfinite(v[0]) || !std::isfinite(v[1]) ||
         !std::isfinite(v[2])) {
       if (!data_started && ++header_lines <= kMaxHeaderLines)
-        continue;
+        return;
       fail(path, line_no, "expected three numbers \"x y z\", got \"" + line + "\"");
     }
     data_started = true;
-    const double r = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-    if (r < min_range || r > max_range)
-      continue;
-    cloud->push_back(pcl::PointXYZ(
-        static_cast<float>(v[0]), static_cast<float>(v[1]), static_cast<float>(v[2])));
-  }
-  if (in.bad())
-    fail(path, line_no, "read error");
-  cloud->width = static_cast<std::uint32_t>(cloud->size());
-  cloud->height = 1;
-  cloud->is_dense = true;
-  return cloud;
+    cloud.add(v[0], v[1], v[2]);
+  });
+  return cloud.finish();
 }
 
 Eigen::Matrix3d
@@ -119,16 +89,12 @@ loadUosPose(const std::string& path)
 Eigen::Matrix4d
 loadFramesFinalPose(const std::string& path)
 {
-  std::ifstream in = openOrThrow(path);
-  std::string line, last;
-  std::size_t line_no = 0, last_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (line.find_first_not_of(" \t\r") != std::string::npos) {
-      last = line;
-      last_no = line_no;
-    }
-  }
+  std::string last;
+  std::size_t last_no = 0;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    last = line;
+    last_no = line_no;
+  });
   double v[17];
   if (last.empty() || parseNumbers(last, v, 17) < 16)
     fail(path, last_no, "expected 16 numbers (a column-major 4x4 matrix) and a type code");

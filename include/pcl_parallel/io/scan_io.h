@@ -1,0 +1,77 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Core>
+
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace pcl_parallel {
+namespace io {
+
+/** Reads a plain-text point list (.xyz, .txt): one point per line, "x y z" separated by
+ *  spaces, tabs or commas (one comma between two fields), so both the usual xyz exports
+ *  and CSV without a header read. Further columns (intensity, RGB, labels) are ignored
+ *  and need not be numbers. Blank lines and lines starting with '#' are skipped.
+ *  "nan" and "inf" are read as numbers and, like every non-finite point, dropped: exports
+ *  of organised clouds write the empty cells that way. Points whose range
+ *  sqrt(x²+y²+z²) lies outside [min_range, max_range] are dropped (as loadUosScan).
+ *  Numbers are read independently of the C++ and C locales (a decimal point, never a
+ *  comma). Throws std::runtime_error naming the file and line when it cannot be read, or
+ *  when a line has fewer than three fields or a first-three field that is not a number.
+ *  Unlike loadUosScan there is no header to skip: a line of text is an error, so a file
+ *  in another format is not read as an empty scan. */
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+loadXyzScan(const std::string& path,
+            double min_range = 0.0,
+            double max_range = std::numeric_limits<double>::infinity());
+
+/** Reads a KITTI Velodyne scan (.bin): little-endian float32 records (x, y, z,
+ *  reflectance), 16 bytes a point, in metres in the sensor frame; the reflectance is
+ *  dropped. The file is read in one block (a KITTI scan is ~120k points, ~2 MB). Range
+ *  filter and non-finite points as loadXyzScan. An empty file gives an empty cloud (a
+ *  sensor that saw nothing is not an error). Throws std::runtime_error naming the file when
+ *  it cannot be read or its size is not a multiple of 16 bytes (a truncated download or an
+ *  interrupted copy, which would otherwise shift every later point). */
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+loadKittiScan(const std::string& path,
+              double min_range = 0.0,
+              double max_range = std::numeric_limits<double>::infinity());
+
+/** Reads a KITTI odometry poses file (poses/NN.txt): one pose a line, 12 numbers, the
+ *  first three rows of [R|t] in row-major order, p_world = R·p + t (the left camera's
+ *  frame at the first scan is the world frame; the poses are of that camera, so a
+ *  Velodyne scan needs the calib.txt "Tr" transform first). Returns the 4x4 matrices, one
+ *  a non-blank line, in file order, so index i is scan i. Throws std::runtime_error naming the
+ * file and line when it cannot be read, or when a line does not hold exactly 12 finite numbers
+ * (a missing or extra value would silently shift the matrix). */
+std::vector<Eigen::Matrix4d>
+loadKittiPoses(const std::string& path);
+
+/** Reads a scan in any supported format, chosen by the extension (case-insensitive):
+ *  .3d (loadUosScan), .xyz and .txt (loadXyzScan), .bin (loadKittiScan), .pcd and .ply
+ *  (PCL's readers; the x, y, z fields are read, other fields ignored). Every format gets
+ *  the same treatment: non-finite points dropped, the range filter applied, an unorganised
+ *  dense cloud returned. Throws std::invalid_argument for an unsupported extension (the
+ *  message lists the supported ones), std::runtime_error naming the file when it does not
+ *  exist, is not a regular file, or cannot be parsed (also where PCL's readers only print
+ *  and return an error, and for PCD/PLY files without x, y, z fields). */
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+loadScan(const std::string& path,
+         double min_range = 0.0,
+         double max_range = std::numeric_limits<double>::infinity());
+
+/** True when loadScan supports the extension of \a path (case-insensitive); looks at the
+ *  name only, not the file, so it serves to filter a directory listing. */
+bool
+isScanFile(const std::string& path);
+
+} // namespace io
+} // namespace pcl_parallel
