@@ -36,12 +36,13 @@ TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
 {
   const auto& set = smallSet();
   int last_lum = 0;
-  const pcl_pslam::Result r = pcl_pslam::run(
-      set.scans, set.odometry, pcl_pslam::Parameters(),
-      [&](const std::string& stage, int done, int) {
-        if (stage == "lum")
-          last_lum = done;
-      });
+  const pcl_pslam::Result r = pcl_pslam::run(set.scans,
+                                             set.odometry,
+                                             pcl_pslam::Parameters(),
+                                             [&](const std::string& stage, int done, int) {
+                                               if (stage == "lum")
+                                                 last_lum = done;
+                                             });
   ASSERT_EQ(r.final.size(), set.scans.size());
   EXPECT_EQ(r.final[0], set.truth[0]); // the first pose stays fixed
   EXPECT_EQ(last_lum, r.lum_iterations);
@@ -56,8 +57,15 @@ TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
   const auto lum = pcl_pslam::poseErrors(r.final, set.truth);
   std::printf("max / mean translation error: odometry %.3f / %.3f m, pICP %.3f / %.3f m, "
               "pLUM %.3f / %.3f m (max rotation %.2f, %.2f, %.2f deg)\n",
-              odo.max_trans, odo.mean_trans, icp.max_trans, icp.mean_trans, lum.max_trans,
-              lum.mean_trans, odo.max_rot / kDeg, icp.max_rot / kDeg, lum.max_rot / kDeg);
+              odo.max_trans,
+              odo.mean_trans,
+              icp.max_trans,
+              icp.mean_trans,
+              lum.max_trans,
+              lum.mean_trans,
+              odo.max_rot / kDeg,
+              icp.max_rot / kDeg,
+              lum.max_rot / kDeg);
   // Measured: odometry 0.52 m / 1.8 deg, pICP 0.52 m / 3.6 deg (its per-step rotation
   // errors, 0.03-0.28 deg, mostly share one sign on these sampled surfaces, so they add
   // up), pLUM 0.017 m / 0.06 deg.

@@ -15,10 +15,12 @@
 #include <pcl/io/pcd_io.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <stdexcept>
 #include <string>
 
@@ -56,6 +58,8 @@ usage()
       "  --scale S            multiply coordinates by S (run; default 1, .3d: 0.01,\n"
       "                       3DTK's centimetres to metres)\n"
       "  --poses FILE         initial poses (run; KITTI poses.txt format)\n"
+      "  --format EXT         read only *.EXT (run; default: the most common scan\n"
+      "                       extension in DIR; .txt only when given here)\n"
       "  --up x|y|z           the vertical axis of the picture (default z, .3d: y)\n"
       "  --quiet              no progress lines\n"
       "\n"
@@ -64,7 +68,7 @@ usage()
 }
 
 struct Options {
-  std::string command, dir, out = "pcl_pslam_out", poses_file;
+  std::string command, dir, out = "pcl_pslam_out", poses_file, format;
   pcl_pslam::Parameters params;
   double min_range = 0.0, max_range = std::numeric_limits<double>::infinity();
   double scale = 0.0; // 0: per format
@@ -149,6 +153,14 @@ parse(int argc, char** argv)
       o.scale = positive(number(a, v));
     else if (a == "--poses")
       o.poses_file = v;
+    else if (a == "--format") {
+      o.format = v;
+      if (!pcl_parallel::io::isScanFile("x." + o.format))
+        throw std::invalid_argument("--format: unknown scan format '" + o.format + "'");
+      std::transform(o.format.begin(), o.format.end(), o.format.begin(), [](unsigned char c) {
+        return static_cast<char>(std::tolower(c));
+      });
+    }
     else if (a == "--up") {
       const std::string axis = v;
       if (axis != "x" && axis != "y" && axis != "z")
@@ -167,15 +179,38 @@ loadDirectory(Options& o, std::vector<pcl_pslam::Cloud::Ptr>& scans, pcl_pslam::
 {
   if (!fs::is_directory(o.dir))
     throw std::runtime_error(o.dir + " is not a directory");
-  std::vector<fs::path> files;
+  // One format per directory: --format, else the most common scan extension (.txt only
+  // when asked for: it also names notes and pose lists).
+  std::map<std::string, std::vector<fs::path>> by_ext;
   for (const auto& e : fs::directory_iterator(o.dir))
-    if (e.is_regular_file() && pcl_parallel::io::isScanFile(e.path().string()))
-      files.push_back(e.path());
+    if (e.is_regular_file() && pcl_parallel::io::isScanFile(e.path().string())) {
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
+        return static_cast<char>(std::tolower(c));
+      });
+      by_ext[ext.substr(1)].push_back(e.path());
+    }
+  std::string format = o.format;
+  if (format.empty()) {
+    std::size_t best = 0;
+    for (const auto& [ext, list] : by_ext) {
+      if (ext == "txt")
+        continue;
+      if (list.size() > best)
+        best = list.size(), format = ext;
+      else if (list.size() == best && best > 0)
+        throw std::runtime_error(o.dir + " holds " + std::to_string(best) + " ." + format +
+                                 " and " + std::to_string(best) + " ." + ext +
+                                 " files; choose one with --format");
+    }
+  }
+  std::vector<fs::path> files = by_ext[format];
   std::sort(files.begin(), files.end());
   if (files.size() < 2)
-    throw std::runtime_error(o.dir + " holds " + std::to_string(files.size()) +
-                             " scan files; pcl_pslam needs at least 2");
-  const bool uos = files.front().extension() == ".3d";
+    throw std::runtime_error(o.dir + " holds " + std::to_string(files.size()) + " scan files" +
+                             (format.empty() ? "" : " (." + format + ")") +
+                             "; pcl_pslam needs at least 2");
+  const bool uos = format == "3d";
   if (o.scale == 0.0)
     o.scale = uos ? 0.01 : 1.0;
   if (o.up < 0)
@@ -219,8 +254,12 @@ void
 printErrors(const char* what, const pcl_pslam::Poses& poses, const pcl_pslam::Poses& truth)
 {
   const auto e = pcl_pslam::poseErrors(poses, truth);
-  std::printf("  %-10s max %7.3f m %6.2f deg   mean %7.3f m %6.2f deg\n", what, e.max_trans,
-              e.max_rot / kDeg, e.mean_trans, e.mean_rot / kDeg);
+  std::printf("  %-10s max %7.3f m %6.2f deg   mean %7.3f m %6.2f deg\n",
+              what,
+              e.max_trans,
+              e.max_rot / kDeg,
+              e.mean_trans,
+              e.mean_rot / kDeg);
 }
 
 } // namespace
@@ -231,7 +270,8 @@ main(int argc, char** argv)
   Options o;
   try {
     o = parse(argc, argv);
-  } catch (const std::exception& e) {
+  }
+  catch (const std::exception& e) {
     std::fprintf(stderr, "pcl_pslam: %s\n\n", e.what());
     usage();
     return 2;
@@ -244,7 +284,9 @@ main(int argc, char** argv)
     if (o.command == "demo") {
       pcl_parallel::sim::SimulationParameters sp;
       std::printf("simulating a %.0f x %.0f m floor, %.1f laps of its corridor...\n",
-                  sp.outer_length, sp.outer_width, sp.laps);
+                  sp.outer_length,
+                  sp.outer_width,
+                  sp.laps);
       const auto set = pcl_parallel::sim::simulateScanSet(sp, o.params.num_threads);
       scans = set.scans;
       initial = set.odometry;
@@ -284,11 +326,14 @@ main(int argc, char** argv)
       printErrors("pICP", r.icp, truth);
       printErrors("pLUM", r.final, truth);
     }
-    std::printf("wrote %s/{poses_icp.txt, poses.txt, map.pcd, map.png} (%zu map points) in "
-                "%.1f s\n",
-                o.out.c_str(), map->size(),
-                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  } catch (const std::exception& e) {
+    std::printf(
+        "wrote %s/{poses_icp.txt, poses.txt, map.pcd, map.png} (%zu map points) in "
+        "%.1f s\n",
+        o.out.c_str(),
+        map->size(),
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  }
+  catch (const std::exception& e) {
     std::fprintf(stderr, "pcl_pslam: %s\n", e.what());
     return 1;
   }

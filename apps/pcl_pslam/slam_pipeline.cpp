@@ -92,8 +92,8 @@ run(const std::vector<Cloud::Ptr>& scans,
   }
 
   // Loops by pose distance (paper Sec. VI-C), then pLUM over all links (Sec. III, V).
-  result.links = pcl_parallel::detectLinksByDistance(result.icp, params.loop_distance,
-                                                     static_cast<std::size_t>(params.loop_size));
+  result.links = pcl_parallel::detectLinksByDistance(
+      result.icp, params.loop_distance, static_cast<std::size_t>(params.loop_size));
   pcl_parallel::ParallelLUM<pcl::PointXYZ> lum;
   lum.setNumberOfThreads(params.num_threads);
   for (int i = 0; i < n; ++i)
@@ -128,11 +128,8 @@ mergedMap(const std::vector<Cloud::Ptr>& scans, const Poses& poses, double voxel
 }
 
 void
-writeTopView(const std::string& path,
-             const Cloud& map,
-             const Poses& trajectory,
-             int up,
-             int size)
+writeTopView(
+    const std::string& path, const Cloud& map, const Poses& trajectory, int up, int size)
 {
   const int u = (up + 1) % 3, v = (up + 2) % 3; // image axes, right-handed about `up`
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
@@ -155,21 +152,36 @@ writeTopView(const std::string& path,
     return std::make_pair(static_cast<int>((a - lo.x()) * scale),
                           height - 1 - static_cast<int>((b - lo.y()) * scale));
   };
-  std::vector<unsigned> count(static_cast<std::size_t>(width) * height, 0);
+  // Like a floor plan: points near the scanner's height (where walls and obstacles are,
+  // floor and ceiling are not) dark by log density, all others light grey.
+  double low = 1e300, high = -1e300;
+  for (const auto& t : trajectory) {
+    low = std::min(low, t(up, 3));
+    high = std::max(high, t(up, 3));
+  }
+  low -= 0.8, high += 0.8;
+  std::vector<unsigned> band(static_cast<std::size_t>(width) * height, 0);
+  std::vector<char> seen(band.size(), 0);
   for (const auto& p : map) {
     if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
       continue;
     const auto [x, y] = pixel(p.data[u], p.data[v]);
-    ++count[static_cast<std::size_t>(y) * width + x];
+    const std::size_t k = static_cast<std::size_t>(y) * width + x;
+    seen[k] = 1;
+    if (p.data[up] >= low && p.data[up] <= high)
+      ++band[k];
   }
-  const unsigned peak = std::max(1u, *std::max_element(count.begin(), count.end()));
-  std::vector<unsigned char> rgb(count.size() * 3, 255);
-  for (std::size_t k = 0; k < count.size(); ++k)
-    if (count[k]) { // log density: walls dark, sparse returns light
-      const double g = std::log1p(count[k]) / std::log1p(peak);
-      const auto shade = static_cast<unsigned char>(200.0 * (1.0 - g));
-      rgb[3 * k] = rgb[3 * k + 1] = rgb[3 * k + 2] = shade;
-    }
+  const unsigned peak = std::max(1u, *std::max_element(band.begin(), band.end()));
+  std::vector<unsigned char> rgb(band.size() * 3, 255);
+  for (std::size_t k = 0; k < band.size(); ++k) {
+    unsigned char shade = 255;
+    if (band[k])
+      shade =
+          static_cast<unsigned char>(150.0 * (1.0 - std::log1p(band[k]) / std::log1p(peak)));
+    else if (seen[k])
+      shade = 225;
+    rgb[3 * k] = rgb[3 * k + 1] = rgb[3 * k + 2] = shade;
+  }
   for (const auto& t : trajectory) { // 3x3 red dot per pose
     const auto [x, y] = pixel(t(u, 3), t(v, 3));
     for (int dy = -1; dy <= 1; ++dy)

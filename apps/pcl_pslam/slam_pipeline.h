@@ -27,17 +27,17 @@ using Poses = std::vector<Eigen::Matrix4d>;
 
 /** Everything the pipeline can be told; the defaults suit metre-scale indoor scans. */
 struct Parameters {
-  double voxel_size = 0.1;      ///< reduction before matching, metres (0: none)
-  double icp_distance = 0.5;    ///< pICP correspondence distance, metres
-  int icp_iterations = 100;     ///< pICP iteration cap
-  double loop_distance = 3.0;   ///< link scans closer than this (paper: cldist), metres
-  int loop_size = 10;           ///< ... at least this many scans apart (paper: loopsize)
-  double lum_distance = 1.0;    ///< pLUM gate of the first iteration, metres
+  double voxel_size = 0.1;         ///< reduction before matching, metres (0: none)
+  double icp_distance = 0.5;       ///< pICP correspondence distance, metres
+  int icp_iterations = 100;        ///< pICP iteration cap
+  double loop_distance = 3.0;      ///< link scans closer than this (paper: cldist), metres
+  int loop_size = 10;              ///< ... at least this many scans apart (paper: loopsize)
+  double lum_distance = 1.0;       ///< pLUM gate of the first iteration, metres
   double lum_final_distance = 0.2; ///< pLUM gate it shrinks to (x0.7 per iteration)
-  int lum_iterations = 30;      ///< pLUM iteration cap
-  int lum_link_iterations = 5;  ///< pairing steps per link and iteration
+  int lum_iterations = 30;         ///< pLUM iteration cap
+  int lum_link_iterations = 5;     ///< pairing steps per link and iteration
   bool lum_point_to_plane = true;
-  unsigned num_threads = 0;     ///< 0: all cores
+  unsigned num_threads = 0; ///< 0: all cores
   /** true: the initial poses are odometry, each pICP starts from its step. false: they
    *  carry no motion; each pICP starts from the previous matched step (constant
    *  velocity), the first from the identity. */
@@ -48,11 +48,11 @@ struct Parameters {
 using Progress = std::function<void(const std::string& stage, int done, int total)>;
 
 struct Result {
-  Poses icp;                                          ///< after sequential pICP
-  Poses final;                                        ///< after pLUM
+  Poses icp;                                                  ///< after sequential pICP
+  Poses final;                                                ///< after pLUM
   std::vector<std::pair<std::uint32_t, std::uint32_t>> links; ///< pLUM's graph
   int lum_iterations = 0;
-  std::vector<Cloud::Ptr> reduced;                    ///< the scans as matched
+  std::vector<Cloud::Ptr> reduced; ///< the scans as matched
 };
 
 /** Voxel-grid reduction (centroid per occupied voxel); a copy when voxel_size <= 0. */
@@ -72,9 +72,10 @@ run(const std::vector<Cloud::Ptr>& scans,
 Cloud::Ptr
 mergedMap(const std::vector<Cloud::Ptr>& scans, const Poses& poses, double voxel_size);
 
-/** A top view of the map (the plane normal to `up`, 0 = x, 1 = y, 2 = z), point density
- *  in grey, the trajectory in red, as an RGB PNG about `size` pixels on its long side.
- *  Throws std::runtime_error if the file cannot be written. */
+/** A top view of the map (the plane normal to `up`, 0 = x, 1 = y, 2 = z) as an RGB PNG
+ *  about `size` pixels on its long side: points within 0.8 m (map units taken as metres)
+ *  of the trajectory's heights dark by density, like a floor plan, the others light
+ *  grey, the poses in red. Throws std::runtime_error if the file cannot be written. */
 void
 writeTopView(const std::string& path,
              const Cloud& map,
