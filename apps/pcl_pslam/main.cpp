@@ -310,6 +310,9 @@ main(int argc, char** argv)
         std::fflush(stdout);
       };
     const pcl_pslam::Result r = pcl_pslam::run(scans, initial, o.params, progress);
+    if (r.icp_failures > 0)
+      std::printf("pICP: %d of %zu matches did not converge; their odometry steps were kept\n",
+                  r.icp_failures, scans.size() - 1);
     std::printf("pLUM: %zu links, %d iterations\n", r.links.size(), r.lum_iterations);
 
     fs::create_directories(o.out);

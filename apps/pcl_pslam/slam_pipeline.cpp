@@ -85,8 +85,9 @@ run(const std::vector<Cloud::Ptr>& scans,
     Cloud aligned;
     icp.align(aligned, step.cast<float>());
     // A failed match keeps the odometry step rather than a wrong one.
-    const Eigen::Matrix4d matched =
-        icp.hasConverged() ? icp.getFinalTransformation().cast<double>() : step;
+    const bool ok = icp.hasConverged();
+    result.icp_failures += ok ? 0 : 1;
+    const Eigen::Matrix4d matched = ok ? icp.getFinalTransformation().cast<double>() : step;
     result.icp.push_back(result.icp.back() * matched);
     report("icp", i, n - 1);
   }

@@ -51,6 +51,7 @@ struct Result {
   Poses icp;                                                  ///< after sequential pICP
   Poses final;                                                ///< after pLUM
   std::vector<std::pair<std::uint32_t, std::uint32_t>> links; ///< pLUM's graph
+  int icp_failures = 0; ///< pICP matches that did not converge (odometry step kept)
   int lum_iterations = 0;
   std::vector<Cloud::Ptr> reduced; ///< the scans as matched
 };
