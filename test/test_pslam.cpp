@@ -75,6 +75,24 @@ TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
   EXPECT_LT(lum.max_rot, 0.25 * kDeg);
 }
 
+// The whole pipeline gives bit-identical poses for 1 and 2 threads.
+TEST(Pslam, SameResultForAnyThreadCount)
+{
+  const auto& set = smallSet();
+  const std::vector<pcl_pslam::Cloud::Ptr> scans(set.scans.begin(), set.scans.begin() + 8);
+  const pcl_pslam::Poses odometry(set.odometry.begin(), set.odometry.begin() + 8);
+  pcl_pslam::Parameters params;
+  params.lum_iterations = 5;
+  params.num_threads = 1;
+  const pcl_pslam::Result one = pcl_pslam::run(scans, odometry, params);
+  params.num_threads = 2;
+  const pcl_pslam::Result two = pcl_pslam::run(scans, odometry, params);
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    EXPECT_EQ(one.icp[i], two.icp[i]) << "scan " << i;
+    EXPECT_EQ(one.final[i], two.final[i]) << "scan " << i;
+  }
+}
+
 TEST(Pslam, OutputsAreWritten)
 {
   const auto& set = smallSet();
