@@ -118,6 +118,9 @@ runLumScaling(const Options& opt);
 /** pcl::IterativeClosestPoint vs ParallelIterativeClosestPoint (and Open3D if built). */
 int
 runIcp(const Options& opt);
+/** The pcl_pslam pipeline on the simulated scan set, stage by stage. */
+int
+runPslam(const Options& opt);
 
 } // namespace bench
 } // namespace pcl_parallel

@@ -59,7 +59,7 @@ usage()
 {
   std::printf(
       "usage: pcl_parallel_bench <what> [--data DIR] [--repeats N] [--threads 1,2,...]\n"
-      "  what: kdtree | icp | lum (= lum-bunny + lum-scaling) | all\n"
+      "  what: kdtree | icp | lum (= lum-bunny + lum-scaling) | pslam | all\n"
       "  --data     reference data directory (default: the build's PCL_PARALLEL_DATA_DIR)\n"
       "  --repeats  timed repeats per cell, median reported (default 5)\n"
       "  --threads  thread counts to compare (default: 1 and all cores)\n");
@@ -111,7 +111,8 @@ main(int argc, char** argv)
       {"lum", runLum},
       {"lum-bunny", runLumBunny},
       {"lum-scaling", runLumScaling},
-      {"icp", runIcp}};
+      {"icp", runIcp},
+      {"pslam", runPslam}};
   if (what == "all") {
     int rc = 0;
     for (const auto& b : benches)

@@ -53,8 +53,9 @@ usage()
       "  --lum-distance M     pLUM gate of the first iteration (default 1.0)\n"
       "  --lum-final M        pLUM gate it shrinks to (default 0.2)\n"
       "  --lum-iterations N   pLUM iteration cap (default 30)\n"
-      "  --min-range M        drop points closer to the scanner (run; default 0)\n"
-      "  --max-range M        drop points farther away (run; default: none)\n"
+      "  --min-range R        drop points closer to the scanner, in the files' units\n"
+      "                       (run; default 0)\n"
+      "  --max-range R        drop points farther away (run; default: none)\n"
       "  --scale S            multiply coordinates by S (run; default 1, .3d: 0.01,\n"
       "                       3DTK's centimetres to metres)\n"
       "  --poses FILE         initial poses (run; KITTI poses.txt format)\n"
@@ -312,7 +313,8 @@ main(int argc, char** argv)
     const pcl_pslam::Result r = pcl_pslam::run(scans, initial, o.params, progress);
     if (r.icp_failures > 0)
       std::printf("pICP: %d of %zu matches did not converge; their odometry steps were kept\n",
-                  r.icp_failures, scans.size() - 1);
+                  r.icp_failures,
+                  scans.size() - 1);
     std::printf("pLUM: %zu links, %d iterations\n", r.links.size(), r.lum_iterations);
 
     fs::create_directories(o.out);
