@@ -12,6 +12,7 @@
 #pragma GCC diagnostic ignored "-Wuse-after-free"
 #endif
 #include "random_clouds.h"
+#include "synthetic_graph.h"
 #include "test_data.h"
 
 #include <pcl_parallel/io/stanford.h>
@@ -65,15 +66,7 @@ poseDifference(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
   return {angle * 180.0 / M_PI, (a.topRightCorner<3, 1>() - b.topRightCorner<3, 1>()).norm()};
 }
 
-/** Reads the protected iteration counter of a registration. */
-template <typename Reg>
-struct Peek : Reg {
-  static int
-  iterations(const Reg& r)
-  {
-    return static_cast<const Peek&>(r).nr_iterations_;
-  }
-};
+using pcl_parallel::test::Peek;
 
 /** PCL's test parameters for bun0 -> bun4. */
 template <typename Reg>

@@ -6,6 +6,7 @@
  * agreement with it, convergence on synthetic graphs and on the Stanford bunny, any
  * orientation, determinism over thread counts, and bad input.
  */
+#include "synthetic_graph.h"
 #include "test_data.h"
 
 #include <pcl_parallel/io/stanford.h>
@@ -89,54 +90,8 @@ toPclPose(const Eigen::Matrix4d& m)
   return pcl_parallel::lum::matrixToPose(m);
 }
 
-/**
- * A graph with exact, noisy correspondences: for every link (i, j), `per_link` world
- * points around the two poses (spread `spread`) are seen by both scans, in their own
- * frames, with Gaussian noise `noise`; the link's pairs are those points.
- */
-struct SyntheticGraph {
-  Poses truth;
-  std::vector<Cloud::Ptr> clouds;
-  std::vector<std::tuple<int, int, pcl::CorrespondencesPtr>> links;
-};
-
-SyntheticGraph
-makeGraph(const Poses& truth,
-          const std::vector<std::pair<int, int>>& pairs,
-          int per_link,
-          double spread,
-          double noise,
-          std::uint32_t seed)
-{
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-spread, spread);
-  std::normal_distribution<double> g(0.0, noise);
-  SyntheticGraph sg;
-  sg.truth = truth;
-  for (std::size_t v = 0; v < truth.size(); ++v)
-    sg.clouds.emplace_back(new Cloud);
-  auto see = [&](int v, const Eigen::Vector3d& w) {
-    const Eigen::Matrix4d inv = truth[v].inverse();
-    const Eigen::Vector3d p = inv.topLeftCorner<3, 3>() * w + inv.topRightCorner<3, 1>() +
-                              Eigen::Vector3d(g(rng), g(rng), g(rng));
-    sg.clouds[v]->push_back(pcl::PointXYZ(
-        static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
-    return static_cast<int>(sg.clouds[v]->size() - 1);
-  };
-  for (const auto& [i, j] : pairs) {
-    pcl::CorrespondencesPtr corrs(new pcl::Correspondences);
-    const Eigen::Vector3d centre =
-        0.5 * (truth[i].topRightCorner<3, 1>() + truth[j].topRightCorner<3, 1>());
-    for (int k = 0; k < per_link; ++k) {
-      const Eigen::Vector3d w = centre + Eigen::Vector3d(u(rng), u(rng), u(rng));
-      const int qi = see(i, w);
-      const int qj = see(j, w);
-      corrs->emplace_back(qi, qj, 0.0f);
-    }
-    sg.links.emplace_back(i, j, corrs);
-  }
-  return sg;
-}
+using pcl_parallel::test::makeGraph;
+using pcl_parallel::test::SyntheticGraph;
 
 Poses
 perturbAll(const Poses& truth, double angle, double dist, std::uint32_t seed)
@@ -641,7 +596,7 @@ TEST_F(QuietPcl, LoopOf200PosesCloses)
                              0.05 * std::cos(4 * a),
                              a));
   }
-  std::vector<std::pair<int, int>> pairs;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
   for (int i = 0; i + 1 < n; ++i)
     pairs.emplace_back(i, i + 1);
   pairs.emplace_back(n - 1, 0); // the loop closure

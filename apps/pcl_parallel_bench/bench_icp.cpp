@@ -13,6 +13,7 @@
 #pragma GCC diagnostic ignored "-Wuse-after-free"
 #endif
 #include "bench_common.h"
+#include "synthetic_graph.h"
 
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
@@ -55,14 +56,7 @@ struct IcpCase {
   double transformation_epsilon;
 };
 
-template <typename Reg>
-struct Peek : Reg {
-  static int
-  iterations(const Reg& r)
-  {
-    return static_cast<const Peek&>(r).nr_iterations_;
-  }
-};
+using test::Peek;
 
 template <typename Reg>
 void

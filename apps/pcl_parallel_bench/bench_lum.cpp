@@ -12,6 +12,7 @@
  *  3. Solve-step scaling on synthetic graphs (chain + loop links) of 100-2000 poses.
  */
 #include "bench_common.h"
+#include "synthetic_graph.h"
 
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/registration/loop_detection.h>
@@ -330,33 +331,14 @@ scalingGraph(int n)
     p.topRightCorner<3, 1>() =
         Eigen::Vector3d(20.0 * std::sin(a), 20.0 * (1.0 - std::cos(a)), i < n / 2 ? 0.0 : 1.0);
     g.truth.push_back(p);
-    g.clouds.emplace_back(new Cloud);
   }
   g.start = g.truth;
   for (int i = 1; i < n; ++i)
     g.start[i] = perturb(g.truth[i], 1.0 * kDeg, 0.1, rng);
-  std::uniform_real_distribution<double> u(-2.0, 2.0);
-  std::normal_distribution<double> noise(0.0, 0.001);
-  auto see = [&](std::uint32_t v, const Eigen::Vector3d& w) {
-    const Eigen::Matrix4d inv = g.truth[v].inverse();
-    const Eigen::Vector3d p = inv.topLeftCorner<3, 3>() * w + inv.topRightCorner<3, 1>() +
-                              Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
-    g.clouds[v]->push_back(pcl::PointXYZ(
-        static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
-    return static_cast<int>(g.clouds[v]->size() - 1);
-  };
-  for (const auto& [i, j] : detectLinksByDistance(g.truth, 1.5, 10)) {
-    pcl::CorrespondencesPtr corrs(new pcl::Correspondences);
-    const Eigen::Vector3d c =
-        0.5 * (g.truth[i].topRightCorner<3, 1>() + g.truth[j].topRightCorner<3, 1>());
-    for (int k = 0; k < 20; ++k) {
-      const Eigen::Vector3d w = c + Eigen::Vector3d(u(rng), u(rng), u(rng));
-      const int qi = see(i, w);
-      const int qj = see(j, w);
-      corrs->emplace_back(qi, qj, 0.0f);
-    }
-    g.links.emplace_back(i, j, corrs);
-  }
+  test::SyntheticGraph sg =
+      test::makeGraph(g.truth, detectLinksByDistance(g.truth, 1.5, 10), 20, 2.0, 0.001, rng);
+  g.clouds = std::move(sg.clouds);
+  g.links = std::move(sg.links);
   return g;
 }
 
