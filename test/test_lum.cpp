@@ -51,19 +51,7 @@ makePose(double x, double y, double z, double roll, double pitch, double yaw)
   return m;
 }
 
-/** T rotated by exactly `angle` about a random axis and moved by exactly `dist`. */
-Eigen::Matrix4d
-perturb(const Eigen::Matrix4d& t, double angle, double dist, std::mt19937& rng)
-{
-  std::normal_distribution<double> g;
-  const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
-  const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
-  Eigen::Matrix4d out = t;
-  out.topLeftCorner<3, 3>() =
-      Eigen::AngleAxisd(angle, axis).toRotationMatrix() * t.topLeftCorner<3, 3>();
-  out.topRightCorner<3, 1>() += dist * dir;
-  return out;
-}
+using pcl_parallel::test::perturb;
 
 struct Errors {
   double max_rot = 0, mean_rot = 0, max_trans = 0, mean_trans = 0;

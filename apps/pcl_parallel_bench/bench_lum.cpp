@@ -38,18 +38,7 @@ using Poses = std::vector<Eigen::Matrix4d>;
 constexpr double kDeg = M_PI / 180.0;
 using Vertex6 = ParallelLUM<pcl::PointXYZ>::Vertex;
 
-Eigen::Matrix4d
-perturb(const Eigen::Matrix4d& t, double angle, double dist, std::mt19937& rng)
-{
-  std::normal_distribution<double> g;
-  const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
-  const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
-  Eigen::Matrix4d out = t;
-  out.topLeftCorner<3, 3>() =
-      Eigen::AngleAxisd(angle, axis).toRotationMatrix() * t.topLeftCorner<3, 3>();
-  out.topRightCorner<3, 1>() += dist * dir;
-  return out;
-}
+using test::perturb;
 
 void
 maxError(const Poses& a, const Poses& b, double& rot, double& trans)

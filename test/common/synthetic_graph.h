@@ -3,8 +3,8 @@
  * SPDX-License-Identifier: BSD-3-Clause
  *
  * Fixtures shared by the tests and the benchmark (which adds test/common to its include
- * path): pose graphs with exact correspondences, and the iteration count PCL keeps
- * protected.
+ * path): pose graphs with exact correspondences, pose perturbations, and the iteration
+ * count PCL keeps protected.
  */
 #pragma once
 
@@ -13,6 +13,7 @@
 #include <pcl/point_types.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cstdint>
 #include <random>
@@ -85,6 +86,20 @@ makeGraph(const std::vector<Eigen::Matrix4d>& truth,
 {
   std::mt19937 rng(seed);
   return makeGraph(truth, pairs, per_link, spread, noise, rng);
+}
+
+/** T rotated by exactly `angle` about a random axis and moved by exactly `dist`. */
+inline Eigen::Matrix4d
+perturb(const Eigen::Matrix4d& t, double angle, double dist, std::mt19937& rng)
+{
+  std::normal_distribution<double> g;
+  const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+  const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+  Eigen::Matrix4d out = t;
+  out.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(angle, axis).toRotationMatrix() * t.topLeftCorner<3, 3>();
+  out.topRightCorner<3, 1>() += dist * dir;
+  return out;
 }
 
 /** Reads the protected iteration counter of a PCL registration (PCL 1.13 has no getter). */
