@@ -77,6 +77,15 @@ struct Options {
   bool quiet = false;
 };
 
+std::string
+lowerCase(std::string s)
+{
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
+  return s;
+}
+
 double
 number(const std::string& flag, const char* text)
 {
@@ -155,12 +164,9 @@ parse(int argc, char** argv)
     else if (a == "--poses")
       o.poses_file = v;
     else if (a == "--format") {
-      o.format = v;
+      o.format = lowerCase(v);
       if (!pcl_parallel::io::isScanFile("x." + o.format))
-        throw std::invalid_argument("--format: unknown scan format '" + o.format + "'");
-      std::transform(o.format.begin(), o.format.end(), o.format.begin(), [](unsigned char c) {
-        return static_cast<char>(std::tolower(c));
-      });
+        throw std::invalid_argument("--format: unknown scan format '" + std::string(v) + "'");
     }
     else if (a == "--up") {
       const std::string axis = v;
@@ -185,11 +191,7 @@ loadDirectory(Options& o, std::vector<pcl_pslam::Cloud::Ptr>& scans, pcl_pslam::
   std::map<std::string, std::vector<fs::path>> by_ext;
   for (const auto& e : fs::directory_iterator(o.dir))
     if (e.is_regular_file() && pcl_parallel::io::isScanFile(e.path().string())) {
-      std::string ext = e.path().extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
-        return static_cast<char>(std::tolower(c));
-      });
-      by_ext[ext.substr(1)].push_back(e.path());
+      by_ext[lowerCase(e.path().extension().string().substr(1))].push_back(e.path());
     }
   std::string format = o.format;
   if (format.empty()) {

@@ -21,16 +21,15 @@
 namespace pcl_pslam {
 
 Cloud::Ptr
-reduce(const Cloud& scan, double voxel_size)
+reduce(const Cloud::ConstPtr& scan, double voxel_size)
 {
   Cloud::Ptr out(new Cloud);
   if (!(voxel_size > 0.0)) {
-    *out = scan;
+    *out = *scan;
     return out;
   }
-  Cloud::Ptr in(new Cloud(scan));
   pcl::VoxelGrid<pcl::PointXYZ> grid;
-  grid.setInputCloud(in);
+  grid.setInputCloud(scan);
   const float leaf = static_cast<float>(voxel_size);
   grid.setLeafSize(leaf, leaf, leaf);
   grid.filter(*out);
@@ -63,7 +62,7 @@ run(const std::vector<Cloud::Ptr>& scans,
 
   Result result;
   for (int i = 0; i < n; ++i) {
-    result.reduced.push_back(reduce(*scans[i], params.voxel_size));
+    result.reduced.push_back(reduce(scans[i], params.voxel_size));
     report("reduce", i + 1, n);
   }
 
@@ -125,7 +124,7 @@ mergedMap(const std::vector<Cloud::Ptr>& scans, const Poses& poses, double voxel
     pcl::transformPointCloud(*scans[i], moved, poses[i]);
     *map += moved;
   }
-  return reduce(*map, voxel_size);
+  return reduce(map, voxel_size);
 }
 
 void

@@ -58,7 +58,7 @@ struct Result {
 
 /** Voxel-grid reduction (centroid per occupied voxel); a copy when voxel_size <= 0. */
 Cloud::Ptr
-reduce(const Cloud& scan, double voxel_size);
+reduce(const Cloud::ConstPtr& scan, double voxel_size);
 
 /** Runs the pipeline from initial poses (odometry; the first pose is kept fixed).
  *  Throws std::invalid_argument for fewer than 2 scans, mismatched sizes, an empty scan

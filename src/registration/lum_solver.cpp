@@ -16,16 +16,6 @@
 namespace pcl_parallel {
 namespace lum {
 
-namespace {
-Eigen::Matrix3d
-skew(const Eigen::Vector3d& v)
-{
-  Eigen::Matrix3d s;
-  s << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return s;
-}
-} // namespace
-
 Eigen::Matrix4d
 poseToMatrix(const Eigen::Matrix<float, 6, 1>& pose)
 {
@@ -162,11 +152,6 @@ LinkAccumulator::finish(std::size_t min_pairs,
   const double ssr = std::max(0.0, sum_rr_ + c.dot(d_bar));
   const double dof = 3.0 * static_cast<double>(n_identity_) + trace_w_ - 6.0;
   const double s2 = std::max(ssr / std::max(dof, 1.0), min_variance);
-  if (!std::isfinite(s2)) {
-    if (reason)
-      *reason = "non-finite measurement";
-    return false;
-  }
 
   // Back to world coordinates: M = M' T with T = [[I, -[o]x], [0, I]].
   Matrix6d t = Matrix6d::Identity();
@@ -175,7 +160,7 @@ LinkAccumulator::finish(std::size_t min_pairs,
   grad = t.transpose() * c / s2;
   if (variance)
     *variance = s2;
-  if (!info.allFinite() || !grad.allFinite()) {
+  if (!std::isfinite(s2) || !info.allFinite() || !grad.allFinite()) {
     info.setZero();
     grad.setZero();
     if (reason)

@@ -47,6 +47,15 @@ applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta);
 void
 poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, double& dist);
 
+/** The cross-product matrix [v]x: [v]x u = v x u. */
+inline Eigen::Matrix3d
+skew(const Eigen::Vector3d& v)
+{
+  Eigen::Matrix3d s;
+  s << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return s;
+}
+
 /**
  * \brief Sufficient statistics of one link's point pairs (paper Sec. III step 2).
  *
@@ -87,8 +96,7 @@ public:
   {
     const Eigen::Vector3d r = a - b;
     const Eigen::Vector3d m = midpoint(a, b);
-    Eigen::Matrix3d mx; // [m]x
-    mx << 0.0, -m.z(), m.y(), m.z(), 0.0, -m.x(), -m.y(), m.x(), 0.0;
+    const Eigen::Matrix3d mx = skew(m);
     const Eigen::Matrix3d w_mx = w * mx;
     // M^T W M = [[W, -W [m]x], [[m]x W, -[m]x W [m]x]]; the lower-left block is the
     // transpose of the upper-right one and is filled in finish().

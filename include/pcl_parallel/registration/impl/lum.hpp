@@ -513,15 +513,14 @@ ParallelLUM<PointT>::measureLink(const LinkRef& link,
     if (step + 1 >= link_iterations_)
       break;
     lum::Vector6d d;
-    if (!acc.measurement(min_correspondences_, d))
-      break; // finish() below reports why
+    // Converged (another pairing would find the same pairs): acc's own measurement is
+    // the remaining step, so it is not also folded into the motion.
+    if (!acc.measurement(min_correspondences_, d) || d.norm() < 1e-9)
+      break; // on failure, finish() below reports why
     const Eigen::Matrix4d& pose = poses_[link.source];
     Eigen::Matrix4d moved = motion * pose;
     lum::applyUpdate(moved, d);
     motion = moved * pose.inverse();
-    // Converged: another pairing would find the same pairs.
-    if (d.norm() < 1e-9)
-      break;
   }
   num_pairs = acc.size();
   if (!acc.finish(min_correspondences_, 1e-12, block.info, block.grad, nullptr, reason))
