@@ -127,6 +127,14 @@ parse(int argc, char** argv)
       o.quiet = true;
       continue;
     }
+    if (a == "--no-loops") {
+      o.params.close_loops = false;
+      continue;
+    }
+    if (a == "--deskew" || a == "--scan-to-scan") {
+      (a == "--deskew" ? o.params.deskew : o.params.scan_to_scan) = true;
+      continue;
+    }
     if (i + 1 >= argc)
       throw std::invalid_argument(a + " needs a value");
     const char* v = argv[++i];
@@ -142,7 +150,7 @@ parse(int argc, char** argv)
     else if (a == "--voxel")
       o.params.voxel_size = number(a, v);
     else if (a == "--icp-distance")
-      o.params.icp_distance = positive(number(a, v));
+      o.params.icp_distance = number(a, v);
     else if (a == "--icp-iterations")
       o.params.icp_iterations = integer(a, v, 1);
     else if (a == "--loop-distance")
@@ -150,7 +158,7 @@ parse(int argc, char** argv)
     else if (a == "--loop-size")
       o.params.loop_size = integer(a, v, 1);
     else if (a == "--lum-distance")
-      o.params.lum_distance = positive(number(a, v));
+      o.params.lum_distance = number(a, v);
     else if (a == "--lum-final")
       o.params.lum_final_distance = positive(number(a, v));
     else if (a == "--lum-iterations")
