@@ -51,12 +51,12 @@ noisyCircle(double a, double b)
   return p;
 }
 
-struct Run {
+struct Outcome {
   int code;
   std::string out, err;
 };
 
-Run
+Outcome
 evaluate(const std::vector<std::string>& args)
 {
   std::ostringstream out, err;
@@ -76,7 +76,7 @@ TEST(EvaluateCommand, JsonHoldsTheKnownAnswer)
   ScratchDir dir;
   pio::writeKittiPoses(dir / "est.txt", noisyCircle(0.03, 0.04));
   pio::writeTumTrajectory(dir / "gt.txt", circle());
-  const Run r = evaluate({dir / "est.txt", dir / "gt.txt", "--json"});
+  const Outcome r = evaluate({dir / "est.txt", dir / "gt.txt", "--json"});
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_NEAR(
@@ -104,7 +104,7 @@ TEST(EvaluateCommand, FormatsRoundTrip)
   const std::vector<std::string> files = {dir / "p.kitti", dir / "p.tum", dir / "frames"};
   for (const auto& a : files)
     for (const auto& b : files) {
-      const Run r = evaluate({a, b, "--json", "--align", "none"});
+      const Outcome r = evaluate({a, b, "--json", "--align", "none"});
       ASSERT_EQ(r.code, 0) << a << " vs " << b << ": " << r.err;
       const nlohmann::json j = nlohmann::json::parse(r.out);
       EXPECT_LT(j["ate"]["translation_m"]["max"].get<double>(), 1e-9) << a << " vs " << b;
@@ -129,14 +129,14 @@ TEST(EvaluateCommand, PairsByTimestamp)
   }
   pio::writeTumTrajectory(dir / "est.txt", p, est_t);
   pio::writeTumTrajectory(dir / "gt.txt", gt, gt_t);
-  const Run r = evaluate({dir / "est.txt", dir / "gt.txt", "--json"});
+  const Outcome r = evaluate({dir / "est.txt", dir / "gt.txt", "--json"});
   ASSERT_EQ(r.code, 0) << r.err;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["ate"]["translation_m"]["count"], 40);
   EXPECT_LT(j["ate"]["translation_m"]["max"].get<double>(), 1e-9);
   EXPECT_HAS(j["association"].get<std::string>(), "by timestamp");
   // Stamps 0.004 s apart do not pair with --max-diff 0.001: no pair at all is bad data.
-  const Run none = evaluate({dir / "est.txt", dir / "gt.txt", "--max-diff", "0.001"});
+  const Outcome none = evaluate({dir / "est.txt", dir / "gt.txt", "--max-diff", "0.001"});
   EXPECT_EQ(none.code, 1);
   EXPECT_HAS(none.err, "no timestamps");
 }
@@ -148,10 +148,10 @@ TEST(EvaluateCommand, MismatchedLengthsAreAnErrorUnlessTruncated)
   pio::writeKittiPoses(dir / "gt.txt", p);
   p.pop_back();
   pio::writeKittiPoses(dir / "est.txt", p);
-  const Run r = evaluate({dir / "est.txt", dir / "gt.txt"});
+  const Outcome r = evaluate({dir / "est.txt", dir / "gt.txt"});
   EXPECT_EQ(r.code, 1);
   EXPECT_HAS(r.err, "has 39 poses");
-  const Run t = evaluate({dir / "est.txt", dir / "gt.txt", "--truncate"});
+  const Outcome t = evaluate({dir / "est.txt", dir / "gt.txt", "--truncate"});
   ASSERT_EQ(t.code, 0) << t.err;
   EXPECT_HAS(t.out, "truncated to the first 39");
   EXPECT_HAS(t.out, "ATE (se3 alignment)");
@@ -163,7 +163,7 @@ TEST(EvaluateCommand, BadDataExitsOneNamingFileAndLine)
   pio::writeKittiPoses(dir / "gt.txt", circle());
   const std::string bad =
       dir.write("est.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1 oops\n");
-  const Run r = evaluate({bad, dir / "gt.txt"});
+  const Outcome r = evaluate({bad, dir / "gt.txt"});
   EXPECT_EQ(r.code, 1);
   EXPECT_HAS(r.err, "est.txt:2:");
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
@@ -177,13 +177,13 @@ TEST(EvaluateCommand, BadUsageExitsTwo)
   const std::string gt = dir / "gt.txt";
   EXPECT_EQ(evaluate({gt}).code, 2);
   EXPECT_EQ(evaluate({gt, gt, "--frobnicate"}).code, 2);
-  const Run align = evaluate({gt, gt, "--align", "sim2"});
+  const Outcome align = evaluate({gt, gt, "--align", "sim2"});
   EXPECT_EQ(align.code, 2);
   EXPECT_HAS(align.err, "unknown alignment \"sim2\"");
   EXPECT_EQ(evaluate({gt, gt, "--lengths", "10,x"}).code, 2);
   EXPECT_EQ(evaluate({gt, gt, "--delta", "0"}).code, 2);
   EXPECT_EQ(evaluate({gt, gt, "a-third-file"}).code, 2);
-  const Run help = evaluate({"--help"});
+  const Outcome help = evaluate({"--help"});
   EXPECT_EQ(help.code, 0);
   EXPECT_HAS(help.out, "--align");
 }

@@ -315,7 +315,7 @@ evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
           << "ground truth  " << describe(truth_path, truth) << '\n'
           << "paired        " << association << '\n'
           << "path length   " << std::fixed << std::setprecision(3)
-          << result.reference_path_length << " (ground truth)\n"
+          << result.reference_path_length << " m (ground truth)\n"
           << std::defaultfloat << '\n';
       printEvaluation(out, result);
     }
