@@ -110,7 +110,8 @@ TEST(SimulatedScans, OdometryDriftsAndTheLoopCloses)
   EXPECT_EQ(n, static_cast<std::size_t>(std::floor(p.laps * perimeter / p.step_length)) + 1);
   EXPECT_EQ(set.odometry[0], set.truth[0]);
   using pcl_parallel::evaluation::poseError;
-  EXPECT_GT(poseError(set.odometry.back(), set.truth.back()).distance, 0.5); // 2% per step over ~60 steps
+  // 2% per step over ~60 steps
+  EXPECT_GT(poseError(set.odometry.back(), set.truth.back()).distance, 0.5);
   const auto links = pcl_parallel::detectLinksByDistance(set.truth, 2.0, 10);
   bool closes = false;
   for (const auto& [i, j] : links)
