@@ -157,6 +157,28 @@ TEST(EvaluateCommand, MismatchedLengthsAreAnErrorUnlessTruncated)
   EXPECT_HAS(t.out, "ATE (se3 alignment)");
 }
 
+// A straight path cannot be aligned (the rotation about it is free): an error that says
+// what to do, as evo refuses too; without alignment it evaluates.
+TEST(EvaluateCommand, StraightPathNeedsNoAlignment)
+{
+  ScratchDir dir;
+  Poses p;
+  for (int i = 0; i < 30; ++i) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m(0, 3) = i;
+    p.push_back(m);
+  }
+  pio::writeKittiPoses(dir / "gt.txt", p);
+  const Outcome r = evaluate({dir / "gt.txt", dir / "gt.txt"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_HAS(r.err, "--align none");
+  const Outcome n = evaluate({dir / "gt.txt", dir / "gt.txt", "--align", "none", "--json"});
+  ASSERT_EQ(n.code, 0) << n.err;
+  // 29 m: lengths 2.9, 5.8, ..., 23.2 m; from frame 0 all 8 fit, from 10 those below 19 m
+  // (6), from 20 those below 9 m (3).
+  EXPECT_EQ(nlohmann::json::parse(n.out)["rpe_kitti"]["segments"], 17);
+}
+
 TEST(EvaluateCommand, BadDataExitsOneNamingFileAndLine)
 {
   ScratchDir dir;

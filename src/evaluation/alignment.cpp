@@ -76,9 +76,10 @@ umeyamaAlignment(const Poses& estimate, const Poses& reference, bool with_scale)
   // evo counts singular values above machine epsilon; relative to the largest here, so the
   // test does not depend on the unit of the positions.
   if (!(d(1) > 1e-12 * d(0)))
-    throw std::invalid_argument("pcl_parallel::evaluation: cannot align the trajectories: "
-                                "the positions lie on one line (or coincide), so the "
-                                "rotation is not determined; use no alignment");
+    throw std::invalid_argument(
+        "pcl_parallel::evaluation: cannot align the trajectories: the positions lie on one "
+        "line (or coincide), so the rotation is not determined; use no alignment "
+        "(evaluate: --align none)");
   Eigen::Matrix3d s = Eigen::Matrix3d::Identity(); // Eq. 43: a rotation, not a reflection
   if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0)
     s(2, 2) = -1.0;
