@@ -11,6 +11,7 @@
 #                                    --no-install-recommends)
 #   libflann-dev libeigen3-dev libboost-dev   PCL's public dependencies, named explicitly
 #   libgtest-dev                     the test suite
+#   libboost-program-options-dev nlohmann-json3-dev   pcl_pslam's options and JSON output
 #   clang-14 libomp-14-dev libclang-rt-14-dev the ThreadSanitizer stage of scripts/test.sh:
 #                                    clang, LLVM's OpenMP runtime with the Archer tool
 #                                    (libarcher.so), and clang's sanitizer runtimes
@@ -20,6 +21,7 @@ packages=(
   build-essential cmake
   libpcl-dev libflann-dev libeigen3-dev libboost-dev
   libgtest-dev
+  libboost-program-options-dev nlohmann-json3-dev
   clang-14 libomp-14-dev libclang-rt-14-dev
 )
 

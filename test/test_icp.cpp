@@ -15,6 +15,7 @@
 #include "synthetic_graph.h"
 #include "test_data.h"
 
+#include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/registration/icp.h>
@@ -58,12 +59,8 @@ loadPcd(const std::string& path)
 std::pair<double, double>
 poseDifference(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 {
-  const Eigen::Matrix4d d = a.inverse() * b;
-  // atan2 of the skew part and the trace: acos(trace) alone loses small angles to the
-  // rounding of float rotation matrices (~0.03 deg).
-  const Eigen::Vector3d w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
-  const double angle = std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1));
-  return {angle * 180.0 / M_PI, (a.topRightCorner<3, 1>() - b.topRightCorner<3, 1>()).norm()};
+  const auto e = pcl_parallel::evaluation::poseError(a, b);
+  return {e.angle * 180.0 / M_PI, e.distance};
 }
 
 using pcl_parallel::test::Peek;
