@@ -354,21 +354,13 @@ TEST(ParallelIcp, HornEqualsSvd)
   }
   EXPECT_TRUE(horn.getFinalTransformation().isApprox(svd.getFinalTransformation(), 1e-5));
   // A pure reflection-prone case: moments of a planar point set still give det(R) = +1.
-  pcl_parallel::registration::detail::PairMoments m;
-  const double ref[3] = {0, 0, 0};
-  const double pts[4][3] = {{1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}};
-  for (const auto& d : pts) {
-    m.n += 1;
-    for (int a = 0; a < 3; ++a) {
-      m.sd[a] += d[a];
-      m.sm[a] += d[a];
-      for (int b = 0; b < 3; ++b)
-        m.sdm[3 * a + b] += d[a] * d[b];
-    }
-  }
+  const float pts[4][3] = {{1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}};
+  std::vector<pcl_parallel::registration::MatchedPair> pairs;
+  for (const auto& d : pts)
+    pairs.push_back({{d[0], d[1], d[2]}, d, 1.0});
+  const auto m = pcl_parallel::registration::PointToPointFactor::child(pairs.data(), 4, 0.0);
   for (bool use_horn : {false, true}) {
-    const Eigen::Matrix4d t =
-        pcl_parallel::registration::detail::rigidTransformFromMoments(m, ref, use_horn);
+    const Eigen::Matrix4d t = pcl_parallel::registration::PointToPointFactor::solve(m, use_horn);
     EXPECT_NEAR((t.topLeftCorner<3, 3>().determinant()), 1.0, 1e-12);
     EXPECT_TRUE(t.isApprox(Eigen::Matrix4d::Identity(), 1e-12)) << t;
   }
