@@ -53,7 +53,8 @@ estimateNormals(const KdTreeIndex& tree,
       eig.computeDirect(cov);
       Eigen::Vector3d nrm = eig.eigenvectors().col(0); // eigenvalues ascending
       // PCL's flipNormalTowardsViewpoint: n · (vp - p) >= 0.
-      const double dot = nrm[0] * (vp[0] - p[0]) + nrm[1] * (vp[1] - p[1]) + nrm[2] * (vp[2] - p[2]);
+      const double dot =
+          nrm[0] * (vp[0] - p[0]) + nrm[1] * (vp[1] - p[1]) + nrm[2] * (vp[2] - p[2]);
       if (dot < 0)
         nrm = -nrm;
       float* out = &normals[3 * static_cast<std::size_t>(i)];

@@ -6,7 +6,6 @@
 
 #include <Eigen/Geometry>
 
-#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -19,10 +18,12 @@ AdaptiveThreshold::AdaptiveThreshold(double initial_threshold,
                                      double min_motion,
                                      double max_range,
                                      std::size_t window)
-    : min_motion_(min_motion), max_range_(max_range), window_(window)
+    : min_motion_(min_motion)
+    , max_range_(max_range)
+    , window_(window)
 {
-  if (!(initial_threshold > 0.0) || !std::isfinite(initial_threshold) ||
-      !(min_motion >= 0.0) || !(max_range > 0.0) || !std::isfinite(max_range))
+  if (!(initial_threshold > 0.0) || !std::isfinite(initial_threshold) || !(min_motion >= 0.0) ||
+      !(max_range > 0.0) || !std::isfinite(max_range))
     throw std::invalid_argument(
         "AdaptiveThreshold: initial threshold and max range must be positive and finite, "
         "min motion >= 0 (got " +
@@ -36,9 +37,11 @@ AdaptiveThreshold::AdaptiveThreshold(double initial_threshold,
 double
 AdaptiveThreshold::modelError(const Eigen::Matrix4d& deviation) const
 {
-  // Rotation angle from the trace, clamped against rounding outside [-1, 1].
-  const double c = std::clamp(0.5 * (deviation.topLeftCorner<3, 3>().trace() - 1.0), -1.0, 1.0);
-  const double theta = std::acos(c);
+  // Rotation angle from sin (skew part) and cos (trace): acos alone loses small angles.
+  const Eigen::Matrix4d& d = deviation;
+  const Eigen::Vector3d w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
+  const double theta =
+      std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0));
   return deviation.topRightCorner<3, 1>().norm() + 2.0 * max_range_ * std::sin(0.5 * theta);
 }
 

@@ -84,7 +84,8 @@ PointToPointFactor::combine(const std::vector<PointToPointMoments>& children)
 Eigen::Matrix4d
 PointToPointFactor::solve(const PointToPointMoments& mo, bool horn)
 {
-  const Eigen::Matrix3d H = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(mo.h);
+  const Eigen::Matrix3d H =
+      Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(mo.h);
   Eigen::Matrix3d R;
   if (!horn) {
     // Arun et al.: H = U Λ Vᵀ, R = V Uᵀ; a reflection (det < 0) flips V's last column.

@@ -38,7 +38,8 @@ public:
   void
   updateModelDeviation(const Eigen::Matrix4d& deviation);
 
-  /** δ of a deviation: translation plus the chord the rotation moves a point at max range along. */
+  /** δ of a deviation: translation plus the chord the rotation moves a point at max range
+   * along. */
   double
   modelError(const Eigen::Matrix4d& deviation) const;
 

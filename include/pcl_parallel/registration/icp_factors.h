@@ -94,9 +94,9 @@ struct PointToPointFactor {
 struct NormalEquations {
   double n = 0.0;
   double w = 0.0;
-  double sqr_dist = 0.0;     ///< Σ |m - d|² (PCL's MSE, as for point-to-point)
-  double sd[3] = {0, 0, 0};  ///< Σ w d: the rotation is applied about the weighted centroid
-  double jtj[21] = {};       ///< upper triangle of Σ w Jᵀ J, row by row
+  double sqr_dist = 0.0;    ///< Σ |m - d|² (PCL's MSE, as for point-to-point)
+  double sd[3] = {0, 0, 0}; ///< Σ w d: the rotation is applied about the weighted centroid
+  double jtj[21] = {};      ///< upper triangle of Σ w Jᵀ J, row by row
   double jtr[6] = {0, 0, 0, 0, 0, 0}; ///< Σ w Jᵀ r
 
   /** Adds one pair (d, m shifted by the reference; nrm the target normal). */

@@ -232,7 +232,8 @@ void
 ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::updateTargetNormals(
     const KdTreeIndex& target)
 {
-  if (normals_valid_ && normals_index_ == &target && target_normals_.size() == 3 * target.size())
+  if (normals_valid_ && normals_index_ == &target &&
+      target_normals_.size() == 3 * target.size())
     return;
   normals_index_ = &target;
   normals_valid_ = true;
@@ -281,8 +282,8 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
           double sqr_dist = 0.0;
           MatchedPair pair;
           for (std::size_t i = begin; i < end; ++i) {
-            const std::uint32_t pos =
-                transformedNearest(target, slot, tr, src[order_[i]].data, pair.d, bound, warm_[i]);
+            const std::uint32_t pos = transformedNearest(
+                target, slot, tr, src[order_[i]].data, pair.d, bound, warm_[i]);
             if (pos == KdTreeIndex::kInvalid)
               continue;
             warm_[i] = pos;
@@ -298,7 +299,8 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
     mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
     if (total.n < static_cast<double>(min_number_correspondences_) || !(total.w > 0.0))
       return true; // the caller reports too few pairs
-    step = PointToPointFactor::solve(total, rotation_method_ == RotationMethod::kHornQuaternion);
+    step =
+        PointToPointFactor::solve(total, rotation_method_ == RotationMethod::kHornQuaternion);
     return true;
   }
 
@@ -380,8 +382,9 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
       previous_transformation_ = transformation_;
       // The search runs in float on the current estimate (composed in double after
       // alignDouble, in Scalar as PCL otherwise).
-      const SearchTransform tr = use_double_ ? SearchTransform::from(final_transformation_double_)
-                                             : SearchTransform::from(final_transformation_);
+      const SearchTransform tr = use_double_
+                                     ? SearchTransform::from(final_transformation_double_)
+                                     : SearchTransform::from(final_transformation_);
       Eigen::Matrix4d step = Eigen::Matrix4d::Identity();
       double pairs = 0.0, mse = 0.0;
       const bool solved = fusedStep(*target, tr, step, pairs, mse);
