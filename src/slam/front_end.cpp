@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/slam/front_end.h>
 #include <pcl_parallel/slam/preprocess.h>
@@ -14,6 +15,7 @@ namespace slam {
 
 struct FrontEnd::Registration {
   ParallelIterativeClosestPoint<PointT, PointT, double> icp;
+  std::unique_ptr<registration::AdaptiveThreshold> threshold;
 };
 
 FrontEnd::FrontEnd(const FrontEndParameters& params)
@@ -26,6 +28,19 @@ FrontEnd::FrontEnd(const FrontEndParameters& params)
   icp.setMaxCorrespondenceDistance(params.max_correspondence_distance);
   icp.setMaximumIterations(params.max_iterations);
   icp.setTransformationEpsilon(params.transformation_epsilon);
+  icp.setUsePointToPlane(params.point_to_plane);
+  if (params.adaptive_threshold) // KISS-ICP: min motion 0.1 m at 1 m voxels, max range
+    icp_->threshold.reset(new registration::AdaptiveThreshold(
+        params.max_correspondence_distance, 0.1 * params.map_voxel_size, params.map_distance));
+}
+
+double
+FrontEnd::gate() const
+{
+  return icp_->threshold
+             ? std::min(params_.max_correspondence_distance,
+                        icp_->threshold->correspondenceDistance())
+             : params_.max_correspondence_distance;
 }
 
 FrontEnd::~FrontEnd() = default;
@@ -59,12 +74,18 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
     const Cloud::ConstPtr target = to_map ? map_.cloud() : Cloud::ConstPtr(previous_);
     if (target != target_) // the tree is rebuilt only for a new target
       icp.setInputTarget(target_ = target);
+    r.gate = gate();
+    icp.setMaxCorrespondenceDistance(r.gate);
+    if (icp_->threshold) // Geman-McClure, scale sigma / 3 (KISS-ICP)
+      icp.setRobustKernel({registration::RobustKernel::Type::kGemanMcClure, r.gate / 9.0});
     Cloud aligned;
-    icp.align(aligned, r.prediction);
+    icp.alignDouble(aligned, r.prediction);
     r.converged = icp.hasConverged();
     if (r.converged) {
-      r.pose = icp.getFinalTransformation();
-      r.fitness = icp.getFitnessScore(params_.max_correspondence_distance);
+      r.pose = icp.getFinalTransformationDouble();
+      r.fitness = icp.getFitnessScore(r.gate);
+      if (icp_->threshold) // how far the match moved the scan from the prior
+        icp_->threshold->updateModelDeviation(r.prediction.inverse() * r.pose);
     }
   }
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);

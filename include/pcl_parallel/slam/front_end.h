@@ -25,7 +25,13 @@ struct FrontEndParameters {
   double map_distance = 30.0;     ///< local map: voxels within this of the scanner
   double map_voxel_size = 0.3;    ///< local map voxel
   int map_points_per_voxel = 20;  ///< local map density
-  double max_correspondence_distance = 0.5; ///< pICP gate
+  double max_correspondence_distance = 0.5; ///< pICP gate (the first, when adaptive)
+  /** KISS-ICP's adaptive gate (Vizzo et al. 2023, Sec. III-C): 3 sigma of how far the
+   *  matches moved the scans from the motion prior, Geman-McClure kernel of scale
+   *  sigma / 3. Off: the fixed gate and no kernel. */
+  bool adaptive_threshold = true;
+  /** Point-to-plane pICP (normals estimated on the target) instead of point-to-point. */
+  bool point_to_plane = true;
   int max_iterations = 50;
   double transformation_epsilon = 1e-8; ///< pICP stop: squared change of the transform
   /** Deskew scans of a spinning LiDAR (sweep time from azimuth, see sweepTime) with the
@@ -42,6 +48,7 @@ struct FrontEndResult {
   std::size_t source_points = 0;
   bool converged = true;   ///< false: pICP failed and the prediction was kept
   double fitness = 0.0;    ///< mean squared distance of matched pairs (pICP's fitness)
+  double gate = 0.0;       ///< the correspondence distance used
 };
 
 /**
@@ -75,6 +82,8 @@ public:
 
 private:
   struct Registration;
+  double
+  gate() const;
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;
