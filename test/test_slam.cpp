@@ -1,0 +1,309 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * The mapping pipeline's stages (include/pcl_parallel/slam/) on simulated scans with exact
+ * truth: the front end beats its odometry, loop closing reduces the error and breaks no
+ * link, thread counts give identical poses, the graph stays linear where the scanner
+ * lingers; and the small pieces (local map, deskew, loop candidates, loop error spread).
+ */
+#include <pcl_parallel/evaluation/pose_error.h>
+#include <pcl_parallel/evaluation/trajectory_error.h>
+#include <pcl_parallel/sim/simulated_scans.h>
+#include <pcl_parallel/slam/local_map.h>
+#include <pcl_parallel/slam/loop_closure.h>
+#include <pcl_parallel/slam/pipeline.h>
+#include <pcl_parallel/slam/preprocess.h>
+
+#include <Eigen/Geometry>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace {
+
+using namespace pcl_parallel;
+using slam::Cloud;
+using slam::Pose;
+using slam::Poses;
+
+constexpr double kDeg = M_PI / 180.0;
+
+Pose
+makePose(double yaw, double x, double y, double z = 0.0, double roll = 0.0)
+{
+  Pose p = Pose::Identity();
+  p.topLeftCorner<3, 3>() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  p.topRightCorner<3, 1>() = Eigen::Vector3d(x, y, z);
+  return p;
+}
+
+/** A 20 x 14 m corridor floor, 1.1 laps (~38 scans), fewer rays than the demo. */
+const sim::SimulatedScanSet&
+corridorSet()
+{
+  static const sim::SimulatedScanSet set = [] {
+    sim::SimulationParameters p;
+    p.outer_length = 20.0;
+    p.outer_width = 14.0;
+    p.scanner.azimuth_steps = 360;
+    p.scanner.elevation_steps = 64;
+    return sim::simulateScanSet(p);
+  }();
+  return set;
+}
+
+struct PipelineRun {
+  Poses front_end, final;
+  std::vector<slam::Link> links;
+};
+
+PipelineRun
+runPipeline(const sim::SimulatedScanSet& set, slam::Parameters p, bool odometry = true)
+{
+  slam::Pipeline pipeline(p);
+  for (std::size_t i = 0; i < set.scans.size(); ++i)
+    pipeline.addScan(*set.scans[i],
+                     odometry ? std::optional<Pose>(set.odometry[i]) : std::nullopt);
+  pipeline.finish();
+  return {pipeline.frontEndPoses(), pipeline.poses(), pipeline.links()};
+}
+
+/** The default pipeline on the corridor set, 2 threads: shared by the tests. */
+const PipelineRun&
+defaultRun()
+{
+  static const PipelineRun run = [] {
+    slam::Parameters p;
+    p.num_threads = 2;
+    return runPipeline(corridorSet(), p);
+  }();
+  return run;
+}
+
+// The front end (scan-to-map pICP from the odometry) has lower ATE and RPE than the
+// odometry it was given, in translation and rotation, by at least 2x.
+TEST(Pipeline, FrontEndBeatsOdometry)
+{
+  const auto& set = corridorSet();
+  const PipelineRun& run = defaultRun();
+  ASSERT_EQ(run.final.size(), set.truth.size());
+  EXPECT_EQ(run.final[0], set.odometry[0]); // the first pose stays fixed
+
+  using evaluation::Alignment;
+  const auto ate = [&](const Poses& p) {
+    return evaluation::absoluteTrajectoryError(p, set.truth, Alignment::SE3);
+  };
+  const auto rpe = [&](const Poses& p) { return evaluation::frameRelativeError(p, set.truth); };
+  const auto odo_ate = ate(set.odometry), fe_ate = ate(run.front_end), lc_ate = ate(run.final);
+  const auto odo_rpe = rpe(set.odometry), fe_rpe = rpe(run.front_end);
+  std::printf("ATE rmse: odometry %.3f m %.2f deg, front end %.3f m %.2f deg, "
+              "loop closed %.4f m %.3f deg\n",
+              odo_ate.translation.rmse, odo_ate.rotation_deg.rmse, fe_ate.translation.rmse,
+              fe_ate.rotation_deg.rmse, lc_ate.translation.rmse, lc_ate.rotation_deg.rmse);
+  std::printf("RPE rmse: odometry %.4f m %.3f deg, front end %.4f m %.3f deg\n",
+              odo_rpe.translation.rmse, odo_rpe.rotation_deg.rmse, fe_rpe.translation.rmse,
+              fe_rpe.rotation_deg.rmse);
+  EXPECT_LT(fe_ate.translation.rmse, odo_ate.translation.rmse / 2);
+  EXPECT_LT(fe_ate.rotation_deg.rmse, odo_ate.rotation_deg.rmse / 2);
+  EXPECT_LT(fe_rpe.translation.rmse, odo_rpe.translation.rmse / 2);
+  EXPECT_LT(fe_rpe.rotation_deg.rmse, odo_rpe.rotation_deg.rmse / 2);
+  EXPECT_LT(lc_ate.translation.rmse, 0.02);
+}
+
+/** Loop closing on the paper's scan-to-scan front end (which drifts more): the lap's end
+ *  is linked to its start, the ATE drops at least 3x to below 1 cm (this lap is short:
+ *  the front end drifts 3 cm), and no consecutive pair ends worse
+ *  than the front end left it beyond 1 cm / 0.1 deg (the scale of the 5 mm range noise
+ *  over a few metres). */
+TEST(Pipeline, LoopClosingCutsDriftAndBreaksNoLink)
+{
+  const auto& set = corridorSet();
+  slam::Parameters p;
+  p.match_target = slam::MatchTarget::kPreviousScan;
+  p.num_threads = 2;
+  const PipelineRun run = runPipeline(set, p);
+  const bool loop = std::any_of(run.links.begin(), run.links.end(), [&](const slam::Link& l) {
+    return l.loop && l.target < 5 && l.source > set.scans.size() / 2;
+  });
+  EXPECT_TRUE(loop);
+  const auto fe = evaluation::absoluteTrajectoryError(run.front_end, set.truth,
+                                                      evaluation::Alignment::SE3);
+  const auto lc =
+      evaluation::absoluteTrajectoryError(run.final, set.truth, evaluation::Alignment::SE3);
+  std::printf("scan-to-scan ATE rmse: front end %.4f m %.3f deg, loop closed %.4f m %.3f deg\n",
+              fe.translation.rmse, fe.rotation_deg.rmse, lc.translation.rmse,
+              lc.rotation_deg.rmse);
+  EXPECT_LE(lc.translation.rmse, fe.translation.rmse / 3.0);
+  EXPECT_LT(lc.translation.rmse, 0.01);
+  for (std::size_t i = 1; i < set.truth.size(); ++i) {
+    const Pose truth = set.truth[i - 1].inverse() * set.truth[i];
+    const auto before =
+        evaluation::poseError(run.front_end[i - 1].inverse() * run.front_end[i], truth);
+    const auto after = evaluation::poseError(run.final[i - 1].inverse() * run.final[i], truth);
+    EXPECT_LE(after.distance, before.distance + 0.01) << "pair " << i - 1 << "-" << i;
+    EXPECT_LE(after.angle, before.angle + 0.1 * kDeg) << "pair " << i - 1 << "-" << i;
+  }
+}
+
+TEST(Pipeline, SameResultForAnyThreadCount)
+{
+  const auto& set = corridorSet();
+  slam::Parameters p;
+  p.num_threads = 1;
+  const PipelineRun one = runPipeline(set, p);
+  const PipelineRun& two = defaultRun();
+  ASSERT_EQ(one.final.size(), two.final.size());
+  for (std::size_t i = 0; i < one.final.size(); ++i) {
+    EXPECT_EQ(one.front_end[i], two.front_end[i]) << i;
+    EXPECT_EQ(one.final[i], two.final[i]) << i;
+  }
+  ASSERT_EQ(one.links.size(), two.links.size());
+}
+
+// Relaxing after each loop (the paper) or only once at the end ends in the same place
+// (within noise): the streaming order does not change the map.
+TEST(Pipeline, RelaxEachLoopMatchesRelaxAtEnd)
+{
+  const auto& set = corridorSet();
+  slam::Parameters end;
+  end.relax_each_loop = false;
+  end.num_threads = 2;
+  const PipelineRun& a = defaultRun();
+  const PipelineRun b = runPipeline(set, end);
+  for (std::size_t i = 0; i < a.final.size(); ++i) {
+    const auto e = evaluation::poseError(a.final[i], b.final[i]);
+    EXPECT_LT(e.distance, 0.02) << i;
+    EXPECT_LT(e.angle, 0.1 * kDeg) << i;
+  }
+}
+
+TEST(Pipeline, BadInputIsAClearError)
+{
+  slam::Pipeline pipeline;
+  Cloud empty;
+  EXPECT_THROW(pipeline.addScan(empty), std::invalid_argument);
+  Cloud nan_only;
+  nan_only.push_back(pcl::PointXYZ(NAN, 0, 0));
+  EXPECT_THROW(pipeline.addScan(nan_only), std::invalid_argument);
+  const Cloud& one = *corridorSet().scans[0];
+  Pose bad = Pose::Identity();
+  bad(0, 3) = NAN;
+  EXPECT_THROW(pipeline.addScan(one, bad), std::invalid_argument);
+  pipeline.addScan(one, Pose::Identity());
+  EXPECT_THROW(pipeline.addScan(one), std::invalid_argument); // odometry for some only
+}
+
+// A scanner standing still (or turning in place) is near every earlier scan: loop links
+// stay one per loopsize / 2 scans, so the graph grows linearly.
+TEST(LoopCloser, LingeringScannerMakesALinearGraph)
+{
+  const auto& set = corridorSet();
+  slam::LoopClosureParameters p;
+  p.min_separation = 10;
+  p.distance = 5.0;
+  p.overlap_distance = 0.2;
+  slam::LoopCloser closer(p);
+  const std::size_t n = 80;
+  for (std::size_t i = 0; i < n; ++i) {
+    closer.addScan(set.scans[0], set.truth[0]);
+    closer.detect();
+  }
+  std::size_t loops = 0;
+  for (const auto& l : closer.links())
+    loops += l.loop ? 1 : 0;
+  EXPECT_GE(loops, 2u);
+  EXPECT_LE(loops, (n - p.min_separation) / (p.min_separation / 2) + 1);
+}
+
+TEST(LoopCloser, CandidatesByDistanceAndSeparation)
+{
+  Poses poses;
+  for (int i = 0; i < 30; ++i)
+    poses.push_back(makePose(0, i < 15 ? i : 29 - i, 0)); // out and back along x
+  const auto c = slam::loopCandidates(poses, 29, 1.5, 10);
+  // Scan 29 is at x = 0: scans 0 and 1 (x = 0, 1) are within 1.5, 10+ scans back.
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c[0], 0u);
+  EXPECT_EQ(c[1], 1u);
+  EXPECT_TRUE(slam::loopCandidates(poses, 5, 100.0, 10).empty());
+}
+
+// Spreading a loop's error puts the last scan exactly where the loop link says, leaves the
+// loop's start alone, and moves the scans between by growing shares.
+TEST(LoopCloser, DistributeLoopErrorClosesTheLoop)
+{
+  Poses poses;
+  for (int i = 0; i <= 20; ++i)
+    poses.push_back(makePose(0.02 * i, 0.5 * i, 0.1 * i));
+  const Poses before = poses;
+  const Pose measured = makePose(0.3, 9.0, 2.5, 0.1, 0.02); // scan 20 in scan 5's frame
+  slam::distributeLoopError(poses, 5, 20, measured);
+  for (int i = 0; i <= 5; ++i)
+    EXPECT_EQ(poses[i], before[i]);
+  EXPECT_TRUE((poses[20]).isApprox(poses[5] * measured, 1e-9));
+  double last = 0.0;
+  for (int i = 6; i < 20; ++i) {
+    const double moved = evaluation::poseError(poses[i], before[i]).distance;
+    EXPECT_GE(moved + 1e-12, last * 0.5); // grows along the loop (up to the rotation's pivot)
+    last = moved;
+  }
+}
+
+TEST(LocalMap, VoxelCapCropAndCorrection)
+{
+  slam::LocalMap map(1.0, 10.0, 3);
+  Cloud c;
+  for (int k = 0; k < 10; ++k)
+    c.push_back(pcl::PointXYZ(0.1f * k, 0.5f, 0.5f)); // one voxel
+  c.push_back(pcl::PointXYZ(20.5f, 0.5f, 0.5f));      // beyond 10 of the origin
+  map.update(c, Eigen::Vector3d::Zero());
+  ASSERT_EQ(map.cloud()->size(), 3u); // capped at 3, the first three kept
+  EXPECT_FLOAT_EQ((*map.cloud())[2].x, 0.2f);
+  map.transform(makePose(0, 1.0, 0));
+  EXPECT_FLOAT_EQ((*map.cloud())[0].x, 1.0f);
+}
+
+// Deskewing a scan taken while moving, with the true motion, gives the scan a standing
+// scanner at the mid-sweep pose sees: each point moved by motion^(t - 1/2).
+TEST(Preprocess, DeskewUndoesAConstantVelocitySweep)
+{
+  const Pose motion = makePose(5 * kDeg, 1.0, 0.2, 0.05);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-10, 10);
+  Cloud measured, standing;
+  for (int k = 0; k < 1000; ++k) {
+    pcl::PointXYZ p(u(rng), u(rng), 0.1f * u(rng));
+    const double t = slam::sweepTime(p);
+    // The scanner at time t sits at motion^(t - 1/2) in the mid-sweep frame.
+    const Pose at = slam::interpolateMotion(motion, t - 0.5);
+    pcl::PointXYZ q;
+    q.getVector3fMap() = (at * p.getVector3fMap().cast<double>().homogeneous()).head<3>().cast<float>();
+    measured.push_back(p);
+    standing.push_back(q);
+  }
+  const auto fixed = slam::deskew(measured, motion, 2);
+  for (std::size_t k = 0; k < fixed->size(); ++k)
+    EXPECT_LT(((*fixed)[k].getVector3fMap() - standing[k].getVector3fMap()).norm(), 1e-4);
+  // Forward-facing points (t = 1/2) do not move; backward ones move by half the motion.
+  EXPECT_NEAR(slam::sweepTime(pcl::PointXYZ(1, 0, 0)), 0.5, 1e-12);
+  EXPECT_NEAR(slam::sweepTime(pcl::PointXYZ(-1, 1e-6f, 0)), 0.0, 1e-6);
+}
+
+TEST(Preprocess, CropRangeKeepsFiniteInRange)
+{
+  Cloud c;
+  c.push_back(pcl::PointXYZ(0.5f, 0, 0));
+  c.push_back(pcl::PointXYZ(3, 4, 0)); // range 5
+  c.push_back(pcl::PointXYZ(NAN, 0, 0));
+  c.push_back(pcl::PointXYZ(100, 0, 0));
+  const auto out = slam::cropRange(c, 1.0, 50.0);
+  ASSERT_EQ(out->size(), 1u);
+  EXPECT_EQ((*out)[0].x, 3.0f);
+}
+
+} // namespace
