@@ -4,6 +4,8 @@
  */
 #include <pcl_parallel/sim/scene.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
