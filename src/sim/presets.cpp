@@ -618,6 +618,15 @@ simulatePreset(const std::string& name, const PresetOptions& o)
     set.odometry.push_back(set.odometry.back() * step * yawStep(ex, ey, eyaw));
   }
 
+  if (o.poses_only) {
+    set.scans.assign(static_cast<std::size_t>(n), nullptr);
+    for (auto& scan : set.scans)
+      scan.reset(new pcl::PointCloud<pcl::PointXYZ>);
+    if (spec.scanner.sweep_period > 0.0)
+      set.point_times.resize(static_cast<std::size_t>(n));
+    set.world = std::move(spec.world);
+    return set;
+  }
   const RayCaster caster(spec.world);
   const bool moving = spec.scanner.sweep_period > 0.0;
   const double speed = spec.step / spec.period; // metres per second along the route

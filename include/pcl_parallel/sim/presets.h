@@ -39,6 +39,9 @@ struct PresetOptions {
    *  metre (heading); < 0 keeps the preset's value. */
   double odometry_translation_noise = -1.0;
   double odometry_heading_noise = -1.0;
+  /** Truth, odometry and timestamps only: no ray casting, the scans are left empty
+   *  (routes, loops and drift at no cost). */
+  bool poses_only = false;
   /** Called after each scan with (scans done, scans in all), from the calling thread. */
   std::function<void(int, int)> progress;
 };
