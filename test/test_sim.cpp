@@ -7,19 +7,19 @@
  * the presets (sizes, loops, 6 DOF, drift, determinism over seeds and thread counts),
  * the writer's round trip through the app's readers, and the built-in corridor set.
  */
+#include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/loop_detection.h>
 #include <pcl_parallel/registration/lum_solver.h>
-#include <pcl_parallel/io/scan_io.h>
-#include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 #include <pcl_parallel/sim/simulated_scans.h>
 
-#include <Eigen/Geometry>
-
 #include <pcl/common/transforms.h>
 #include <pcl/filters/voxel_grid.h>
+
+#include <Eigen/Geometry>
 
 #include <cmath>
 #include <filesystem>
@@ -210,8 +210,6 @@ TEST(SimulatedScans, InvalidParametersThrow)
   EXPECT_THROW(simulateScanSet(p), std::invalid_argument);
 }
 
-
-
 // ---------------------------------------------------------------------------------------
 // Scenes and the ray caster.
 
@@ -250,7 +248,8 @@ TEST(Raycast, AnalyticCases)
   const RayCaster bvh(w);
   const auto both = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& d, double& r) {
     double r2;
-    const bool a = w.raycast(o, d.normalized(), 1e4, r), b = bvh.raycast(o, d.normalized(), 1e4, r2);
+    const bool a = w.raycast(o, d.normalized(), 1e4, r),
+               b = bvh.raycast(o, d.normalized(), 1e4, r2);
     EXPECT_EQ(a, b);
     if (a && b) {
       EXPECT_EQ(r, r2) << "the BVH must return the brute-force range exactly";
@@ -287,8 +286,8 @@ TEST(Raycast, BvhEqualsBruteForce)
     const Eigen::Vector3d origin = set.truth[0].topRightCorner<3, 1>();
     int hits = 0;
     for (std::uint64_t k = 0; k < 3000; ++k) {
-      const Eigen::Vector3d d(counterNormal(7, 3 * k), counterNormal(7, 3 * k + 1),
-                              counterNormal(7, 3 * k + 2));
+      const Eigen::Vector3d d(
+          counterNormal(7, 3 * k), counterNormal(7, 3 * k + 1), counterNormal(7, 3 * k + 2));
       double a, b;
       const bool ha = set.world.raycast(origin, d.normalized(), 150.0, a);
       const bool hb = bvh.raycast(origin, d.normalized(), 150.0, b);
@@ -361,7 +360,7 @@ TEST(Scanner, NoiseDropoutsAndMaxRangePoints)
     sum += err, sum2 += err * err;
   }
   const double n = static_cast<double>(cloud->size());
-  EXPECT_NEAR(sum / n, 0.0, 0.003);                                // 5 sigma / sqrt(n)
+  EXPECT_NEAR(sum / n, 0.0, 0.003);                                     // 5 sigma / sqrt(n)
   EXPECT_NEAR(std::sqrt(sum2 / n - sum * sum / (n * n)), 0.05, 0.0025); // 3.5% of sigma
   s.max_range_points = true;
   const auto full = castScan(caster, s, Eigen::Matrix4d::Identity(), 42, 2);
@@ -376,7 +375,7 @@ TEST(Scanner, NoiseDropoutsAndMaxRangePoints)
 TEST(Scanner, MixedPixelsAtDepthEdges)
 {
   World w;
-  w.boxes.push_back({{5, -1, -5}, {6, 0, 5}});     // a post 5 m ahead, left edge at y = 0
+  w.boxes.push_back({{5, -1, -5}, {6, 0, 5}});       // a post 5 m ahead, left edge at y = 0
   w.boxes.push_back({{20, -50, -50}, {21, 50, 50}}); // a wall 20 m ahead
   const RayCaster caster(w);
   ScannerModel s;
@@ -413,8 +412,12 @@ room()
 double
 roomDistance(const Eigen::Vector3d& p)
 {
-  return std::min({std::abs(p.x() - 20), std::abs(p.x() + 20), std::abs(p.y() - 15),
-                   std::abs(p.y() + 15), std::abs(p.z() - 5), std::abs(p.z() + 3)});
+  return std::min({std::abs(p.x() - 20),
+                   std::abs(p.x() + 20),
+                   std::abs(p.y() - 15),
+                   std::abs(p.y() + 15),
+                   std::abs(p.z() - 5),
+                   std::abs(p.z() + 3)});
 }
 
 // A scan taken while moving is skewed by the motion: each point is in the sensor frame
@@ -432,13 +435,13 @@ TEST(Scanner, SweepWhileMovingIsSkewedByExactlyTheMotion)
   const Eigen::Matrix4d ref = poseXyzYaw(1.0, 2.0, 0.0, 0.3);
   const Eigen::Vector3d velocity(10.0, -4.0, 0.5); // m/s, world frame
   const double yaw_rate = 2.0;                     // rad/s
-  const auto at = [&](double t, bool rotate) { // sensor pose at sweep time t
+  const auto at = [&](double t, bool rotate) {     // sensor pose at sweep time t
     const double dt = (t - 0.5) * s.sweep_period;
     Eigen::Matrix4d m = ref;
     m.topRightCorner<3, 1>() += velocity * dt;
     if (rotate)
-      m.topLeftCorner<3, 3>() =
-          Eigen::AngleAxisd(yaw_rate * dt, Eigen::Vector3d::UnitZ()) * ref.topLeftCorner<3, 3>();
+      m.topLeftCorner<3, 3>() = Eigen::AngleAxisd(yaw_rate * dt, Eigen::Vector3d::UnitZ()) *
+                                ref.topLeftCorner<3, 3>();
     return m;
   };
   const auto columnTime = [&](int c) { return (c + 0.5) / s.azimuth_steps; };
@@ -446,7 +449,8 @@ TEST(Scanner, SweepWhileMovingIsSkewedByExactlyTheMotion)
   // Standing: on the walls. A sweep without motion is the standing scan, bit for bit.
   const auto standing = castScan(caster, s, ref, 9, 2);
   std::vector<float> times;
-  const auto still = castScan(caster, s, [&](int) { return ref; }, 9, 2, &times);
+  const auto still = castScan(
+      caster, s, [&](int) { return ref; }, 9, 2, &times);
   ASSERT_EQ(standing->size(), still->size());
   for (std::size_t k = 0; k < standing->size(); ++k)
     ASSERT_EQ((*standing)[k].getVector3fMap(), (*still)[k].getVector3fMap());
@@ -456,8 +460,8 @@ TEST(Scanner, SweepWhileMovingIsSkewedByExactlyTheMotion)
               1e-4);
 
   for (const bool rotate : {false, true}) {
-    const auto moving =
-        castScan(caster, s, [&](int c) { return at(columnTime(c), rotate); }, 9, 2, &times);
+    const auto moving = castScan(
+        caster, s, [&](int c) { return at(columnTime(c), rotate); }, 9, 2, &times);
     ASSERT_EQ(times.size(), moving->size());
     double worst_raw = 0;
     for (std::size_t k = 0; k < moving->size(); ++k) {
@@ -465,7 +469,8 @@ TEST(Scanner, SweepWhileMovingIsSkewedByExactlyTheMotion)
       const double t = sweepTime(p.x(), p.y()); // from the point alone
       ASSERT_NEAR(t, times[k], 1e-6) << k;
       const Eigen::Matrix4d pose = at(t, rotate);
-      const Eigen::Vector3d deskewed = pose.topLeftCorner<3, 3>() * p + pose.topRightCorner<3, 1>();
+      const Eigen::Vector3d deskewed =
+          pose.topLeftCorner<3, 3>() * p + pose.topRightCorner<3, 1>();
       ASSERT_LT(roomDistance(deskewed), 2e-4) << "point " << k << " not on a wall";
       const Eigen::Vector3d raw = ref.topLeftCorner<3, 3>() * p + ref.topRightCorner<3, 1>();
       worst_raw = std::max(worst_raw, roomDistance(raw));
@@ -503,8 +508,10 @@ TEST(Presets, SizesLikeThePapersExperiments)
     const char* name;
     std::size_t scans, min_points, max_points;
   };
-  for (const Size& z : {Size{"office", 11, 80000, 85070}, Size{"hannover", 468, 19000, 20272},
-                        Size{"riegl", 11, 270000, 330000}, Size{"kitti", 420, 105000, 125000}}) {
+  for (const Size& z : {Size{"office", 11, 80000, 85070},
+                        Size{"hannover", 468, 19000, 20272},
+                        Size{"riegl", 11, 270000, 330000},
+                        Size{"kitti", 420, 105000, 125000}}) {
     PresetOptions o;
     o.poses_only = true;
     const SimulatedScanSet poses = simulatePreset(z.name, o);
@@ -680,17 +687,20 @@ TEST(ScanSetWriter, UosRoundTrip)
       worst = std::max(worst, (read - ours).norm());
     }
     EXPECT_LT(worst, 2e-6) << "float precision of cm at ~30 m";
-    Eigen::Matrix4d odo = pcl_parallel::io::loadUosPose((dir / (std::string(name) + ".pose")).string());
+    Eigen::Matrix4d odo =
+        pcl_parallel::io::loadUosPose((dir / (std::string(name) + ".pose")).string());
     odo.topRightCorner<3, 1>() *= 0.01;
     EXPECT_LT((odo - toUosFrame(set.odometry[i])).norm(), 1e-12) << i;
     EXPECT_LT((truth[i] - toUosFrame(set.truth[i])).norm(), 1e-15) << i;
     // The frame the ground truth is in is the readers': truth x read point = C x world.
     const auto& p = (*cloud)[cloud->size() / 2];
-    const Eigen::Vector3d w_read = truth[i].topLeftCorner<3, 3>() * (0.01 * p.getVector3fMap().cast<double>()) +
-                                   truth[i].topRightCorner<3, 1>();
+    const Eigen::Vector3d w_read =
+        truth[i].topLeftCorner<3, 3>() * (0.01 * p.getVector3fMap().cast<double>()) +
+        truth[i].topRightCorner<3, 1>();
     const auto& q = (*set.scans[i])[cloud->size() / 2];
-    const Eigen::Vector3d w_ours = set.truth[i].topLeftCorner<3, 3>() * q.getVector3fMap().cast<double>() +
-                                   set.truth[i].topRightCorner<3, 1>();
+    const Eigen::Vector3d w_ours =
+        set.truth[i].topLeftCorner<3, 3>() * q.getVector3fMap().cast<double>() +
+        set.truth[i].topRightCorner<3, 1>();
     EXPECT_LT((w_read - c * w_ours).norm(), 1e-5);
   }
   for (const auto& e : fs::directory_iterator(dir))

@@ -47,7 +47,8 @@ addPreset(Table& t, const Options& opt, const std::string& name)
     bytes += e.file_size();
   std::filesystem::remove_all(dir);
   row.insert(row.begin() + 1,
-             {fmt("%zu", set.scans.size()), fmt("%zu", points / std::max<std::size_t>(1, set.scans.size()))});
+             {fmt("%zu", set.scans.size()),
+              fmt("%zu", points / std::max<std::size_t>(1, set.scans.size()))});
   row.push_back(fmt("%.2fx", first / last));
   row.push_back(fmt("%.1f (%.0f MB)", write, bytes / 1e6));
   t.addRow(row);

@@ -60,7 +60,8 @@ usage()
   std::printf(
       "usage: pcl_parallel_bench <what> [--data DIR] [--repeats N] [--threads 1,2,...]\n"
       "  what: kdtree | icp | lum (= lum-bunny + lum-scaling) | pslam | all\n"
-      "        sim (every preset, minutes) | sim-office | sim-hannover | sim-riegl | sim-kitti\n"
+      "        sim (every preset, minutes) | sim-office | sim-hannover | sim-riegl | "
+      "sim-kitti\n"
       "  --data     reference data directory (default: the build's PCL_PARALLEL_DATA_DIR)\n"
       "  --repeats  timed repeats per cell, median reported (default 5)\n"
       "  --threads  thread counts to compare (default: 1 and all cores)\n");

@@ -25,7 +25,9 @@ constexpr double kDeg = M_PI / 180.0;
  *  standard distributions are implementation-defined. */
 class Rng {
 public:
-  explicit Rng(std::uint64_t seed) : state_(seed) {}
+  explicit Rng(std::uint64_t seed)
+      : state_(seed)
+  {}
   double
   uniform(double lo = 0.0, double hi = 1.0)
   {
@@ -56,8 +58,12 @@ box(World& w, double x0, double y0, double z0, double x1, double y1, double z1)
 }
 
 void
-orientedBox(World& w, const Eigen::Vector3d& centre, const Eigen::Vector3d& half,
-            double yaw, double pitch, double roll)
+orientedBox(World& w,
+            const Eigen::Vector3d& centre,
+            const Eigen::Vector3d& half,
+            double yaw,
+            double pitch,
+            double roll)
 {
   OrientedBox b;
   b.rotation = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
@@ -72,14 +78,19 @@ orientedBox(World& w, const Eigen::Vector3d& centre, const Eigen::Vector3d& half
 /** An axis-aligned wall from a to b (same x or same y), `thick` thick, with doors (1 m
  *  wide, 2.1 m high, lintel above) centred at the given distances from a. */
 void
-wall(World& w, const Eigen::Vector2d& a, const Eigen::Vector2d& b, double thick,
-     double height, std::vector<double> doors = {})
+wall(World& w,
+     const Eigen::Vector2d& a,
+     const Eigen::Vector2d& b,
+     double thick,
+     double height,
+     std::vector<double> doors = {})
 {
   const bool along_x = std::abs(a.y() - b.y()) < 1e-9;
   const double s0 = along_x ? std::min(a.x(), b.x()) : std::min(a.y(), b.y());
   const double s1 = along_x ? std::max(a.x(), b.x()) : std::max(a.y(), b.y());
   const double c = along_x ? a.y() : a.x(), h = 0.5 * thick;
-  const double start = along_x ? a.x() : a.y(), sign = (along_x ? b.x() - a.x() : b.y() - a.y()) >= 0 ? 1 : -1;
+  const double start = along_x ? a.x() : a.y(),
+               sign = (along_x ? b.x() - a.x() : b.y() - a.y()) >= 0 ? 1 : -1;
   const auto piece = [&](double u0, double u1, double z0, double z1) {
     if (u1 - u0 < 1e-6)
       return;
@@ -128,7 +139,8 @@ furnish(World& w, Rng& rng, double x0, double y0, double x1, double y1)
     const double sx = swap ? dy : dx, sy = swap ? dx : dy;
     if (x1 - x0 < sx + 0.6 || y1 - y0 < sy + 0.6)
       continue;
-    const double x = rng.uniform(x0 + 0.2, x1 - 0.2 - sx), y = rng.uniform(y0 + 0.2, y1 - 0.2 - sy);
+    const double x = rng.uniform(x0 + 0.2, x1 - 0.2 - sx),
+                 y = rng.uniform(y0 + 0.2, y1 - 0.2 - sy);
     box(w, x, y, 0.0, x + sx, y + sy, top);
   }
 }
@@ -136,8 +148,15 @@ furnish(World& w, Rng& rng, double x0, double y0, double x1, double y1)
 /** Crates, bins and pillars along a corridor wall: from a along `along` for `length`
  *  metres, pushed in the direction `inward`, never deeper than `depth`. */
 void
-clutter(World& w, Rng& rng, const Eigen::Vector2d& a, const Eigen::Vector2d& along,
-        const Eigen::Vector2d& inward, double length, double spacing, double depth, double height)
+clutter(World& w,
+        Rng& rng,
+        const Eigen::Vector2d& a,
+        const Eigen::Vector2d& along,
+        const Eigen::Vector2d& inward,
+        double length,
+        double spacing,
+        double depth,
+        double height)
 {
   const int count = std::max(1, static_cast<int>(std::lround(length / spacing)));
   for (int k = 0; k < count; ++k) {
@@ -145,7 +164,8 @@ clutter(World& w, Rng& rng, const Eigen::Vector2d& a, const Eigen::Vector2d& alo
     const Eigen::Vector2d base = a + s * along;
     if (rng.uniform() < 0.6) {
       const double d = depth * rng.uniform(0.4, 1.0), wdt = rng.uniform(0.4, 1.2);
-      const Eigen::Vector2d p = base - 0.5 * wdt * along, q = base + 0.5 * wdt * along + d * inward;
+      const Eigen::Vector2d p = base - 0.5 * wdt * along,
+                            q = base + 0.5 * wdt * along + d * inward;
       box(w, p.x(), p.y(), 0.0, q.x(), q.y(), rng.uniform(0.5, 2.0));
     }
     else {
@@ -176,7 +196,12 @@ officeWorld(std::uint32_t seed)
   furnish(w, rng, 11.1, 5.6, 17.9, 10.4);
   // Rooms to the south (y < 3) and north (y > 13).
   for (const double y : {3.0, 13.0}) {
-    wall(w, {4, y}, {18, y}, 0.15, h, {2.0 + rng.uniform(0.0, 1.0), 6.5, 11.0 + rng.uniform(0.0, 1.5)});
+    wall(w,
+         {4, y},
+         {18, y},
+         0.15,
+         h,
+         {2.0 + rng.uniform(0.0, 1.0), 6.5, 11.0 + rng.uniform(0.0, 1.5)});
     for (const double x : {4.0, 8.5, 13.0, 18.0})
       wall(w, {x, y < 8 ? 0.0 : 16.0}, {x, y}, 0.15, h);
     const double y0 = y < 8 ? 0.0 : y, y1 = y < 8 ? y : 16.0;
@@ -187,7 +212,8 @@ officeWorld(std::uint32_t seed)
   // Halls at both ends: pillars, a wheelchair ramp (8 degrees), a sloping ceiling panel.
   for (const double x : {1.0, 21.0})
     for (const double y : {3.5, 8.0, 12.5})
-      w.cylinders.push_back({x + rng.uniform(-0.3, 0.3), y + rng.uniform(-0.5, 0.5), 0.2, 0.0, h});
+      w.cylinders.push_back(
+          {x + rng.uniform(-0.3, 0.3), y + rng.uniform(-0.5, 0.5), 0.2, 0.0, h});
   orientedBox(w, {20.3, 1.6, 0.1}, {1.5, 0.6, 0.25}, 0.0, -8 * kDeg, 0.0);
   orientedBox(w, {1.5, 8.0, 2.4}, {1.2, 2.0, 0.05}, 0.0, 0.0, 15 * kDeg);
   // Bins and crates along the corridor walls.
@@ -254,7 +280,8 @@ void
 heightField(World& w, const Height& ground, double x0, double y0, double x1, double y1)
 {
   const double cell = 2.0;
-  const int nx = static_cast<int>(std::ceil((x1 - x0) / cell)), ny = static_cast<int>(std::ceil((y1 - y0) / cell));
+  const int nx = static_cast<int>(std::ceil((x1 - x0) / cell)),
+            ny = static_cast<int>(std::ceil((y1 - y0) / cell));
   const auto p = [&](int i, int j) {
     const double x = x0 + i * cell, y = y0 + j * cell;
     return Eigen::Vector3d(x, y, ground(x, y));
@@ -270,8 +297,12 @@ heightField(World& w, const Height& ground, double x0, double y0, double x1, dou
  *  `length` metres, the buildings extending `inward` (away from the street), with gaps,
  *  setbacks, heights of 8-25 m and some pitched roofs. */
 void
-buildingRow(World& w, Rng& rng, const Eigen::Vector2d& a, const Eigen::Vector2d& along,
-            const Eigen::Vector2d& inward, double length)
+buildingRow(World& w,
+            Rng& rng,
+            const Eigen::Vector2d& a,
+            const Eigen::Vector2d& along,
+            const Eigen::Vector2d& inward,
+            double length)
 {
   double s = 0.0;
   while (s < length - 4.0) {
@@ -284,7 +315,11 @@ buildingRow(World& w, Rng& rng, const Eigen::Vector2d& a, const Eigen::Vector2d&
     if (rng.uniform() < 0.4) { // a pitched roof slab over the front half
       const Eigen::Vector2d m = 0.5 * (p + q) - 0.25 * depth * inward;
       const double yaw = std::atan2(along.y(), along.x());
-      orientedBox(w, {m.x(), m.y(), top + 1.0}, {0.5 * front, 0.3 * depth, 0.15}, yaw, 0.0,
+      orientedBox(w,
+                  {m.x(), m.y(), top + 1.0},
+                  {0.5 * front, 0.3 * depth, 0.15},
+                  yaw,
+                  0.0,
                   (inward.x() * along.y() - inward.y() * along.x() > 0 ? 1 : -1) * 25 * kDeg);
     }
     s += front + (rng.uniform() < 0.25 ? rng.uniform(3.0, 8.0) : 0.0); // alleys
@@ -294,15 +329,21 @@ buildingRow(World& w, Rng& rng, const Eigen::Vector2d& a, const Eigen::Vector2d&
 /** Trees, lamp posts and parked cars along a kerb from a along `along`; cars sit on the
  *  street side (`outward` from the pavement). */
 void
-streetFurniture(World& w, Rng& rng, const Height& ground, const Eigen::Vector2d& a,
-                const Eigen::Vector2d& along, const Eigen::Vector2d& outward, double length)
+streetFurniture(World& w,
+                Rng& rng,
+                const Height& ground,
+                const Eigen::Vector2d& a,
+                const Eigen::Vector2d& along,
+                const Eigen::Vector2d& outward,
+                double length)
 {
   for (double s = rng.uniform(2, 8); s < length; s += rng.uniform(9.0, 15.0)) {
     const Eigen::Vector2d t = a + s * along - 1.2 * outward;
     const double g = ground(t.x(), t.y());
     if (rng.uniform() < 0.7) { // tree: trunk and crown
       w.cylinders.push_back({t.x(), t.y(), rng.uniform(0.15, 0.3), g - 1.0, g + 3.0});
-      w.cylinders.push_back({t.x(), t.y(), rng.uniform(1.5, 2.5), g + 3.0, g + rng.uniform(6.0, 9.0)});
+      w.cylinders.push_back(
+          {t.x(), t.y(), rng.uniform(1.5, 2.5), g + 3.0, g + rng.uniform(6.0, 9.0)});
     }
     else
       w.cylinders.push_back({t.x(), t.y(), 0.1, g - 1.0, g + 6.0});
@@ -336,7 +377,7 @@ streetWorld(std::uint32_t seed)
   buildingRow(w, rng, {-20, -60}, {0, 1}, {-1, 0}, 170);
   // East: the square [100, 150] x [-20, 70] with a tower and facades behind it.
   buildingRow(w, rng, {160, -60}, {0, 1}, {1, 0}, 170);
-  box(w, 150, 18, -5, 158, 26, 40); // tower
+  box(w, 150, 18, -5, 158, 26, 40);                                          // tower
   orientedBox(w, {154, 22, 44}, {3.0, 3.0, 3.0}, 45 * kDeg, 0.0, 35 * kDeg); // spire
   const double g = streetGround(125, 25);
   box(w, 122, 22, -5, 128, 28, g + 1.5); // monument: plinth, column, statue
@@ -370,9 +411,12 @@ streetWorld(std::uint32_t seed)
  */
 class Route {
 public:
-  Route(const std::vector<Eigen::Vector2d>& waypoints, double smoothing, Height ground,
+  Route(const std::vector<Eigen::Vector2d>& waypoints,
+        double smoothing,
+        Height ground,
         double sensor_height)
-    : ground_(std::move(ground)), sensor_height_(sensor_height)
+      : ground_(std::move(ground))
+      , sensor_height_(sensor_height)
   {
     const double ds = 0.05;
     std::vector<Eigen::Vector2d> p;
@@ -418,7 +462,9 @@ public:
     if (s < 0)
       s += length();
     const std::size_t i = std::min<std::size_t>(
-        n - 1, static_cast<std::size_t>(std::upper_bound(arc_.begin(), arc_.end(), s) - arc_.begin()) - 1);
+        n - 1,
+        static_cast<std::size_t>(std::upper_bound(arc_.begin(), arc_.end(), s) - arc_.begin()) -
+            1);
     const double f = (s - arc_[i]) / std::max(1e-12, arc_[i + 1] - arc_[i]);
     const Eigen::Vector2d xy = points_[i] + f * (points_[(i + 1) % n] - points_[i]);
     double dh = heading_[(i + 1) % n] - heading_[i];
@@ -466,18 +512,23 @@ struct Spec {
   Height ground = [](double, double) { return 0.0; };
   double sensor_height = 0.5;
   int scans = 0;
-  double step = 0.0;  ///< metres between scans along the route
-  double start = 0.0; ///< arc length of scan 0
-  double laps = 1.0;  ///< stop-and-go: scans spread over this many laps...
-  double gap = 0.5;   ///< ...ending this many metres short of the start
+  double step = 0.0;   ///< metres between scans along the route
+  double start = 0.0;  ///< arc length of scan 0
+  double laps = 1.0;   ///< stop-and-go: scans spread over this many laps...
+  double gap = 0.5;    ///< ...ending this many metres short of the start
   double period = 0.0; ///< seconds between scans
   double translation_noise = 0.0, heading_noise = 0.0;
   std::string description;
 };
 
 ScannerModel
-spherical(int columns, int rows, double min_el, double max_el, double min_range,
-          double max_range, double noise)
+spherical(int columns,
+          int rows,
+          double min_el,
+          double max_el,
+          double min_range,
+          double max_range,
+          double noise)
 {
   ScannerModel s;
   s.azimuth_steps = columns, s.elevation_steps = rows;
@@ -515,9 +566,20 @@ makeSpec(const std::string& name, std::uint32_t seed)
     s.world = buildingWorld(seed);
     // A vertical 2D scanner turned about z: 181 beams x 112 turns.
     s.scanner = spherical(112, 181, -89 * kDeg, 89 * kDeg, 0.3, 30.0, 0.01);
-    const auto node = [](int i, int j) { return Eigen::Vector2d(1.5 + 19.0 * i, 1.5 + 17.0 * j); };
-    s.waypoints = {node(0, 0), node(3, 0), node(3, 2), node(0, 2), node(0, 0), node(1, 0),
-                   node(1, 2), node(2, 2), node(2, 1), node(0, 1), node(0, 0)};
+    const auto node = [](int i, int j) {
+      return Eigen::Vector2d(1.5 + 19.0 * i, 1.5 + 17.0 * j);
+    };
+    s.waypoints = {node(0, 0),
+                   node(3, 0),
+                   node(3, 2),
+                   node(0, 2),
+                   node(0, 0),
+                   node(1, 0),
+                   node(1, 2),
+                   node(2, 2),
+                   node(2, 1),
+                   node(0, 1),
+                   node(0, 0)};
     s.smoothing = 1.5, s.sensor_height = 0.8;
     s.scans = 468, s.period = 10.0, s.laps = 2.0, s.gap = 1.4;
     s.translation_noise = 0.02, s.heading_noise = 0.005;
@@ -642,7 +704,8 @@ simulatePreset(const std::string& name, const PresetOptions& o)
       const auto pose = [&](int c) {
         return route.pose(s0 + speed * ((c + 0.5) / cols - 0.5) * spec.scanner.sweep_period);
       };
-      set.scans[k] = castScan(caster, spec.scanner, pose, key, o.num_threads, &set.point_times[k]);
+      set.scans[k] =
+          castScan(caster, spec.scanner, pose, key, o.num_threads, &set.point_times[k]);
     }
     else
       set.scans[k] = castScan(caster, spec.scanner, set.truth[k], key, o.num_threads);

@@ -25,7 +25,9 @@ namespace {
 /** A file written to "NAME.tmp" and renamed to NAME on commit(); removed if not. */
 class AtomicFile {
 public:
-  explicit AtomicFile(std::string path) : path_(std::move(path)), tmp_(path_ + ".tmp")
+  explicit AtomicFile(std::string path)
+      : path_(std::move(path))
+      , tmp_(path_ + ".tmp")
   {
     file_ = std::fopen(tmp_.c_str(), "wb");
     if (!file_)
@@ -82,8 +84,9 @@ void
 append(std::string& out, double v, int digits = -1)
 {
   char buf[64];
-  const auto r = digits < 0 ? std::to_chars(buf, buf + sizeof(buf), v)
-                            : std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::fixed, digits);
+  const auto r =
+      digits < 0 ? std::to_chars(buf, buf + sizeof(buf), v)
+                 : std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::fixed, digits);
   out.append(buf, r.ptr);
 }
 
@@ -149,8 +152,8 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
       (!set.point_times.empty() && set.point_times.size() != n) ||
       (!set.timestamps.empty() && set.timestamps.size() != n))
     throw std::invalid_argument("pcl_parallel::sim: writeScanSet: " + std::to_string(n) +
-                                " scans but " + std::to_string(set.truth.size()) + " true and " +
-                                std::to_string(set.odometry.size()) +
+                                " scans but " + std::to_string(set.truth.size()) +
+                                " true and " + std::to_string(set.odometry.size()) +
                                 " odometry poses (or mismatched times)");
   if (format == ScanSetFormat::Auto)
     format = set.point_times.empty() ? ScanSetFormat::Uos : ScanSetFormat::Kitti;
@@ -165,7 +168,8 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
   if (format == ScanSetFormat::Uos) {
     if (n > 1000)
       throw std::invalid_argument("pcl_parallel::sim: writeScanSet: 3DTK's scanNNN names hold "
-                                  "at most 1000 scans, the set has " + std::to_string(n));
+                                  "at most 1000 scans, the set has " +
+                                  std::to_string(n));
     const Eigen::Matrix3d c = uosAxes();
     std::string text;
     for (std::size_t i = 0; i < n; ++i) {
@@ -185,7 +189,8 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
       // Odometry as a 3DTK .pose: R = Rx(a) Ry(b) Rz(c), which Eigen's eulerAngles(0, 1, 2)
       // decomposes.
       const Eigen::Matrix4d odo = toUosFrame(set.odometry[i]);
-      const Eigen::Vector3d euler = odo.topLeftCorner<3, 3>().eulerAngles(0, 1, 2) * (180.0 / M_PI);
+      const Eigen::Vector3d euler =
+          odo.topLeftCorner<3, 3>().eulerAngles(0, 1, 2) * (180.0 / M_PI);
       std::string pose;
       for (int k = 0; k < 3; ++k)
         append(pose, 100.0 * odo(k, 3)), pose += k < 2 ? ' ' : '\n';

@@ -34,13 +34,14 @@ unit(std::uint64_t h)
 Eigen::Vector3d
 direction(const ScannerModel& s, double column, int row)
 {
-  const double f = s.elevation_steps > 1 ? static_cast<double>(row) / (s.elevation_steps - 1) : 0.0;
+  const double f =
+      s.elevation_steps > 1 ? static_cast<double>(row) / (s.elevation_steps - 1) : 0.0;
   if (s.pattern == ScannerModel::Pattern::TiltingLine) {
     const double beam = s.line_fov * (0.5 - f); // left to right
-    const double pitch =
-        s.azimuth_steps > 1
-            ? s.min_elevation + (s.max_elevation - s.min_elevation) * column / (s.azimuth_steps - 1)
-            : s.min_elevation;
+    const double pitch = s.azimuth_steps > 1
+                             ? s.min_elevation + (s.max_elevation - s.min_elevation) * column /
+                                                     (s.azimuth_steps - 1)
+                             : s.min_elevation;
     // The fan (cos b, sin b, 0) pitched up by `pitch` about the y axis.
     return {std::cos(pitch) * std::cos(beam), std::sin(beam), std::sin(pitch) * std::cos(beam)};
   }

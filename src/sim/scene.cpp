@@ -133,23 +133,35 @@ hit(const Triangle& tri, const Eigen::Vector3d& o, const Eigen::Vector3d& d)
 }
 
 double
-hit(const World& w, std::uint8_t type, std::uint32_t i, const Eigen::Vector3d& o,
+hit(const World& w,
+    std::uint8_t type,
+    std::uint32_t i,
+    const Eigen::Vector3d& o,
     const Eigen::Vector3d& d)
 {
   switch (type) {
-  case kBox: return hit(w.boxes[i], o, d);
-  case kCylinder: return hit(w.cylinders[i], o, d);
-  case kOrientedBox: return hit(w.oriented_boxes[i], o, d);
-  default: return hit(w.triangles[i], o, d);
+  case kBox:
+    return hit(w.boxes[i], o, d);
+  case kCylinder:
+    return hit(w.cylinders[i], o, d);
+  case kOrientedBox:
+    return hit(w.oriented_boxes[i], o, d);
+  default:
+    return hit(w.triangles[i], o, d);
   }
 }
 
 void
-bounds(const World& w, std::uint8_t type, std::uint32_t i, Eigen::Vector3d& lo,
+bounds(const World& w,
+       std::uint8_t type,
+       std::uint32_t i,
+       Eigen::Vector3d& lo,
        Eigen::Vector3d& hi)
 {
   switch (type) {
-  case kBox: lo = w.boxes[i].min, hi = w.boxes[i].max; break;
+  case kBox:
+    lo = w.boxes[i].min, hi = w.boxes[i].max;
+    break;
   case kCylinder: {
     const Cylinder& c = w.cylinders[i];
     lo = {c.x - c.radius, c.y - c.radius, c.z_min};
@@ -193,7 +205,8 @@ World::raycast(const Eigen::Vector3d& origin,
   return range <= max_range;
 }
 
-RayCaster::RayCaster(const World& world) : world_(world)
+RayCaster::RayCaster(const World& world)
+    : world_(world)
 {
   const auto add = [this](std::uint8_t type, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i)

@@ -11,8 +11,8 @@
 #include <cmath>
 #include <limits>
 #include <random>
-#include <string>
 #include <stdexcept>
+#include <string>
 
 namespace pcl_parallel {
 namespace sim {

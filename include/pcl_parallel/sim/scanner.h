@@ -41,14 +41,14 @@ namespace sim {
 struct ScannerModel {
   enum class Pattern { Spherical, TiltingLine };
   Pattern pattern = Pattern::Spherical;
-  int azimuth_steps = 720;     ///< columns: azimuths (Spherical) or servo positions
-  int elevation_steps = 96;    ///< rows: beams per column
-  double min_elevation = -0.6; ///< radians; TiltingLine: lowest servo pitch
-  double max_elevation = 0.9;  ///< radians; TiltingLine: highest servo pitch
-  double line_fov = M_PI;      ///< TiltingLine: the 2D scanner's fan, radians
-  double min_range = 0.3;      ///< metres; closer returns are dropped
-  double max_range = 30.0;     ///< metres; no return beyond
-  double range_noise = 0.005;  ///< standard deviation of the range, metres
+  int azimuth_steps = 720;       ///< columns: azimuths (Spherical) or servo positions
+  int elevation_steps = 96;      ///< rows: beams per column
+  double min_elevation = -0.6;   ///< radians; TiltingLine: lowest servo pitch
+  double max_elevation = 0.9;    ///< radians; TiltingLine: highest servo pitch
+  double line_fov = M_PI;        ///< TiltingLine: the 2D scanner's fan, radians
+  double min_range = 0.3;        ///< metres; closer returns are dropped
+  double max_range = 30.0;       ///< metres; no return beyond
+  double range_noise = 0.005;    ///< standard deviation of the range, metres
   bool max_range_points = false; ///< a point at max_range for a ray without a return
   /** Probability that a ray across a depth edge (its neighbour half a column on
    *  differs by more than mixed_pixel_gap) returns a range between the two surfaces, as

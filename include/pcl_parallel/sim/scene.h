@@ -88,7 +88,9 @@ private:
     std::uint32_t index;
   };
   std::uint32_t
-  build(std::uint32_t first, std::uint32_t count, std::vector<Eigen::Vector3d>& lo,
+  build(std::uint32_t first,
+        std::uint32_t count,
+        std::vector<Eigen::Vector3d>& lo,
         std::vector<Eigen::Vector3d>& hi);
 
   World world_;
