@@ -176,49 +176,69 @@ clutter(World& w,
   }
 }
 
-/** The office floor (22 x 16 m, 3 m high): a ring corridor round two central rooms,
- *  three rooms off it to the south and three to the north, halls with pillars at both
- *  ends, furniture, a slanted ramp and a sloping ceiling panel. */
+/** The office floor (13 x 14.5 m, 3 m high): a ring corridor round two central rooms,
+ *  three rooms off it to the south and three to the north, halls with pillars and
+ *  cabinets at both ends, furniture, a slanted ramp and a sloping ceiling panel. The
+ *  corridors' centre lines make a 9 x 6 m loop: 10 steps of ~3 m with a stop at each
+ *  corner, where the front-hemisphere scanner faces diagonally and sees both corridors
+ *  (design.md: longer steps, or stops just past a turn, overlap too little to match). */
+/** The office loop: from the west hall's centre (2, 4.25) this far east and north. */
+const Eigen::Vector2d kOfficeLoop(9.0, 6.0);
+
 World
 officeWorld(std::uint32_t seed)
 {
   Rng rng(seed * 0x100000001b3ull + 11);
   World w;
-  const double lx = 22, ly = 16, h = 3.0;
+  const double h = 3.0, x0 = 4.0, x1 = kOfficeLoop.x(), y1 = 3.0 + kOfficeLoop.y();
+  const double lx = x1 + 4.0, ly = y1 + 5.5;
   shell(w, lx, ly, h);
-  // Central block [4, 18] x [5.5, 10.5]: two rooms, doors to the corridors.
-  wall(w, {4, 5.5}, {18, 5.5}, 0.15, h, {3.5, 10.5});
-  wall(w, {4, 10.5}, {18, 10.5}, 0.15, h, {5.0});
-  wall(w, {4, 5.5}, {4, 10.5}, 0.15, h, {2.5});
-  wall(w, {18, 5.5}, {18, 10.5}, 0.15, h);
-  wall(w, {11, 5.5}, {11, 10.5}, 0.15, h, {1.5});
-  furnish(w, rng, 4.1, 5.6, 10.9, 10.4);
-  furnish(w, rng, 11.1, 5.6, 17.9, 10.4);
-  // Rooms to the south (y < 3) and north (y > 13).
-  for (const double y : {3.0, 13.0}) {
-    wall(w,
-         {4, y},
-         {18, y},
-         0.15,
-         h,
-         {2.0 + rng.uniform(0.0, 1.0), 6.5, 11.0 + rng.uniform(0.0, 1.5)});
-    for (const double x : {4.0, 8.5, 13.0, 18.0})
-      wall(w, {x, y < 8 ? 0.0 : 16.0}, {x, y}, 0.15, h);
-    const double y0 = y < 8 ? 0.0 : y, y1 = y < 8 ? y : 16.0;
-    furnish(w, rng, 4.1, y0 + 0.1, 8.4, y1 - 0.1);
-    furnish(w, rng, 8.6, y0 + 0.1, 12.9, y1 - 0.1);
-    furnish(w, rng, 13.1, y0 + 0.1, 17.9, y1 - 0.1);
+  // Central block [x0, x1] x [5.5, y1]: two rooms, doors to the corridors.
+  const double bx = x1 - x0, by = y1 - 5.5, xm = x0 + bx * rng.uniform(0.4, 0.6);
+  wall(w,
+       {x0, 5.5},
+       {x1, 5.5},
+       0.15,
+       h,
+       {bx * rng.uniform(0.1, 0.3), bx * rng.uniform(0.6, 0.9)});
+  wall(w, {x0, y1}, {x1, y1}, 0.15, h, {bx * rng.uniform(0.1, 0.3)});
+  wall(w, {x0, 5.5}, {x0, y1}, 0.15, h, {by * rng.uniform(0.2, 0.8)});
+  wall(w, {x1, 5.5}, {x1, y1}, 0.15, h);
+  wall(w, {xm, 5.5}, {xm, y1}, 0.15, h, {by * rng.uniform(0.2, 0.8)});
+  furnish(w, rng, x0 + 0.1, 5.6, xm - 0.1, y1 - 0.1);
+  furnish(w, rng, xm + 0.1, 5.6, x1 - 0.1, y1 - 0.1);
+  // Rooms to the south (y < 3) and to the north (y > y1 + 2.5).
+  for (const double y : {3.0, y1 + 2.5}) {
+    const double far = y < 5 ? 0.0 : ly, third = (x1 - x0) / 3;
+    wall(w, {x0, y}, {x1, y}, 0.15, h, {0.5 * third, 1.5 * third, 2.5 * third});
+    for (int k = 0; k <= 3; ++k)
+      wall(w, {x0 + k * third, far}, {x0 + k * third, y}, 0.15, h);
+    for (int k = 0; k < 3; ++k)
+      furnish(w,
+              rng,
+              x0 + k * third + 0.1,
+              std::min(y, far) + 0.1,
+              x0 + (k + 1) * third - 0.1,
+              std::max(y, far) - 0.1);
   }
   // Halls at both ends: pillars, a wheelchair ramp (8 degrees), a sloping ceiling panel.
-  for (const double x : {1.0, 21.0})
-    for (const double y : {3.5, 8.0, 12.5})
+  for (const double x : {0.9, 16.6})
+    for (const double y : {2.0, 0.5 * ly, ly - 2.0})
       w.cylinders.push_back(
-          {x + rng.uniform(-0.3, 0.3), y + rng.uniform(-0.5, 0.5), 0.2, 0.0, h});
-  orientedBox(w, {20.3, 1.6, 0.1}, {1.5, 0.6, 0.25}, 0.0, -8 * kDeg, 0.0);
-  orientedBox(w, {1.5, 8.0, 2.4}, {1.2, 2.0, 0.05}, 0.0, 0.0, 15 * kDeg);
+          {x + rng.uniform(-0.2, 0.2), y + rng.uniform(-0.5, 0.5), 0.2, 0.0, h});
+  // Cabinets on each hall's far wall beside the corridor axes: seen from the corridor
+  // and from the corner, they fix the position along the wall.
+  for (const double x : {0.0, lx - 0.5})
+    for (const double y : {4.25, y1 + 1.25})
+      for (const double side : {-1.0, 1.0}) {
+        const double y0 = y + side * rng.uniform(1.0, 1.6), width = rng.uniform(0.5, 1.0);
+        box(w, x, y0, 0.0, x + 0.5, y0 + side * width, rng.uniform(1.2, 2.0));
+      }
+  orientedBox(w, {lx - 1.5, 1.2, 0.1}, {1.2, 0.6, 0.25}, 0.0, -8 * kDeg, 0.0);
+  orientedBox(w, {1.5, 0.5 * ly, 2.4}, {1.2, 2.0, 0.05}, 0.0, 0.0, 15 * kDeg);
   // Bins and crates along the corridor walls.
-  clutter(w, rng, {4.5, 3.1}, {1, 0}, {0, 1}, 13, 3.0, 0.5, h);
-  clutter(w, rng, {4.5, 12.9}, {1, 0}, {0, -1}, 13, 3.0, 0.5, h);
+  clutter(w, rng, {x0 + 0.5, 3.1}, {1, 0}, {0, 1}, bx - 1.0, 3.0, 0.5, h);
+  clutter(w, rng, {x0 + 0.5, y1 + 2.4}, {1, 0}, {0, -1}, bx - 1.0, 3.0, 0.5, h);
   return w;
 }
 
@@ -420,11 +440,14 @@ public:
   {
     const double ds = 0.05;
     std::vector<Eigen::Vector2d> p;
+    waypoint_arc_.push_back(0.0);
     for (std::size_t k = 0; k + 1 < waypoints.size(); ++k) {
       const Eigen::Vector2d a = waypoints[k], b = waypoints[k + 1];
       const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / ds)));
-      for (int i = 0; i < n; ++i)
+      for (int i = 0; i < n; ++i) {
         p.push_back(a + (b - a) * (static_cast<double>(i) / n));
+        waypoint_arc_.push_back(waypoint_arc_.back() + (b - a).norm() / n);
+      }
     }
     const int n = static_cast<int>(p.size()), half = static_cast<int>(0.5 * smoothing / ds);
     for (int pass = 0; pass < 2 && half > 0; ++pass) { // cyclic moving average
@@ -457,15 +480,36 @@ public:
   Eigen::Matrix4d
   pose(double s) const
   {
+    return pose(s, arc_);
+  }
+
+  /** The pose at distance u along the unrounded waypoint polyline: u at a corner gives
+   *  the rounded corner's middle, where the heading is halfway through the turn. */
+  Eigen::Matrix4d
+  poseAtWaypointArc(double u) const
+  {
+    return pose(u, waypoint_arc_);
+  }
+
+  double
+  waypointLength() const
+  {
+    return waypoint_arc_.back();
+  }
+
+private:
+  Eigen::Matrix4d
+  pose(double s, const std::vector<double>& arc) const
+  {
     const std::size_t n = points_.size();
-    s = std::fmod(s, length());
+    s = std::fmod(s, arc.back());
     if (s < 0)
-      s += length();
+      s += arc.back();
     const std::size_t i = std::min<std::size_t>(
         n - 1,
-        static_cast<std::size_t>(std::upper_bound(arc_.begin(), arc_.end(), s) - arc_.begin()) -
+        static_cast<std::size_t>(std::upper_bound(arc.begin(), arc.end(), s) - arc.begin()) -
             1);
-    const double f = (s - arc_[i]) / std::max(1e-12, arc_[i + 1] - arc_[i]);
+    const double f = (s - arc[i]) / std::max(1e-12, arc[i + 1] - arc[i]);
     const Eigen::Vector2d xy = points_[i] + f * (points_[(i + 1) % n] - points_[i]);
     double dh = heading_[(i + 1) % n] - heading_[i];
     dh = std::atan2(std::sin(dh), std::cos(dh));
@@ -487,11 +531,10 @@ public:
     return m;
   }
 
-private:
   Height ground_;
   double sensor_height_;
   std::vector<Eigen::Vector2d> points_;
-  std::vector<double> arc_, heading_;
+  std::vector<double> arc_, waypoint_arc_, heading_; ///< arcs: one more than points_
 };
 
 Eigen::Matrix4d
@@ -555,10 +598,11 @@ makeSpec(const std::string& name, std::uint32_t seed)
     s.scanner.azimuth_steps = 470, s.scanner.elevation_steps = 181;
     s.scanner.min_elevation = -90 * kDeg, s.scanner.max_elevation = 90 * kDeg;
     s.scanner.min_range = 0.3, s.scanner.max_range = 30.0, s.scanner.range_noise = 0.01;
-    s.waypoints = {{11, 4.25}, {20, 4.25}, {20, 11.75}, {2, 11.75}, {2, 4.25}, {11, 4.25}};
-    s.smoothing = 2.0, s.sensor_height = 0.5;
-    s.scans = 11, s.period = 60.0;
-    s.translation_noise = 0.02, s.heading_noise = 0.005;
+    const Eigen::Vector2d a(2.0, 4.25), d = kOfficeLoop;
+    s.waypoints = {a, a + Eigen::Vector2d(d.x(), 0), a + d, a + Eigen::Vector2d(0, d.y()), a};
+    s.smoothing = 3.0, s.sensor_height = 0.5;
+    s.scans = 11, s.period = 60.0, s.gap = 0.3;
+    s.translation_noise = 0.03, s.heading_noise = 0.01;
     s.description = "11 scans x ~85k points, Kurt3D's tilting SICK, stop-and-go, one loop "
                     "on an office floor (paper Table I)";
   }
@@ -655,16 +699,19 @@ simulatePreset(const std::string& name, const PresetOptions& o)
     throw std::invalid_argument("[pcl_parallel::sim] odometry noise must be finite");
   validate(spec.scanner);
   const Route route(spec.waypoints, spec.smoothing, spec.ground, spec.sensor_height);
-  // Stop-and-go: scans spread over the laps, the last one `gap` short of the start.
-  if (spec.step <= 0.0)
-    spec.step = (spec.laps * route.length() - spec.gap) / std::max(1, spec.scans - 1);
+  // Stop-and-go: scans spread over the laps of the waypoint polyline (so that a side
+  // of k steps puts stops at its corners), the last one `gap` short of the start.
+  const bool moving = spec.scanner.sweep_period > 0.0;
+  if (!moving)
+    spec.step = (spec.laps * route.waypointLength() - spec.gap) / std::max(1, spec.scans - 1);
   const int n = o.max_scans >= 0 ? std::min(o.max_scans, spec.scans) : spec.scans;
 
   SimulatedScanSet set;
   set.name = name;
   set.scanner = spec.scanner;
   for (int i = 0; i < n; ++i) {
-    set.truth.push_back(route.pose(spec.start + i * spec.step));
+    const double s = spec.start + i * spec.step;
+    set.truth.push_back(moving ? route.pose(s) : route.poseAtWaypointArc(s));
     set.timestamps.push_back(i * spec.period);
   }
   // Odometry: the true step, disturbed in the plane of the vehicle, accumulated.
@@ -684,13 +731,12 @@ simulatePreset(const std::string& name, const PresetOptions& o)
     set.scans.assign(static_cast<std::size_t>(n), nullptr);
     for (auto& scan : set.scans)
       scan.reset(new pcl::PointCloud<pcl::PointXYZ>);
-    if (spec.scanner.sweep_period > 0.0)
+    if (moving)
       set.point_times.resize(static_cast<std::size_t>(n));
     set.world = std::move(spec.world);
     return set;
   }
   const RayCaster caster(spec.world);
-  const bool moving = spec.scanner.sweep_period > 0.0;
   const double speed = spec.step / spec.period; // metres per second along the route
   set.scans.resize(static_cast<std::size_t>(n));
   if (moving)

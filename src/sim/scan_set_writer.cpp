@@ -83,6 +83,10 @@ private:
 void
 append(std::string& out, double v, int digits = -1)
 {
+  if (digits >= 0 && std::abs(v) < 0.5 * std::pow(10.0, -digits))
+    v = 0.0; // no "-0.0000"
+  else if (v == 0.0)
+    v = 0.0; // no "-0"
   char buf[64];
   const auto r =
       digits < 0 ? std::to_chars(buf, buf + sizeof(buf), v)
