@@ -2,20 +2,33 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * The built-in simulated scan set: ray casting, scan geometry, determinism over thread
- * counts, odometry drift, a loop closure, and that consecutive scans register with pICP.
+ * The simulator: ray casting against analytic cases and brute force, scanner models
+ * (directions, noise, dropouts, mixed pixels, the skew of a scan taken while moving),
+ * the presets (sizes, loops, 6 DOF, drift, determinism over seeds and thread counts),
+ * the writer's round trip through the app's readers, and the built-in corridor set.
  */
 #include <pcl_parallel/evaluation/pose_error.h>
+#include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/loop_detection.h>
+#include <pcl_parallel/registration/lum_solver.h>
+#include <pcl_parallel/sim/presets.h>
+#include <pcl_parallel/sim/scan_set_writer.h>
 #include <pcl_parallel/sim/simulated_scans.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/filters/voxel_grid.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <gtest/gtest.h>
+#include <iterator>
 #include <stdexcept>
+#include <unistd.h>
 
 namespace {
 
@@ -198,4 +211,551 @@ TEST(SimulatedScans, InvalidParametersThrow)
   EXPECT_THROW(simulateScanSet(p), std::invalid_argument);
 }
 
+// ---------------------------------------------------------------------------------------
+// Scenes and the ray caster.
+
+namespace fs = std::filesystem;
+
+Eigen::Matrix4d
+poseXyzYaw(double x, double y, double z, double yaw)
+{
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  m.topRightCorner<3, 1>() = Eigen::Vector3d(x, y, z);
+  return m;
+}
+
+/** The plane z = z0 as two large triangles. */
+void
+addPlaneZ(World& w, double z0)
+{
+  const double e = 1000;
+  w.triangles.push_back({{-e, -e, z0}, {e, -e, z0}, {e, e, z0}});
+  w.triangles.push_back({{-e, -e, z0}, {e, e, z0}, {-e, e, z0}});
+}
+
+TEST(Raycast, AnalyticCases)
+{
+  World w;
+  addPlaneZ(w, -2.0); // a plane 2 m below
+  w.boxes.push_back({{10, 10, 10}, {11, 11, 11}});
+  w.triangles.push_back({{54, -50, -50}, {4, 50, 0}, {-46, 0, 50}}); // on x + z = 4
+  OrientedBox slab; // a slab whose face is tilted by 30 degrees, 5 m ahead along -x
+  const double beta = 30 * kDeg;
+  slab.rotation = Eigen::AngleAxisd(beta, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  slab.centre = {-5, 0, 0};
+  slab.half_size = {0.1, 3, 3};
+  w.oriented_boxes.push_back(slab);
+  const RayCaster bvh(w);
+  const auto both = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& d, double& r) {
+    double r2;
+    const bool a = w.raycast(o, d.normalized(), 1e4, r),
+               b = bvh.raycast(o, d.normalized(), 1e4, r2);
+    EXPECT_EQ(a, b);
+    if (a && b) {
+      EXPECT_EQ(r, r2) << "the BVH must return the brute-force range exactly";
+    }
+    return a;
+  };
+  double r;
+  ASSERT_TRUE(both({0, 0, 0}, {0, 0, -1}, r));
+  EXPECT_NEAR(r, 2.0, 1e-12);
+  ASSERT_TRUE(both({0, 0, 0}, {0, -std::sin(0.7), -std::cos(0.7)}, r)); // oblique
+  EXPECT_NEAR(r, 2.0 / std::cos(0.7), 1e-12);
+  ASSERT_TRUE(both({9, 9, 9}, {1, 1, 1}, r)); // straight at the box's corner
+  EXPECT_NEAR(r, std::sqrt(3.0), 1e-12);
+  ASSERT_TRUE(both({0, 0, 0}, {1, 0, 0}, r)); // the slanted plane x + z = 4
+  EXPECT_NEAR(r, 4.0, 1e-12);
+  ASSERT_TRUE(both({0, 0, 0}, {1, 0, 1}, r));
+  EXPECT_NEAR(r, 4.0 / std::sqrt(2.0), 1e-12);
+  ASSERT_TRUE(both({0, 0, 0}, {-1, 0, 0}, r)); // the tilted slab's near face
+  // Face normal n = R e_x; plane n.p = n.(c + 0.1 n); along -x: t = (5 cos b - 0.1) / cos b.
+  EXPECT_NEAR(r, 5.0 - 0.1 / std::cos(beta), 1e-12);
+  EXPECT_FALSE(both({0, 0, 0}, {0, 1, 0}, r)); // along the slanted plane, nothing
+}
+
+// The BVH returns exactly the brute-force answer on the presets' scenes.
+TEST(Raycast, BvhEqualsBruteForce)
+{
+  for (const std::string name : {"office", "riegl"}) {
+    PresetOptions o;
+    o.poses_only = true;
+    o.max_scans = 1;
+    const SimulatedScanSet set = simulatePreset(name, o);
+    const RayCaster bvh(set.world);
+    ASSERT_GT(bvh.size(), 50u) << name;
+    const Eigen::Vector3d origin = set.truth[0].topRightCorner<3, 1>();
+    int hits = 0;
+    for (std::uint64_t k = 0; k < 3000; ++k) {
+      const Eigen::Vector3d d(
+          counterNormal(7, 3 * k), counterNormal(7, 3 * k + 1), counterNormal(7, 3 * k + 2));
+      double a, b;
+      const bool ha = set.world.raycast(origin, d.normalized(), 150.0, a);
+      const bool hb = bvh.raycast(origin, d.normalized(), 150.0, b);
+      ASSERT_EQ(ha, hb) << name << " ray " << k;
+      if (ha) {
+        ASSERT_EQ(a, b) << name << " ray " << k;
+        ++hits;
+      }
+    }
+    EXPECT_GT(hits, 1500) << name;
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// Scanner models.
+
+TEST(Scanner, DirectionsFollowTheKittiSweepAndKurt3dHemisphere)
+{
+  ScannerModel s;
+  s.azimuth_steps = 360, s.elevation_steps = 5;
+  s.min_elevation = -0.5, s.max_elevation = 0.5; // row 2: level
+  for (int c = 0; c < s.azimuth_steps; ++c) {
+    const Eigen::Vector3d d = rayDirection(s, c, 2);
+    EXPECT_NEAR(sweepTime(d.x(), d.y()), (c + 0.5) / s.azimuth_steps, 1e-12) << c;
+  }
+  EXPECT_LT(rayDirection(s, 0, 2).x(), -0.99); // the sweep starts behind the sensor
+  EXPECT_GT(rayDirection(s, 0, 2).y(), 0.0);   // and turns clockwise: left, front, right
+  EXPECT_GT(rayDirection(s, 90, 2).y(), 0.99);
+  EXPECT_LT(rayDirection(s, 270, 2).y(), -0.99);
+  ScannerModel k;
+  k.pattern = ScannerModel::Pattern::TiltingLine;
+  k.azimuth_steps = 181, k.elevation_steps = 181;
+  k.min_elevation = -90 * kDeg, k.max_elevation = 90 * kDeg;
+  double min_z = 1, max_z = -1;
+  for (int c = 0; c < k.azimuth_steps; ++c)
+    for (int r = 0; r < k.elevation_steps; ++r) {
+      const Eigen::Vector3d d = rayDirection(k, c, r);
+      EXPECT_NEAR(d.norm(), 1.0, 1e-12);
+      EXPECT_GE(d.x(), -1e-12); // front hemisphere
+      min_z = std::min(min_z, d.z()), max_z = std::max(max_z, d.z());
+    }
+  EXPECT_NEAR(min_z, -1.0, 1e-12);
+  EXPECT_NEAR(max_z, 1.0, 1e-12);
+  EXPECT_NEAR(rayDirection(k, 90, 90).x(), 1.0, 1e-12); // level pitch, centre beam
+  EXPECT_NEAR(rayDirection(k, 90, 0).y(), 1.0, 1e-12);  // first beam: left
+}
+
+// Range noise: the standard deviation asked for; dropouts: no return, no point, unless
+// max-range points are asked for.
+TEST(Scanner, NoiseDropoutsAndMaxRangePoints)
+{
+  World w;
+  addPlaneZ(w, -10.0);
+  const RayCaster caster(w);
+  ScannerModel s;
+  s.azimuth_steps = 400, s.elevation_steps = 50;
+  s.min_elevation = -80 * kDeg, s.max_elevation = 80 * kDeg;
+  s.max_range = 100.0, s.range_noise = 0.05;
+  const auto cloud = castScan(caster, s, Eigen::Matrix4d::Identity(), 42, 2);
+  // Only rows looking down more steeply than asin(10 / 100) reach the floor in range.
+  std::size_t rows_in_range = 0;
+  for (int r = 0; r < s.elevation_steps; ++r)
+    rows_in_range += rayDirection(s, 0, r).z() < -0.1 - 1e-3; // none within 5 sigma of it
+  ASSERT_EQ(rows_in_range, 23u);
+  ASSERT_EQ(cloud->size(), 400u * rows_in_range);
+  double sum = 0, sum2 = 0;
+  for (const auto& p : *cloud) {
+    const Eigen::Vector3d q = p.getVector3fMap().cast<double>();
+    const double err = q.norm() - 10.0 / (-q.z() / q.norm()); // measured - true range
+    sum += err, sum2 += err * err;
+  }
+  const double n = static_cast<double>(cloud->size());
+  EXPECT_NEAR(sum / n, 0.0, 0.003);                                     // 5 sigma / sqrt(n)
+  EXPECT_NEAR(std::sqrt(sum2 / n - sum * sum / (n * n)), 0.05, 0.0025); // 3.5% of sigma
+  s.max_range_points = true;
+  const auto full = castScan(caster, s, Eigen::Matrix4d::Identity(), 42, 2);
+  ASSERT_EQ(full->size(), 400u * 50u);
+  int at_max = 0;
+  for (const auto& p : *full)
+    at_max += std::abs(p.getVector3fMap().norm() - 100.0f) < 1e-3f;
+  EXPECT_EQ(at_max, 400 * (50 - static_cast<int>(rows_in_range)));
+}
+
+// Mixed pixels: across a depth edge some returns fall between the surfaces; none without.
+TEST(Scanner, MixedPixelsAtDepthEdges)
+{
+  World w;
+  w.boxes.push_back({{5, -1, -5}, {6, 0, 5}});       // a post 5 m ahead, left edge at y = 0
+  w.boxes.push_back({{20, -50, -50}, {21, 50, 50}}); // a wall 20 m ahead
+  const RayCaster caster(w);
+  ScannerModel s;
+  s.azimuth_steps = 720, s.elevation_steps = 3, s.range_noise = 0.0;
+  s.min_elevation = -0.1, s.max_elevation = 0.1, s.max_range = 50;
+  const auto between = [&](const pcl::PointCloud<pcl::PointXYZ>& c) {
+    int k = 0;
+    for (const auto& p : c)
+      k += p.x > 6.5 && p.x < 19.5;
+    return k;
+  };
+  EXPECT_EQ(between(*castScan(caster, s, Eigen::Matrix4d::Identity(), 1, 2)), 0);
+  s.mixed_pixel_probability = 1.0;
+  const auto mixed = castScan(caster, s, Eigen::Matrix4d::Identity(), 1, 2);
+  EXPECT_GE(between(*mixed), 3); // at the edge, one column per row
+  EXPECT_LE(between(*mixed), 6); // both edges of the post at most, never elsewhere
+}
+
+/** A closed room [-20, 20] x [-15, 15] x [-3, 5] and the distance of p to its nearest
+ *  face. */
+World
+room()
+{
+  World w;
+  w.boxes.push_back({{-21, -16, -4}, {21, 16, -3}});
+  w.boxes.push_back({{-21, -16, 5}, {21, 16, 6}});
+  w.boxes.push_back({{-21, -16, -3}, {-20, 16, 5}});
+  w.boxes.push_back({{20, -16, -3}, {21, 16, 5}});
+  w.boxes.push_back({{-20, -16, -3}, {20, -15, 5}});
+  w.boxes.push_back({{-20, 15, -3}, {20, 16, 5}});
+  return w;
+}
+
+double
+roomDistance(const Eigen::Vector3d& p)
+{
+  return std::min({std::abs(p.x() - 20),
+                   std::abs(p.x() + 20),
+                   std::abs(p.y() - 15),
+                   std::abs(p.y() + 15),
+                   std::abs(p.z() - 5),
+                   std::abs(p.z() + 3)});
+}
+
+// A scan taken while moving is skewed by the motion: each point is in the sensor frame
+// of its column's time, and its sweep time follows from the point alone (KITTI's
+// convention). Deskewing with the true motion puts every point back on the walls, as a
+// scan taken standing is; seen from the reference pose without deskewing, each point is
+// off by exactly the motion between its time and mid-sweep.
+TEST(Scanner, SweepWhileMovingIsSkewedByExactlyTheMotion)
+{
+  const RayCaster caster(room());
+  ScannerModel s;
+  s.azimuth_steps = 1000, s.elevation_steps = 16;
+  s.min_elevation = -25 * kDeg, s.max_elevation = 5 * kDeg;
+  s.max_range = 100, s.range_noise = 0.0, s.sweep_period = 0.1;
+  const Eigen::Matrix4d ref = poseXyzYaw(1.0, 2.0, 0.0, 0.3);
+  const Eigen::Vector3d velocity(10.0, -4.0, 0.5); // m/s, world frame
+  const double yaw_rate = 2.0;                     // rad/s
+  const auto at = [&](double t, bool rotate) {     // sensor pose at sweep time t
+    const double dt = (t - 0.5) * s.sweep_period;
+    Eigen::Matrix4d m = ref;
+    m.topRightCorner<3, 1>() += velocity * dt;
+    if (rotate)
+      m.topLeftCorner<3, 3>() = Eigen::AngleAxisd(yaw_rate * dt, Eigen::Vector3d::UnitZ()) *
+                                ref.topLeftCorner<3, 3>();
+    return m;
+  };
+  const auto columnTime = [&](int c) { return (c + 0.5) / s.azimuth_steps; };
+
+  // Standing: on the walls. A sweep without motion is the standing scan, bit for bit.
+  const auto standing = castScan(caster, s, ref, 9, 2);
+  std::vector<float> times;
+  const auto still = castScan(
+      caster, s, [&](int) { return ref; }, 9, 2, &times);
+  ASSERT_EQ(standing->size(), still->size());
+  for (std::size_t k = 0; k < standing->size(); ++k)
+    ASSERT_EQ((*standing)[k].getVector3fMap(), (*still)[k].getVector3fMap());
+  for (const auto& p : *standing)
+    ASSERT_LT(roomDistance(ref.topLeftCorner<3, 3>() * p.getVector3fMap().cast<double>() +
+                           ref.topRightCorner<3, 1>()),
+              1e-4);
+
+  for (const bool rotate : {false, true}) {
+    const auto moving = castScan(
+        caster, s, [&](int c) { return at(columnTime(c), rotate); }, 9, 2, &times);
+    ASSERT_EQ(times.size(), moving->size());
+    double worst_raw = 0;
+    for (std::size_t k = 0; k < moving->size(); ++k) {
+      const Eigen::Vector3d p = (*moving)[k].getVector3fMap().cast<double>();
+      const double t = sweepTime(p.x(), p.y()); // from the point alone
+      ASSERT_NEAR(t, times[k], 1e-6) << k;
+      const Eigen::Matrix4d pose = at(t, rotate);
+      const Eigen::Vector3d deskewed =
+          pose.topLeftCorner<3, 3>() * p + pose.topRightCorner<3, 1>();
+      ASSERT_LT(roomDistance(deskewed), 2e-4) << "point " << k << " not on a wall";
+      const Eigen::Vector3d raw = ref.topLeftCorner<3, 3>() * p + ref.topRightCorner<3, 1>();
+      worst_raw = std::max(worst_raw, roomDistance(raw));
+      if (!rotate) { // a pure translation: off by exactly -v (t - 0.5) T
+        ASSERT_LT((raw - deskewed + velocity * (t - 0.5) * s.sweep_period).norm(), 1e-5);
+      }
+    }
+    EXPECT_GT(worst_raw, 0.3) << "the raw sweep must be skewed (0.5 m of motion)";
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// Presets.
+
+TEST(Presets, NamesAndUnknownName)
+{
+  const std::vector<std::string> expected{"office", "hannover", "riegl", "kitti"};
+  EXPECT_EQ(presetNames(), expected);
+  for (const auto& n : expected)
+    EXPECT_FALSE(presetDescription(n).empty());
+  try {
+    simulatePreset("ofice");
+    FAIL() << "an unknown preset must throw";
+  }
+  catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("ofice"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("hannover"), std::string::npos); // lists them
+  }
+}
+
+// Scans per preset (poses only) and points per scan (one scan of each, with its model).
+TEST(Presets, SizesLikeThePapersExperiments)
+{
+  struct Size {
+    const char* name;
+    std::size_t scans, min_points, max_points;
+  };
+  for (const Size& z : {Size{"office", 11, 80000, 85070},
+                        Size{"hannover", 468, 19000, 20272},
+                        Size{"riegl", 11, 270000, 330000},
+                        Size{"kitti", 420, 105000, 125000}}) {
+    PresetOptions o;
+    o.poses_only = true;
+    const SimulatedScanSet poses = simulatePreset(z.name, o);
+    EXPECT_EQ(poses.truth.size(), z.scans) << z.name;
+    EXPECT_EQ(poses.scans.size(), z.scans) << z.name;
+    EXPECT_EQ(poses.timestamps.size(), z.scans) << z.name;
+    o.poses_only = false;
+    o.max_scans = 1;
+    const SimulatedScanSet one = simulatePreset(z.name, o);
+    ASSERT_EQ(one.scans.size(), 1u) << z.name;
+    EXPECT_GE(one.scans[0]->size(), z.min_points) << z.name;
+    EXPECT_LE(one.scans[0]->size(), z.max_points) << z.name;
+    EXPECT_EQ(one.truth[0], poses.truth[0]) << z.name;
+    EXPECT_EQ(one.point_times.empty(), std::string(z.name) != "kitti") << z.name;
+    if (!one.point_times.empty()) {
+      EXPECT_EQ(one.point_times[0].size(), one.scans[0]->size());
+    }
+  }
+}
+
+/** Roll and pitch of a pose (z-y-x Euler), radians. */
+void
+rollPitch(const Eigen::Matrix4d& m, double& roll, double& pitch)
+{
+  pitch = -std::asin(std::clamp(m(2, 0), -1.0, 1.0));
+  roll = std::atan2(m(2, 1), m(2, 2));
+}
+
+// Every route closes its loop(s), hannover's several times; the outdoor presets drive
+// over uneven ground (pitch and roll of a few degrees, metres of climb); the odometry
+// starts at the truth and drifts; the kitti drive is at 9 m/s, 10 Hz.
+TEST(Presets, LoopsSixDofAndDrift)
+{
+  for (const std::string& name : presetNames()) {
+    PresetOptions o;
+    o.poses_only = true;
+    const SimulatedScanSet set = simulatePreset(name, o);
+    const std::size_t n = set.truth.size();
+    EXPECT_EQ(set.odometry[0], set.truth[0]) << name;
+    const double dist =
+        pcl_parallel::evaluation::poseError(set.odometry.back(), set.truth.back()).distance;
+    EXPECT_GT(dist, name == "kitti" ? 0.5 : 0.1) << name << ": the odometry must drift";
+    // Revisits: runs of scans within 2 m (kitti, office, hannover) or 5 m (riegl) of a
+    // scan at least 10 earlier (or, for the 11-scan sets, of scan 0).
+    const double near = name == "riegl" ? 5.0 : 2.0;
+    int runs = 0;
+    bool in_run = false;
+    for (std::size_t i = 1; i < n; ++i) {
+      bool revisit = false;
+      for (std::size_t j = 0; j + (n > 20 ? 10 : i) <= i && !revisit; ++j)
+        revisit = (set.truth[i] - set.truth[j]).topRightCorner<3, 1>().norm() < near;
+      runs += revisit && !in_run;
+      in_run = revisit;
+    }
+    EXPECT_GE(runs, name == "hannover" ? 4 : 1) << name << ": loops closed";
+    double max_tilt = 0, min_z = 1e9, max_z = -1e9;
+    for (const auto& m : set.truth) {
+      double roll, pitch;
+      rollPitch(m, roll, pitch);
+      max_tilt = std::max({max_tilt, std::abs(roll), std::abs(pitch)});
+      min_z = std::min(min_z, m(2, 3)), max_z = std::max(max_z, m(2, 3));
+      const double det = m.topLeftCorner<3, 3>().determinant();
+      ASSERT_NEAR(det, 1.0, 1e-9);
+    }
+    if (name == "kitti" || name == "riegl") {
+      EXPECT_GT(max_tilt, 1.5 * kDeg) << name;
+      EXPECT_LT(max_tilt, 8.0 * kDeg) << name;
+      if (name == "kitti") {
+        EXPECT_GT(max_z - min_z, 1.2) << "the drive climbs the ramp";
+      }
+    }
+    else
+      EXPECT_LT(max_tilt, 1e-9) << name << ": indoors, flat floor";
+    if (name == "kitti") {
+      for (std::size_t i = 1; i < n; ++i) {
+        ASSERT_NEAR(set.timestamps[i] - set.timestamps[i - 1], 0.1, 1e-12);
+        const double step = (set.truth[i] - set.truth[i - 1]).topRightCorner<3, 1>().norm();
+        ASSERT_GT(step, 0.8);
+        ASSERT_LT(step, 0.95);
+      }
+    }
+  }
+  PresetOptions exact;
+  exact.poses_only = true;
+  exact.odometry_translation_noise = exact.odometry_heading_noise = 0.0;
+  const SimulatedScanSet set = simulatePreset("hannover", exact);
+  for (std::size_t i = 0; i < set.truth.size(); ++i)
+    ASSERT_LT((set.odometry[i] - set.truth[i]).norm(), 1e-9);
+}
+
+std::string
+fileBytes(const fs::path& p)
+{
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/** A fresh directory under the system's temporary one. */
+fs::path
+tempDir(const std::string& name)
+{
+  const fs::path d = fs::temp_directory_path() /
+                     ("pcl_parallel_test_sim_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  return d;
+}
+
+// Same seed: identical data and files, for 1 and 2 threads; another seed: other data.
+TEST(Presets, DeterministicForSeedAndThreadCount)
+{
+  for (const std::string name : {"office", "kitti"}) {
+    PresetOptions o;
+    o.max_scans = 2;
+    o.num_threads = 1;
+    const SimulatedScanSet a = simulatePreset(name, o);
+    o.num_threads = 2;
+    const SimulatedScanSet b = simulatePreset(name, o);
+    ASSERT_EQ(a.scans.size(), 2u);
+    for (std::size_t i = 0; i < 2; ++i) {
+      ASSERT_EQ(a.scans[i]->size(), b.scans[i]->size()) << name;
+      for (std::size_t k = 0; k < a.scans[i]->size(); ++k)
+        ASSERT_EQ((*a.scans[i])[k].getVector3fMap(), (*b.scans[i])[k].getVector3fMap());
+      EXPECT_EQ(a.truth[i], b.truth[i]);
+      EXPECT_EQ(a.odometry[i], b.odometry[i]);
+    }
+    EXPECT_EQ(a.point_times, b.point_times);
+    const fs::path da = tempDir(name + "_a"), db = tempDir(name + "_b");
+    writeScanSet(a, da.string());
+    writeScanSet(b, db.string());
+    std::size_t files = 0;
+    for (const auto& e : fs::directory_iterator(da)) {
+      EXPECT_EQ(fileBytes(e.path()), fileBytes(db / e.path().filename())) << e.path();
+      ++files;
+    }
+    EXPECT_EQ(files, name == "office" ? 5u : 5u); // 2 x (.3d + .pose) + truth; 2 .bin + 3
+    fs::remove_all(da), fs::remove_all(db);
+
+    o.seed = 2;
+    const SimulatedScanSet c = simulatePreset(name, o);
+    EXPECT_NE(c.odometry[1], a.odometry[1]) << name;
+    bool differs = c.scans[0]->size() != a.scans[0]->size();
+    for (std::size_t k = 0; !differs && k < a.scans[0]->size(); ++k)
+      differs = (*c.scans[0])[k].getVector3fMap() != (*a.scans[0])[k].getVector3fMap();
+    EXPECT_TRUE(differs) << name;
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+// The writer: what the app's readers get back.
+
+// uos: scanNNN.3d in cm and 3DTK's axes, scanNNN.pose the odometry, ground_truth.txt in
+// the reader's frame; the readers (x 0.01, as pcl_pslam does) give back the set.
+TEST(ScanSetWriter, UosRoundTrip)
+{
+  PresetOptions o;
+  o.max_scans = 3;
+  const SimulatedScanSet set = simulatePreset("office", o);
+  const fs::path dir = tempDir("uos");
+  writeScanSet(set, dir.string());
+  const auto truth = pcl_parallel::io::loadKittiPoses((dir / "ground_truth.txt").string());
+  ASSERT_EQ(truth.size(), 3u);
+  const Eigen::Matrix3d c = uosAxes();
+  EXPECT_NEAR(c.determinant(), -1.0, 1e-15); // left-handed
+  for (std::size_t i = 0; i < 3; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "scan%03zu", i);
+    const auto cloud = pcl_parallel::io::loadScan((dir / (std::string(name) + ".3d")).string());
+    ASSERT_EQ(cloud->size(), set.scans[i]->size());
+    double worst = 0;
+    for (std::size_t k = 0; k < cloud->size(); ++k) {
+      const Eigen::Vector3d read = 0.01 * (*cloud)[k].getVector3fMap().cast<double>();
+      const Eigen::Vector3d ours = c * (*set.scans[i])[k].getVector3fMap().cast<double>();
+      worst = std::max(worst, (read - ours).norm());
+    }
+    EXPECT_LT(worst, 2e-6) << "float precision of cm at ~30 m";
+    Eigen::Matrix4d odo =
+        pcl_parallel::io::loadUosPose((dir / (std::string(name) + ".pose")).string());
+    odo.topRightCorner<3, 1>() *= 0.01;
+    EXPECT_LT((odo - toUosFrame(set.odometry[i])).norm(), 1e-12) << i;
+    EXPECT_LT((truth[i] - toUosFrame(set.truth[i])).norm(), 1e-15) << i;
+    // The frame the ground truth is in is the readers': truth x read point = C x world.
+    const auto& p = (*cloud)[cloud->size() / 2];
+    const Eigen::Vector3d w_read =
+        truth[i].topLeftCorner<3, 3>() * (0.01 * p.getVector3fMap().cast<double>()) +
+        truth[i].topRightCorner<3, 1>();
+    const auto& q = (*set.scans[i])[cloud->size() / 2];
+    const Eigen::Vector3d w_ours =
+        set.truth[i].topLeftCorner<3, 3>() * q.getVector3fMap().cast<double>() +
+        set.truth[i].topRightCorner<3, 1>();
+    EXPECT_LT((w_read - c * w_ours).norm(), 1e-5);
+  }
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_NE(e.path().extension(), ".tmp");
+  fs::remove_all(dir);
+}
+
+// KITTI: the .bin floats exactly, odometry and truth exactly (shortest exact decimals),
+// one timestamp a scan.
+TEST(ScanSetWriter, KittiRoundTrip)
+{
+  PresetOptions o;
+  o.max_scans = 2;
+  const SimulatedScanSet set = simulatePreset("kitti", o);
+  const fs::path dir = tempDir("kitti");
+  writeScanSet(set, dir.string());
+  const auto odo = pcl_parallel::io::loadKittiPoses((dir / "odometry.txt").string());
+  const auto truth = pcl_parallel::io::loadKittiPoses((dir / "ground_truth.txt").string());
+  ASSERT_EQ(odo.size(), 2u);
+  ASSERT_EQ(truth.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "%06zu.bin", i);
+    const auto cloud = pcl_parallel::io::loadScan((dir / name).string());
+    ASSERT_EQ(cloud->size(), set.scans[i]->size());
+    for (std::size_t k = 0; k < cloud->size(); ++k)
+      ASSERT_EQ((*cloud)[k].getVector3fMap(), (*set.scans[i])[k].getVector3fMap());
+    EXPECT_EQ(odo[i], set.odometry[i]);
+    EXPECT_EQ(truth[i], set.truth[i]);
+  }
+  std::ifstream times(dir / "times.txt");
+  double t0, t1;
+  ASSERT_TRUE(times >> t0 >> t1);
+  EXPECT_EQ(t0, set.timestamps[0]);
+  EXPECT_EQ(t1, set.timestamps[1]);
+  fs::remove_all(dir);
+}
+
+TEST(ScanSetWriter, ErrorsNameTheProblem)
+{
+  SimulatedScanSet set;
+  set.scans.emplace_back(new pcl::PointCloud<pcl::PointXYZ>);
+  EXPECT_THROW(writeScanSet(set, tempDir("bad").string()), std::invalid_argument);
+  set.truth.push_back(Eigen::Matrix4d::Identity());
+  set.odometry.push_back(Eigen::Matrix4d::Identity());
+  const fs::path file = tempDir("file");
+  std::ofstream(file.string()) << "not a directory";
+  try {
+    writeScanSet(set, (file / "sub").string());
+    FAIL() << "writing under a regular file must throw";
+  }
+  catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+  }
+  fs::remove(file);
+}
 } // namespace

@@ -121,6 +121,11 @@ runIcp(const Options& opt);
 /** The pcl_pslam pipeline on the simulated scan set, stage by stage. */
 int
 runPslam(const Options& opt);
+/** Simulating the presets (sim/presets.h), 1 vs N threads; "sim-NAME" for one preset. */
+int
+runSim(const Options& opt);
+int
+runSimPreset(const Options& opt, const std::string& name);
 
 } // namespace bench
 } // namespace pcl_parallel

@@ -60,6 +60,8 @@ usage()
   std::printf(
       "usage: pcl_parallel_bench <what> [--data DIR] [--repeats N] [--threads 1,2,...]\n"
       "  what: kdtree | icp | lum (= lum-bunny + lum-scaling) | pslam | all\n"
+      "        sim (every preset, minutes) | sim-office | sim-hannover | sim-riegl | "
+      "sim-kitti\n"
       "  --data     reference data directory (default: the build's PCL_PARALLEL_DATA_DIR)\n"
       "  --repeats  timed repeats per cell, median reported (default 5)\n"
       "  --threads  thread counts to compare (default: 1 and all cores)\n");
@@ -112,7 +114,11 @@ main(int argc, char** argv)
       {"lum-bunny", runLumBunny},
       {"lum-scaling", runLumScaling},
       {"icp", runIcp},
-      {"pslam", runPslam}};
+      {"pslam", runPslam},
+      {"sim-office", [](const Options& o) { return runSimPreset(o, "office"); }},
+      {"sim-hannover", [](const Options& o) { return runSimPreset(o, "hannover"); }},
+      {"sim-riegl", [](const Options& o) { return runSimPreset(o, "riegl"); }},
+      {"sim-kitti", [](const Options& o) { return runSimPreset(o, "kitti"); }}};
   if (what == "all") {
     int rc = 0;
     for (const auto& b : benches)
@@ -120,6 +126,8 @@ main(int argc, char** argv)
         rc |= b.second(opt);
     return rc;
   }
+  if (what == "sim")
+    return runSim(opt);
   const auto it = benches.find(what);
   if (it == benches.end()) {
     usage();

@@ -12,72 +12,12 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string>
 
 namespace pcl_parallel {
 namespace sim {
 
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-/** Entry and exit distances of a ray through a box (slab test); false if it misses. */
-bool
-intersect(const Box& b,
-          const Eigen::Vector3d& o,
-          const Eigen::Vector3d& d,
-          double& t_in,
-          double& t_out)
-{
-  t_in = -kInf;
-  t_out = kInf;
-  for (int k = 0; k < 3; ++k) {
-    if (std::abs(d(k)) < 1e-15) { // parallel to this slab: inside it or a miss
-      if (o(k) < b.min(k) || o(k) > b.max(k))
-        return false;
-      continue;
-    }
-    double t1 = (b.min(k) - o(k)) / d(k);
-    double t2 = (b.max(k) - o(k)) / d(k);
-    if (t1 > t2)
-      std::swap(t1, t2);
-    t_in = std::max(t_in, t1);
-    t_out = std::min(t_out, t2);
-  }
-  return t_in <= t_out;
-}
-
-/** First hit (> 0) of a ray with a capped vertical cylinder; false if none. */
-bool
-intersect(const Cylinder& c, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double& t)
-{
-  t = kInf;
-  const double ox = o.x() - c.x, oy = o.y() - c.y;
-  const double a = d.x() * d.x() + d.y() * d.y();
-  const double r2 = c.radius * c.radius;
-  if (a > 1e-15) { // side
-    const double b = ox * d.x() + oy * d.y();
-    const double cc = ox * ox + oy * oy - r2;
-    const double disc = b * b - a * cc;
-    if (disc >= 0.0) {
-      const double s = std::sqrt(disc);
-      for (const double root : {(-b - s) / a, (-b + s) / a}) {
-        const double z = o.z() + root * d.z();
-        if (root > 0.0 && z >= c.z_min && z <= c.z_max) {
-          t = std::min(t, root);
-          break; // the nearer root first
-        }
-      }
-    }
-  }
-  if (std::abs(d.z()) > 1e-15) // caps
-    for (const double z : {c.z_min, c.z_max}) {
-      const double root = (z - o.z()) / d.z();
-      const double x = ox + root * d.x(), y = oy + root * d.y();
-      if (root > 0.0 && x * x + y * y <= r2)
-        t = std::min(t, root);
-    }
-  return t < kInf;
-}
 
 Eigen::Matrix4d
 planarPose(double x, double y, double z, double heading)
@@ -106,38 +46,14 @@ validate(const SimulationParameters& p)
     bad("step_length and laps must be positive");
   if (!(p.obstacle_spacing >= 0.0))
     bad("obstacle_spacing must not be negative");
-  const ScannerModel& s = p.scanner;
-  if (s.azimuth_steps < 1 || s.elevation_steps < 1 || !(s.max_range > s.min_range) ||
-      !(s.min_range >= 0.0) || !(s.range_noise >= 0.0) || !(s.max_elevation >= s.min_elevation))
-    bad("invalid scanner model");
+  if (p.scanner.sweep_period != 0.0)
+    bad("the corridor set is stop-and-go: scanner.sweep_period must be 0");
+  sim::validate(p.scanner);
   if (!(p.odometry_heading_noise >= 0.0) || !(p.odometry_translation_noise >= 0.0))
     bad("odometry noise must not be negative");
 }
 
 } // namespace
-
-bool
-World::raycast(const Eigen::Vector3d& origin,
-               const Eigen::Vector3d& dir,
-               double max_range,
-               double& range) const
-{
-  range = kInf;
-  for (const Box& b : boxes) {
-    double t_in, t_out;
-    if (!intersect(b, origin, dir, t_in, t_out))
-      continue;
-    const double t = t_in > 0.0 ? t_in : t_out; // from inside: the far side
-    if (t > 0.0)
-      range = std::min(range, t);
-  }
-  for (const Cylinder& c : cylinders) {
-    double t;
-    if (intersect(c, origin, dir, t))
-      range = std::min(range, t);
-  }
-  return range <= max_range;
-}
 
 World
 makeCorridorWorld(const SimulationParameters& p)
@@ -207,42 +123,7 @@ simulateScan(const World& world,
              std::uint32_t seed,
              unsigned num_threads)
 {
-  const int columns = scanner.azimuth_steps, rows = scanner.elevation_steps;
-  const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
-  const Eigen::Vector3d origin = pose.topRightCorner<3, 1>();
-  std::vector<std::vector<pcl::PointXYZ>> per_column(static_cast<std::size_t>(columns));
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1)
-  for (int col = 0; col < columns; ++col) {
-    // One generator per column: the noise does not depend on the thread count.
-    std::seed_seq seq{seed, static_cast<std::uint32_t>(col)};
-    std::mt19937 rng(seq);
-    std::normal_distribution<double> noise(0.0, scanner.range_noise);
-    const double azimuth = 2.0 * M_PI * col / columns;
-    auto& out = per_column[static_cast<std::size_t>(col)];
-    for (int row = 0; row < rows; ++row) {
-      const double elevation =
-          rows > 1 ? scanner.min_elevation +
-                         (scanner.max_elevation - scanner.min_elevation) * row / (rows - 1)
-                   : scanner.min_elevation;
-      const Eigen::Vector3d d(std::cos(elevation) * std::cos(azimuth),
-                              std::cos(elevation) * std::sin(azimuth),
-                              std::sin(elevation));
-      double range;
-      const double n = scanner.range_noise > 0.0 ? noise(rng) : 0.0;
-      if (!world.raycast(origin, r * d, scanner.max_range, range))
-        continue;
-      range += n;
-      if (range < scanner.min_range || range > scanner.max_range)
-        continue;
-      const Eigen::Vector3f p = (range * d).cast<float>();
-      out.emplace_back(p.x(), p.y(), p.z());
-    }
-  }
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  for (const auto& col : per_column)
-    cloud->insert(cloud->end(), col.begin(), col.end());
-  return cloud;
+  return castScan(RayCaster(world), scanner, pose, scanKey(seed, 0), num_threads);
 }
 
 SimulatedScanSet
@@ -283,14 +164,15 @@ simulateScanSet(const SimulationParameters& p, unsigned num_threads)
     set.odometry.push_back(set.odometry.back() * step * error);
   }
 
+  const RayCaster caster(set.world);
   set.scans.resize(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i)
-    set.scans[static_cast<std::size_t>(i)] =
-        simulateScan(set.world,
-                     p.scanner,
-                     set.truth[static_cast<std::size_t>(i)],
-                     p.seed * 7919u + static_cast<std::uint32_t>(i),
-                     num_threads);
+  for (int i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    set.scans[k] = castScan(caster, p.scanner, set.truth[k], scanKey(p.seed, k), num_threads);
+    set.timestamps.push_back(static_cast<double>(i));
+  }
+  set.scanner = p.scanner;
+  set.name = "corridor";
   return set;
 }
 

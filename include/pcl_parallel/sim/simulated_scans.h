@@ -4,55 +4,20 @@
  */
 #pragma once
 
+#include <pcl_parallel/sim/scanner.h>
+#include <pcl_parallel/sim/scene.h>
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace pcl_parallel {
 namespace sim {
-
-/** A solid axis-aligned box (walls, floor, crates). */
-struct Box {
-  Eigen::Vector3d min;
-  Eigen::Vector3d max;
-};
-
-/** A solid vertical cylinder (pillars): axis through (x, y), from z_min to z_max. */
-struct Cylinder {
-  double x = 0.0, y = 0.0, radius = 0.5;
-  double z_min = 0.0, z_max = 3.0;
-};
-
-/** The world the scanner sees: solid primitives, metres. */
-struct World {
-  std::vector<Box> boxes;
-  std::vector<Cylinder> cylinders;
-
-  /** Distance along the unit direction dir from origin to the first surface hit with
-   *  distance in (0, max_range]; returns false if there is none. A ray starting inside
-   *  a solid hits its far side. */
-  bool
-  raycast(const Eigen::Vector3d& origin,
-          const Eigen::Vector3d& dir,
-          double max_range,
-          double& range) const;
-};
-
-/** A 3D laser scanner: a grid of rays in its own frame (x forward, y left, z up), as a
- *  rotating 2D scanner or a multi-beam lidar produces, with Gaussian range noise. */
-struct ScannerModel {
-  int azimuth_steps = 720;     ///< rays per revolution about z
-  int elevation_steps = 96;    ///< rays per column
-  double min_elevation = -0.6; ///< radians, below the horizon
-  double max_elevation = 0.9;  ///< radians
-  double min_range = 0.3;      ///< metres; closer returns are dropped
-  double max_range = 30.0;     ///< metres; no return beyond
-  double range_noise = 0.005;  ///< standard deviation of the range, metres
-};
 
 /**
  * \brief Parameters of the built-in simulated scan set: a robot driving loops around the
@@ -83,21 +48,37 @@ struct SimulationParameters {
   std::uint32_t seed = 1;
 };
 
-/** The simulated scans, each in its scanner's frame, with true and odometry poses
- *  (p_world = pose * p_scan). odometry[0] = truth[0]. */
+/**
+ * The simulated scans, each in its scanner's frame, with true and odometry poses
+ * (p_world = pose * p_scan, frame x forward, y left, z up). odometry[0] = truth[0].
+ *
+ * A scan taken while moving (scanner.sweep_period > 0, the `kitti` preset) is raw: the
+ * head turns clockwise, column by column, and each point is written in the sensor frame
+ * at the moment its column was taken. point_times[i][k] is point k's sweep time in
+ * [0, 1): the sensor pose at that moment is the pose at timestamps[i] + (t - 0.5) *
+ * sweep_period. It equals t = 0.5 (1 - atan2(y, x) / pi) of the point (KITTI's
+ * convention, KISS-ICP's GetTimestamps), so a pipeline can deskew from the points alone;
+ * truth[i] and odometry[i] are the poses at mid-sweep t = 0.5. For stop-and-go scans
+ * point_times is empty.
+ */
 struct SimulatedScanSet {
   std::vector<pcl::PointCloud<pcl::PointXYZ>::Ptr> scans;
   std::vector<Eigen::Matrix4d> truth;
   std::vector<Eigen::Matrix4d> odometry;
   World world;
+  std::vector<std::vector<float>> point_times; ///< per scan, per point; empty: stop-and-go
+  std::vector<double> timestamps;              ///< seconds, scan i at mid-sweep
+  ScannerModel scanner;                        ///< the model that took the scans
+  std::string name;                            ///< the preset, or "corridor"
 };
 
 /** The building floor of the parameters (walls, floor, ceiling, obstacles). */
 World
 makeCorridorWorld(const SimulationParameters& params);
 
-/** One scan of the world from a pose (scanner frame), rays in parallel. The noise comes
- *  from `seed` alone, so a scan is the same for any thread count. */
+/** One stop-and-go scan of the world from a pose (scanner frame), rays in parallel. The
+ *  noise comes from `seed` alone, so a scan is the same for any thread count. Builds a
+ *  RayCaster for the world each call: for many scans use castScan. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 simulateScan(const World& world,
              const ScannerModel& scanner,
