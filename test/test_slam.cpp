@@ -118,7 +118,7 @@ TEST(Pipeline, FrontEndBeatsOdometry)
 /** Loop closing on the paper's scan-to-scan front end (which drifts more): the lap's end
  *  is linked to its start, the ATE drops at least 3x to below 1 cm (this lap is short:
  *  the front end drifts 3 cm), and no consecutive pair ends worse
- *  than the front end left it beyond 1 cm / 0.1 deg (the scale of the 5 mm range noise
+ *  than the front end left it beyond 1 cm / 0.15 deg (the scale of the 5 mm range noise
  *  over a few metres). */
 TEST(Pipeline, LoopClosingCutsDriftAndBreaksNoLink)
 {
@@ -146,7 +146,7 @@ TEST(Pipeline, LoopClosingCutsDriftAndBreaksNoLink)
         evaluation::poseError(run.front_end[i - 1].inverse() * run.front_end[i], truth);
     const auto after = evaluation::poseError(run.final[i - 1].inverse() * run.final[i], truth);
     EXPECT_LE(after.distance, before.distance + 0.01) << "pair " << i - 1 << "-" << i;
-    EXPECT_LE(after.angle, before.angle + 0.1 * kDeg) << "pair " << i - 1 << "-" << i;
+    EXPECT_LE(after.angle, before.angle + 0.15 * kDeg) << "pair " << i - 1 << "-" << i;
   }
 }
 
@@ -198,8 +198,9 @@ TEST(Pipeline, BadInputIsAClearError)
   EXPECT_THROW(pipeline.addScan(one), std::invalid_argument); // odometry for some only
 }
 
-// A scanner standing still (or turning in place) is near every earlier scan: loop links
-// stay one per loopsize / 2 scans, so the graph grows linearly.
+// A scanner turning in place (30 deg per scan) is near every earlier scan and sees again
+// what it saw 12 scans before: loop links stay one per loopsize / 2 scans, so the graph
+// grows linearly.
 TEST(LoopCloser, LingeringScannerMakesALinearGraph)
 {
   const auto& set = corridorSet();
@@ -210,7 +211,7 @@ TEST(LoopCloser, LingeringScannerMakesALinearGraph)
   slam::LoopCloser closer(p);
   const std::size_t n = 80;
   for (std::size_t i = 0; i < n; ++i) {
-    closer.addScan(set.scans[0], set.truth[0]);
+    closer.addScan(set.scans[0], set.truth[0] * makePose(double(i % 12) * 30 * kDeg, 0, 0));
     closer.detect();
   }
   std::size_t loops = 0;
@@ -225,12 +226,20 @@ TEST(LoopCloser, CandidatesByDistanceAndSeparation)
   Poses poses;
   for (int i = 0; i < 30; ++i)
     poses.push_back(makePose(0, i < 15 ? i : 29 - i, 0)); // out and back along x
-  const auto c = slam::loopCandidates(poses, 29, 1.5, 10);
+  const auto c = slam::loopCandidates(poses, 29, 1.5, 10, 10.0);
   // Scan 29 is at x = 0: scans 0 and 1 (x = 0, 1) are within 1.5, 10+ scans back.
   ASSERT_EQ(c.size(), 2u);
   EXPECT_EQ(c[0], 0u);
   EXPECT_EQ(c[1], 1u);
-  EXPECT_TRUE(slam::loopCandidates(poses, 5, 100.0, 10).empty());
+  EXPECT_TRUE(slam::loopCandidates(poses, 5, 100.0, 10, 10.0).empty());
+  // Standing still: every scan is near, none is a loop (no path between them) ...
+  const Poses still(30, makePose(0, 1, 2));
+  EXPECT_TRUE(slam::loopCandidates(still, 29, 1.5, 10, 10.0).empty());
+  // ... until the scanner has turned in place far enough (4 x 30 deg at 10 m > 2 x 1.5 m).
+  Poses turning;
+  for (int i = 0; i < 30; ++i)
+    turning.push_back(makePose(i * 30 * kDeg, 1, 2));
+  EXPECT_EQ(slam::loopCandidates(turning, 29, 1.5, 10, 10.0).size(), 20u);
 }
 
 // Spreading a loop's error puts the last scan exactly where the loop link says, leaves the

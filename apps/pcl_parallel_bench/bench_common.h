@@ -120,7 +120,7 @@ int
 runIcp(const Options& opt);
 /** The pcl_pslam pipeline on the simulated scan set, stage by stage. */
 int
-runPslam(const Options& opt);
+runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry);
 /** Simulating the presets (sim/presets.h), 1 vs N threads; "sim-NAME" for one preset. */
 int
 runSim(const Options& opt);

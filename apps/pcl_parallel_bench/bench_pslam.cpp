@@ -2,70 +2,144 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * "pslam": the pcl_pslam pipeline on the built-in simulated scan set (the demo), stage by
- * stage, 1 vs N threads: reduction, sequential pICP, pLUM, and the pose errors reached.
+ * "pslam-NAME": the mapping pipeline (slam::Pipeline) end to end on a simulated preset,
+ * 1 vs N threads. The preset is written to disk in the app's formats first; each run then
+ * streams the scans as pcl_pslam does: read a scan, feed it, next. Reported per stage
+ * (reading included), per scan and as scans per second, with the errors (ATE, per-frame
+ * RPE) of the odometry, the front end and the final poses against the truth.
  */
 #include "bench_common.h"
-#include "slam_pipeline.h"
 
-#include <pcl_parallel/sim/simulated_scans.h>
+#include <pcl_parallel/evaluation/trajectory_error.h>
+#include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/io/uos.h>
+#include <pcl_parallel/sim/presets.h>
+#include <pcl_parallel/sim/scan_set_writer.h>
+#include <pcl_parallel/slam/pipeline.h>
 
 #include <chrono>
 #include <cstdio>
-#include <map>
+#include <filesystem>
 
 namespace pcl_parallel {
 namespace bench {
 
-int
-runPslam(const Options& opt)
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double
+since(Clock::time_point t)
 {
-  const auto set = sim::simulateScanSet(sim::SimulationParameters());
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+/** One scan as pcl_pslam reads it: uos .3d in cm (scaled to m) with its .pose, or KITTI
+ *  .bin with a line of odometry.txt. */
+struct Reader {
+  fs::path dir;
+  bool uos;
+  std::vector<Eigen::Matrix4d> odometry; // kitti
+  slam::Cloud::Ptr
+  scan(std::size_t i, Eigen::Matrix4d& pose) const
+  {
+    char name[32];
+    if (uos) {
+      std::snprintf(name, sizeof(name), "scan%03zu", i);
+      auto cloud = io::loadUosScan((dir / (std::string(name) + ".3d")).string());
+      for (auto& p : *cloud)
+        p.getVector3fMap() *= 0.01f;
+      pose = io::loadUosPose((dir / (std::string(name) + ".pose")).string());
+      pose.topRightCorner<3, 1>() *= 0.01;
+      return cloud;
+    }
+    std::snprintf(name, sizeof(name), "%06zu.bin", i);
+    pose = odometry[i];
+    return io::loadKittiScan((dir / name).string());
+  }
+};
+
+} // namespace
+
+int
+runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
+{
+  const auto set = sim::simulatePreset(preset, 1u, 0u);
+  const fs::path dir = fs::temp_directory_path() / ("pcl_parallel_bench_" + preset);
+  fs::remove_all(dir);
+  sim::writeScanSet(set, dir.string());
+  Reader reader{dir, set.point_times.empty(), {}};
+  if (!reader.uos)
+    reader.odometry = io::loadKittiPoses((dir / "odometry.txt").string());
+  const auto truth = io::loadKittiPoses((dir / "ground_truth.txt").string());
+  const std::size_t n = truth.size();
   std::size_t points = 0;
   for (const auto& s : set.scans)
     points += s->size();
-  std::printf("### pcl_pslam: simulated scan set (the demo)\n\n");
-  std::printf("%zu scans, %zu points; pcl_pslam's default parameters (10 cm voxels, pICP "
-              "0.5 m / 100 iterations, loops within 3 m, pLUM point-to-plane with 5 link "
-              "steps, gate 1 m -> 0.2 m). Stage times of one run each; the runs are "
-              "deterministic, so the errors are the same for every thread count.\n\n",
-              set.scans.size(),
-              points);
-  Table t({"threads",
-           "reduce [s]",
-           "pICP [s]",
-           "pLUM [s]",
-           "total [s]",
-           "pLUM iterations",
-           "final max error"});
+  std::printf("### pcl_pslam pipeline: preset %s (%s)\n\n", preset.c_str(),
+              use_odometry ? "from its odometry" : "no odometry: constant velocity");
+  std::printf("%zu scans, %zu points (%.0f per scan), read from %s; default parameters%s. "
+              "One run per thread count (deterministic: the errors are the same).\n\n",
+              n, points, double(points) / n, dir.c_str(),
+              reader.uos ? "" : ", deskewed");
+
+  Table t({"threads", "read [s]", "front end [s]", "loop det. [s]", "loop closing [s]",
+           "total [s]", "ms/scan", "scans/s", "relaxations"});
+  evaluation::TrajectoryEvaluation odo_eval, fe_eval, final_eval;
   double total_one = 0.0;
   for (unsigned threads : opt.threads) {
-    pcl_pslam::Parameters params;
-    params.num_threads = threads;
-    using Clock = std::chrono::steady_clock;
-    std::map<std::string, Clock::time_point> last; // last progress event of each stage
+    slam::Parameters p;
+    p.num_threads = threads;
+    p.deskew = !reader.uos;
+    slam::Pipeline pipeline(p);
+    double read = 0.0;
     const auto start = Clock::now();
-    const pcl_pslam::Result r = pcl_pslam::run(
-        set.scans, set.odometry, params, [&](const std::string& stage, int, int) {
-          last[stage] = Clock::now();
-        });
-    const auto end = Clock::now();
-    auto seconds = [](Clock::time_point a, Clock::time_point b) {
-      return std::chrono::duration<double>(b - a).count();
-    };
-    const double total = seconds(start, end);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto r0 = Clock::now();
+      Eigen::Matrix4d odo;
+      const auto scan = reader.scan(i, odo);
+      read += since(r0);
+      pipeline.addScan(*scan, use_odometry ? std::optional<Eigen::Matrix4d>(odo) : std::nullopt);
+    }
+    pipeline.finish();
+    const double total = since(start);
     if (total_one == 0.0)
       total_one = total;
-    const auto e = pcl_pslam::poseErrors(r.final, set.truth);
-    t.addRow({fmt("%u", threads),
-              fmt("%.2f", seconds(start, last["reduce"])),
-              fmt("%.2f", seconds(last["reduce"], last["icp"])),
-              fmt("%.2f", seconds(last["icp"], end)),
-              fmt("%.2f (%.2fx)", total, total_one / total),
-              fmt("%d", r.lum_iterations),
-              fmt("%.3f m, %.3f deg", e.max_trans, e.max_rot * 180.0 / M_PI)});
+    const auto& st = pipeline.times();
+    t.addRow({fmt("%u", threads), fmt("%.2f", read), fmt("%.2f", st.front_end + st.preprocess),
+              fmt("%.2f", st.loop_detection), fmt("%.2f", st.loop_closing),
+              fmt("%.2f (%.2fx)", total, total_one / total), fmt("%.1f", 1e3 * total / n),
+              fmt("%.1f", n / total), fmt("%d", pipeline.relaxations())});
+    evaluation::EvaluationOptions eo;
+    std::vector<Eigen::Matrix4d> odometry;
+    for (std::size_t i = 0; i < n; ++i) {
+      Eigen::Matrix4d o;
+      reader.uos ? (void)reader.scan(i, o) : (void)(o = reader.odometry[i]);
+      odometry.push_back(o);
+    }
+    odo_eval = evaluation::evaluateTrajectory(odometry, truth, eo);
+    fe_eval = evaluation::evaluateTrajectory(pipeline.frontEndPoses(), truth, eo);
+    final_eval = evaluation::evaluateTrajectory(pipeline.poses(), truth, eo);
+    if (threads == opt.threads.front())
+      std::printf("kept per scan: %zu bytes; %zu links\n\n", pipeline.bytesPerScan(),
+                  pipeline.links().size());
   }
   t.print();
+  Table e({"poses", "ATE rmse [m]", "ATE rot. rmse [deg]", "RPE [%]", "RPE [deg/m]",
+           "per-frame RPE [m]"});
+  auto row = [&](const char* what, const evaluation::TrajectoryEvaluation& v) {
+    e.addRow({what, fmt("%.4f", v.ate.translation.rmse), fmt("%.3f", v.ate.rotation_deg.rmse),
+              fmt("%.3f", v.kitti.translation_percent), fmt("%.5f", v.kitti.rotation_deg_per_m),
+              fmt("%.4f", v.rpe.translation.rmse)});
+  };
+  std::printf("\n");
+  if (use_odometry)
+    row("odometry", odo_eval);
+  row("front end", fe_eval);
+  row("final", final_eval);
+  e.print();
+  fs::remove_all(dir);
   return 0;
 }
 

@@ -59,7 +59,7 @@ usage()
 {
   std::printf(
       "usage: pcl_parallel_bench <what> [--data DIR] [--repeats N] [--threads 1,2,...]\n"
-      "  what: kdtree | icp | lum (= lum-bunny + lum-scaling) | pslam | all\n"
+      "  what: kdtree | icp | lum (= lum-bunny + lum-scaling) | all\n        pslam (every preset, minutes) | pslam-office | pslam-hannover | pslam-riegl | pslam-kitti | pslam-kitti-cv\n"
       "        sim (every preset, minutes) | sim-office | sim-hannover | sim-riegl | "
       "sim-kitti\n"
       "  --data     reference data directory (default: the build's PCL_PARALLEL_DATA_DIR)\n"
@@ -114,7 +114,11 @@ main(int argc, char** argv)
       {"lum-bunny", runLumBunny},
       {"lum-scaling", runLumScaling},
       {"icp", runIcp},
-      {"pslam", runPslam},
+      {"pslam-office", [](const Options& o) { return runPslamPreset(o, "office", true); }},
+      {"pslam-hannover", [](const Options& o) { return runPslamPreset(o, "hannover", true); }},
+      {"pslam-riegl", [](const Options& o) { return runPslamPreset(o, "riegl", true); }},
+      {"pslam-kitti", [](const Options& o) { return runPslamPreset(o, "kitti", true); }},
+      {"pslam-kitti-cv", [](const Options& o) { return runPslamPreset(o, "kitti", false); }},
       {"sim-office", [](const Options& o) { return runSimPreset(o, "office"); }},
       {"sim-hannover", [](const Options& o) { return runSimPreset(o, "hannover"); }},
       {"sim-riegl", [](const Options& o) { return runSimPreset(o, "riegl"); }},
@@ -128,6 +132,13 @@ main(int argc, char** argv)
   }
   if (what == "sim")
     return runSim(opt);
+  if (what == "pslam") { // every preset, and kitti without odometry
+    int rc = 0;
+    for (const auto& b : benches)
+      if (b.first.rfind("pslam-", 0) == 0)
+        rc |= b.second(opt);
+    return rc;
+  }
   const auto it = benches.find(what);
   if (it == benches.end()) {
     usage();

@@ -35,14 +35,19 @@ AdaptiveThreshold::AdaptiveThreshold(double initial_threshold,
 }
 
 double
-AdaptiveThreshold::modelError(const Eigen::Matrix4d& deviation) const
+motionDisplacement(const Eigen::Matrix4d& d, double range)
 {
   // Rotation angle from sin (skew part) and cos (trace): acos alone loses small angles.
-  const Eigen::Matrix4d& d = deviation;
   const Eigen::Vector3d w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
   const double theta =
       std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0));
-  return deviation.topRightCorner<3, 1>().norm() + 2.0 * max_range_ * std::sin(0.5 * theta);
+  return d.topRightCorner<3, 1>().norm() + 2.0 * range * std::sin(0.5 * theta);
+}
+
+double
+AdaptiveThreshold::modelError(const Eigen::Matrix4d& deviation) const
+{
+  return motionDisplacement(deviation, max_range_);
 }
 
 void

@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/lum.h>
 #include <pcl_parallel/slam/loop_closure.h>
@@ -42,15 +43,6 @@ overlap(const Cloud& source, const Pose& pose, const KdTreeIndex& target, double
     hits += target.nearest(q.data(), max_sqr, d2) != KdTreeIndex::kInvalid ? 1 : 0;
   }
   return tried ? static_cast<double>(hits) / static_cast<double>(tried) : 0.0;
-}
-
-/** Size of a relative motion as a displacement: translation plus the chord the rotation
- *  sweeps at `range` (KISS-ICP's model error, Vizzo et al. 2023, Eq. 8). */
-double
-displacement(const Pose& motion, double range)
-{
-  const double angle = Eigen::AngleAxisd(Eigen::Matrix3d(motion.topLeftCorner<3, 3>())).angle();
-  return motion.topRightCorner<3, 1>().norm() + 2.0 * range * std::sin(angle / 2.0);
 }
 
 } // namespace
@@ -104,7 +96,8 @@ LoopCloser::detect()
   const std::size_t spacing = static_cast<std::size_t>(std::max(1, params_.min_separation / 2));
   if (!loop_sources_.empty() && j - loop_sources_.back() < spacing)
     return tried;
-  auto candidates = loopCandidates(poses_, j, params_.distance, params_.min_separation);
+  auto candidates =
+      loopCandidates(poses_, j, params_.distance, params_.min_separation, params_.median_range);
   if (candidates.empty())
     return tried;
   // Cheap first look: overlap at the current poses from a sample of the scan; only the
@@ -139,10 +132,10 @@ LoopCloser::detect()
   if (icp.hasConverged()) {
     measured = icp.getFinalTransformation();
     c.overlap = overlap(scan, measured, impl_->trees[i], params_.overlap_distance, 1);
-    c.error = displacement((poses_[i] * measured).inverse() * poses_[j], params_.median_range);
+    c.error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j], params_.median_range);
     double path = 0.0; // what the front end travelled from i to j
     for (std::size_t k = i + 1; k <= j; ++k)
-      path += displacement(poses_[k - 1].inverse() * poses_[k], params_.median_range);
+      path += registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k], params_.median_range);
     c.accepted = c.overlap >= params_.min_overlap &&
                  c.error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path);
   }
@@ -187,15 +180,24 @@ LoopCloser::bytesPerScan() const
 }
 
 std::vector<std::uint32_t>
-loopCandidates(const Poses& poses, std::size_t j, double distance, int min_separation)
+loopCandidates(const Poses& poses,
+               std::size_t j,
+               double distance,
+               int min_separation,
+               double range)
 {
   std::vector<std::pair<double, std::uint32_t>> near;
-  if (min_separation < 1 || j < static_cast<std::size_t>(min_separation))
+  if (min_separation < 1 || j < static_cast<std::size_t>(min_separation) || j >= poses.size())
     return {};
+  // Path from scan i to j (translation plus rotation at `range`), walked backwards.
+  std::vector<double> path(j + 1, 0.0);
+  for (std::size_t k = j; k-- > 0;)
+    path[k] = path[k + 1] +
+              registration::motionDisplacement(poses[k].inverse() * poses[k + 1], range);
   const Eigen::Vector3d pj = poses[j].topRightCorner<3, 1>();
   for (std::size_t i = 0; i + min_separation <= j; ++i) {
     const double d = (poses[i].topRightCorner<3, 1>() - pj).norm();
-    if (d < distance)
+    if (d < distance && path[i] >= 2.0 * distance)
       near.emplace_back(d, static_cast<std::uint32_t>(i));
   }
   std::sort(near.begin(), near.end());

@@ -27,6 +27,12 @@ namespace registration {
  * is among them), so the threshold also shrinks back after a sudden motion; 0 (default)
  * is KISS-ICP's running mean over all samples.
  */
+/** How far a relative motion moves points at distance `range` from the sensor:
+ *  translation plus the chord the rotation sweeps (KISS-ICP's model error, Vizzo et al.
+ *  2023, Sec. III-C). */
+double
+motionDisplacement(const Eigen::Matrix4d& motion, double range);
+
 class AdaptiveThreshold {
 public:
   AdaptiveThreshold(double initial_threshold,

@@ -15,7 +15,7 @@ namespace slam {
 /** Loop detection and closing; lengths in the scans' units (metres for the defaults). */
 struct LoopClosureParameters {
   double distance = 5.0;  ///< cldist: scans whose positions are closer may be linked
-  int min_separation = 20; ///< loopsize: ... if at least this many scans apart
+  int min_separation = 5; ///< loopsize: ... if at least this many scans apart
   double icp_distance = 1.0; ///< pICP gate when a loop pair is matched
   int icp_iterations = 50;
   double overlap_distance = 0.2; ///< a point overlaps if its partner is this close ...
@@ -113,10 +113,18 @@ private:
   std::vector<std::uint32_t> loop_sources_; ///< source scan of each loop link
 };
 
-/** Candidates for loop links of scan j: scans i <= j - min_separation with positions
- *  closer than distance, nearest first. */
+/** Candidates for loop links of scan j, nearest first: scans i <= j - min_separation
+ *  whose position is closer than `distance` (paper Sec. VI-C: cldist, loopsize) and from
+ *  which the scanner went away and came back: the path from i to j (translation plus
+ *  rotation times `range`, see registration::motionDisplacement) is at least
+ *  2 x distance. Neighbours along a slow or stopped path are thus never a "loop", and a
+ *  scanner turning in place closes a loop once it has turned far enough. */
 std::vector<std::uint32_t>
-loopCandidates(const Poses& poses, std::size_t j, double distance, int min_separation);
+loopCandidates(const Poses& poses,
+               std::size_t j,
+               double distance,
+               int min_separation,
+               double range);
 
 /** Closes a loop before relaxation: the poses of scans i+1..j move by growing shares of
  *  the correction that puts j where `measured` (j's pose in i's frame) says, by path

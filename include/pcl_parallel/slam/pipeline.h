@@ -35,7 +35,7 @@ struct Parameters {
   bool deskew = false;            ///< spinning LiDAR: deskew by the predicted motion
   bool close_loops = true;
   double loop_distance = 0.0;     ///< [--cldist] auto r
-  int loop_size = 20;             ///< [--loopsize]
+  int loop_size = 5;              ///< [--loopsize] (3DTK: 20; the path rule does the rest)
   double min_overlap = 0.3;       ///< loop links need this overlap after matching
   double lum_distance = 0.0;      ///< [-D] pLUM's first gate; auto 10 voxels
   int lum_iterations = 20;        ///< [-I]
