@@ -62,6 +62,7 @@ frontEndParameters(const Parameters& p, double r)
   f.map_distance = std::min(p.max_range, 5.0 * r);
   f.max_correspondence_distance = orAuto(p.icp_distance, 10.0 * f.voxel_size);
   f.max_iterations = p.icp_iterations;
+  f.point_to_plane = p.point_to_plane;
   f.transformation_epsilon = p.icp_epsilon;
   f.deskew = p.deskew;
   f.num_threads = p.num_threads;

@@ -31,6 +31,7 @@ struct Parameters {
   MatchTarget match_target = MatchTarget::kLocalMap; ///< [--metascan] vs the paper's scan-to-scan
   double icp_distance = 0.0;      ///< [-d] pICP gate; auto 10 voxels
   int icp_iterations = 50;        ///< [-i]
+  bool point_to_plane = true;     ///< front end pICP point-to-plane (else point-to-point)
   double icp_epsilon = 1e-8;      ///< [--epsICP] squared change of the transform
   bool deskew = false;            ///< spinning LiDAR: deskew by the predicted motion
   bool close_loops = true;
