@@ -1,0 +1,72 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * pcl_pslam's progress on stderr (a live line with ETA on a terminal, one line per stage
+ * otherwise), the time of every stage and step, and SIGINT/SIGTERM: the handler only sets
+ * a flag; every progress update checks it and throws Interrupted, so the run unwinds
+ * before any output is written (or between two outputs, each complete).
+ */
+#pragma once
+
+#include <chrono>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace pcl_pslam {
+
+struct Interrupted : std::runtime_error {
+  explicit Interrupted(int signal);
+  int signal; ///< SIGINT or SIGTERM; exit status 128 + signal
+};
+
+/** Routes SIGINT and SIGTERM to the flag checkInterrupt() reads. */
+void
+installSignalHandlers();
+
+/** Throws Interrupted once a signal arrived. */
+void
+checkInterrupt();
+
+class ProgressReporter {
+public:
+  using Clock = std::chrono::steady_clock;
+
+  /** quiet: print nothing; live: one updating line with ETA (stderr is a terminal). */
+  ProgressReporter(bool quiet, bool live);
+
+  /** `done` of `total` steps of `stage` are done. A new stage name ends the previous
+   *  stage; its clock started at the previous update. Checks for a signal first. */
+  void
+  update(const std::string& stage, int done, int total);
+
+  /** Ends the current stage (prints its line). */
+  void
+  finish();
+
+  struct Stage {
+    std::string name;
+    double seconds = 0.0;
+    int steps = 0;
+    std::vector<double> step_seconds; ///< time of each update since the one before
+  };
+  const std::vector<Stage>&
+  stages() const
+  {
+    return stages_;
+  }
+  /** Seconds since construction. */
+  double
+  elapsed() const;
+
+private:
+  bool quiet_, live_;
+  Clock::time_point start_, stage_start_, last_;
+  bool open_ = false;
+  int total_ = 0;
+  std::vector<Stage> stages_;
+};
+
+} // namespace pcl_pslam
