@@ -142,9 +142,8 @@ loadDirectory(const Options& o, const ReadProgress& progress)
       throw DataError(withoutPrefix(e.what()));
     }
     if (all_poses.size() != files.size())
-      throw DataError(o.poses_file + ": " + std::to_string(all_poses.size()) +
-                      " poses for " + std::to_string(files.size()) + " ." + format +
-                      " scans in " + o.dir);
+      throw DataError(o.poses_file + ": " + std::to_string(all_poses.size()) + " poses for " +
+                      std::to_string(files.size()) + " ." + format + " scans in " + o.dir);
   }
   std::string times_file = o.times_file;
   if (times_file.empty()) // KITTI's layout: sequences/NN/times.txt beside velodyne/

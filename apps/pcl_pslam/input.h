@@ -20,16 +20,16 @@ struct Input {
   std::vector<Cloud::Ptr> scans; ///< in metres (coordinates times `scale`)
   Poses initial;                 ///< odometry, or identities when `odometry` is false
   bool odometry = true;
-  Poses truth;                   ///< the simulation's truth (demo), else empty
+  Poses truth;                    ///< the simulation's truth (demo), else empty
   std::vector<std::string> files; ///< per scan: its file ("" for simulated scans)
   std::vector<int> numbers;       ///< per scan: its number (-s/-e count in these)
   std::vector<double> stamps;     ///< per scan: time (s), or the number when none given
   bool has_stamps = false;
   std::vector<std::size_t> points_read; ///< per scan: points read (after range limits)
-  std::string format;   ///< "3d", "bin", ... ("sim" for the demo)
-  double scale = 1.0;   ///< file coordinates times scale = metres
-  int up = 2;           ///< vertical axis
-  bool frames_3dtk = false; ///< data in 3DTK's frame and units: .frames in those
+  std::string format;                   ///< "3d", "bin", ... ("sim" for the demo)
+  double scale = 1.0;                   ///< file coordinates times scale = metres
+  int up = 2;                           ///< vertical axis
+  bool frames_3dtk = false;             ///< data in 3DTK's frame and units: .frames in those
 };
 
 /** Called after each scan is read (done, total); may throw to stop. */

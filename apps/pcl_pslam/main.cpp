@@ -55,7 +55,7 @@ main(int argc, char** argv)
   bool created_out = false;
   try {
     created_out = pcl_pslam::prepareOutputDirectory(o.out); // before any work
-    pcl_pslam::ProgressReporter progress(o.quiet, ::isatty(2) != 0);
+    pcl_pslam::ProgressReporter progress(o.quiet, ::isatty(2) != 0, true);
     pcl_pslam::Input in;
     if (o.command == "demo") {
       progress.update("simulate", 0, 1);
@@ -68,16 +68,14 @@ main(int argc, char** argv)
     std::size_t points = 0;
     for (const auto& s : in.scans)
       points += s->size();
-    if (!o.quiet)
-      std::fprintf(stderr,
-                   "%zu scans, %zu points%s\n",
-                   in.scans.size(),
-                   points,
-                   in.odometry ? "" : "; no initial poses: constant-velocity guesses");
+    progress.finish();
+    progress.note(std::to_string(in.scans.size()) + " scans, " + std::to_string(points) +
+                  " points" +
+                  (in.odometry ? "" : "; no initial poses: constant-velocity guesses"));
     if (o.metascan || o.eps_icp || o.eps_slam)
-      std::fprintf(stderr,
-                   "pcl_pslam: warning: --metascan, --epsICP and --epsSLAM are accepted but "
-                   "not used by this version of the pipeline\n");
+      progress.note("pcl_pslam: warning: --metascan, --epsICP and --epsSLAM are accepted "
+                    "but not used by this version of the pipeline",
+                    true);
 
     pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);
     params.odometry = in.odometry;
@@ -85,8 +83,7 @@ main(int argc, char** argv)
         in.scans, in.initial, params, [&](const std::string& stage, int done, int total) {
           progress.update(stage, done, total);
         });
-    const auto written =
-        pcl_pslam::writeOutputs(o, in, r, progress, command_line);
+    const auto written = pcl_pslam::writeOutputs(o, in, r, progress, command_line);
 
     if (r.icp_failures > 0)
       std::printf("pICP: %d of %zu matches did not converge; their initial steps were kept\n",

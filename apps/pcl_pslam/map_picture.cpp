@@ -4,10 +4,9 @@
  */
 #include "map_picture.h"
 
-#include <cairo.h>
-
 #include <algorithm>
 #include <array>
+#include <cairo.h>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -201,7 +200,6 @@ chooseStyle(const Cloud& map, const Poses& trajectory, int up)
     traj.push_back(view(t));
   const TrajectoryIndex index(traj, 1.0, 0.25);
   std::vector<char> ceiling(trajectory.size(), 0);
-  std::vector<char> kept(trajectory.size(), 0);
   for (const auto& p : map) {
     const int k = index.nearest(view(p.data));
     if (k < 0)
@@ -215,7 +213,6 @@ chooseStyle(const Cloud& map, const Poses& trajectory, int up)
   for (std::size_t i = 0; i < traj.size(); ++i)
     if (index.nearest(traj[i]) == static_cast<int>(i))
       ++all, seen += ceiling[i] ? 1 : 0;
-  (void)kept;
   return all > 0 && 2 * seen > all ? "floorplan" : "height";
 }
 
@@ -255,13 +252,14 @@ writeMapPicture(const std::string& path,
   // Per pixel: points, and the lowest and highest point above the nearest trajectory
   // position (heights relative to the trajectory, so the ground along a slope or ramp
   // keeps one colour).
-  const std::string style = opt.style == "auto" ? chooseStyle(map, trajectory, opt.up)
-                                                : opt.style;
+  const std::string style =
+      opt.style == "auto" ? chooseStyle(map, trajectory, opt.up) : opt.style;
   const TrajectoryIndex index(traj, opt.radius, opt.radius / 20.0);
   // Cells of the map's voxel size (at least a pixel), so a sparse reduced map reads as
   // surfaces rather than dots.
   const double cell_px = std::max(1.0, opt.cell * scale);
-  const int gw = static_cast<int>(std::ceil(w / cell_px)), gh = static_cast<int>(std::ceil(h / cell_px));
+  const int gw = static_cast<int>(std::ceil(w / cell_px)),
+            gh = static_cast<int>(std::ceil(h / cell_px));
   const std::size_t cells = static_cast<std::size_t>(gw) * gh;
   std::vector<float> hmax(cells, -1e30f);
   std::vector<float> band_lo(cells, 1e30f), band_hi(cells, -1e30f);
@@ -273,7 +271,8 @@ writeMapPicture(const std::string& path,
     if (!(xy.x() >= 0 && xy.y() >= 0 && xy.x() < gw && xy.y() < gh))
       continue;
     const int k = index.nearest(q);
-    rel[i] = static_cast<float>(map[i].data[opt.up] - (k >= 0 ? trajectory[k](opt.up, 3) : 0.0));
+    rel[i] =
+        static_cast<float>(map[i].data[opt.up] - (k >= 0 ? trajectory[k](opt.up, 3) : 0.0));
     cell_of[i] = static_cast<std::int64_t>(xy.y()) * gw + static_cast<std::int64_t>(xy.x());
   }
   // Floor plan: the floor and the ceiling are the most populated 5 cm height bins below
@@ -325,7 +324,8 @@ writeMapPicture(const std::string& path,
   unsigned char* data = cairo_image_surface_get_data(surface.get());
   const int stride_bytes = cairo_image_surface_get_stride(surface.get());
   auto put = [&](int x, int y, double r, double g, double b) {
-    auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::size_t>(y) * stride_bytes);
+    auto* row =
+        reinterpret_cast<std::uint32_t*>(data + static_cast<std::size_t>(y) * stride_bytes);
     row[x] = (static_cast<std::uint32_t>(r * 255) << 16) |
              (static_cast<std::uint32_t>(g * 255) << 8) | static_cast<std::uint32_t>(b * 255);
   };
@@ -346,8 +346,10 @@ writeMapPicture(const std::string& path,
       }
       else
         col = heightColour((hmax[c] - lo) / (hi - lo));
-      const int x0 = static_cast<int>(gx * cell_px), x1 = std::min(w, static_cast<int>((gx + 1) * cell_px));
-      const int y0 = static_cast<int>(gy * cell_px), y1 = std::min(h, static_cast<int>((gy + 1) * cell_px));
+      const int x0 = static_cast<int>(gx * cell_px),
+                x1 = std::min(w, static_cast<int>((gx + 1) * cell_px));
+      const int y0 = static_cast<int>(gy * cell_px),
+                y1 = std::min(h, static_cast<int>((gy + 1) * cell_px));
       for (int y = y0; y < std::max(y1, y0 + 1); ++y)
         for (int x = x0; x < std::max(x1, x0 + 1); ++x)
           put(x + pad, y + pad, col[0], col[1], col[2]);
@@ -367,7 +369,9 @@ writeMapPicture(const std::string& path,
   const double dash[] = {6.0, 4.0};
   cairo_set_dash(cr, dash, 2, 0);
   cairo_set_line_width(cr, 1.2);
-  cairo_set_source_rgba(cr, 0.0, 0.35, 1.0, 0.8);
+  // Many links (a scanner turned in one room) fade, so the trajectory stays visible.
+  const double alpha = std::clamp(40.0 / std::max<double>(1.0, opt.loops.size()), 0.1, 0.8);
+  cairo_set_source_rgba(cr, 0.0, 0.35, 1.0, alpha);
   for (const auto& [a, b] : opt.loops) {
     if (a >= traj.size() || b >= traj.size())
       continue;

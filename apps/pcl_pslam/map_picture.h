@@ -38,12 +38,12 @@ robustExtent(const std::vector<Eigen::Vector2d>& points,
              double margin = 0.04);
 
 struct PictureOptions {
-  int up = 2;                ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
+  int up = 2;                 ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
   std::string style = "auto"; ///< height, floorplan, auto
-  int size = 1400;           ///< pixels on the long side of the map area
-  double radius = 30.0;      ///< metres, for robustExtent
-  double cell = 0.1;         ///< metres: points fill cells of this size (the map's voxel)
-  std::vector<std::string> caption;                         ///< lines under the map
+  int size = 1400;            ///< pixels on the long side of the map area
+  double radius = 30.0;       ///< metres, for robustExtent
+  double cell = 0.1;          ///< metres: points fill cells of this size (the map's voxel)
+  std::vector<std::string> caption;                           ///< lines under the map
   std::vector<std::pair<std::uint32_t, std::uint32_t>> loops; ///< drawn as links
 };
 

@@ -218,13 +218,13 @@ parseCommandLine(int argc, const char* const* argv)
   po::variables_map vm;
   try {
     const std::vector<std::string> args(argv + 2, argv + argc);
-    po::store(po::command_line_parser(args)
-                  .options(all)
-                  .positional(positional)
-                  .style(po::command_line_style::unix_style ^
-                         po::command_line_style::allow_guessing)
-                  .run(),
-              vm);
+    po::store(
+        po::command_line_parser(args)
+            .options(all)
+            .positional(positional)
+            .style(po::command_line_style::unix_style ^ po::command_line_style::allow_guessing)
+            .run(),
+        vm);
     po::notify(vm);
   }
   catch (const po::error& e) {

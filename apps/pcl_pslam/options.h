@@ -36,17 +36,17 @@ struct Options {
   /** simulate / evaluate: their arguments after the command, for their own parsers. */
   std::vector<std::string> rest;
 
-  std::string dir;                 ///< run: the scan directory
+  std::string dir; ///< run: the scan directory
   std::string out = "pcl_pslam_out";
-  std::string poses_file;          ///< KITTI poses, one line per scan file in dir
-  std::string times_file;          ///< one timestamp per scan file (default: times.txt)
-  std::string format;              ///< scan file extension (3d, pcd, ply, xyz, txt, bin)
-  int first = 0;                   ///< -s: first scan number (3DTK: counting from 0)
-  int last = -1;                   ///< -e: last scan number, inclusive (-1: all)
-  double min_range = 0.0;          ///< -M, files' units
+  std::string poses_file; ///< KITTI poses, one line per scan file in dir
+  std::string times_file; ///< one timestamp per scan file (default: times.txt)
+  std::string format;     ///< scan file extension (3d, pcd, ply, xyz, txt, bin)
+  int first = 0;          ///< -s: first scan number (3DTK: counting from 0)
+  int last = -1;          ///< -e: last scan number, inclusive (-1: all)
+  double min_range = 0.0; ///< -M, files' units
   double max_range = std::numeric_limits<double>::infinity(); ///< -m, files' units
-  std::optional<double> scale;     ///< coordinates times this are metres (uos: 0.01)
-  int up = -1;                     ///< vertical axis of the picture (-1: per format)
+  std::optional<double> scale; ///< coordinates times this are metres (uos: 0.01)
+  int up = -1;                 ///< vertical axis of the picture (-1: per format)
 
   std::optional<double> voxel, icp_distance, loop_distance, lum_distance, lum_final;
   int icp_iterations = Parameters().icp_iterations;
@@ -56,9 +56,9 @@ struct Options {
   bool metascan = false;                   ///< accepted; today's pipeline matches pairs
   unsigned threads = 0;
   bool quiet = false;
-  bool ply = false;          ///< also write map.ply
-  bool picture = true;       ///< write map.png
-  std::string style = "auto"; ///< map.png: auto, height, floorplan
+  bool ply = false;                ///< also write map.ply
+  bool picture = true;             ///< write map.png
+  std::string style = "auto";      ///< map.png: auto, height, floorplan
   std::optional<double> map_voxel; ///< map.pcd's voxel (files' units; default: --voxel)
 };
 

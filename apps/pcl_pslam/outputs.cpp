@@ -2,9 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "outputs.h"
-
 #include "map_picture.h"
+#include "outputs.h"
 
 #if __has_include(<pcl_parallel/filters/voxel_grid.h>)
 #include <pcl_parallel/filters/voxel_grid.h>
@@ -19,13 +18,13 @@
 
 #include <Eigen/Geometry>
 #include <boost/version.hpp>
-#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <unistd.h>
 
@@ -308,19 +307,20 @@ writeOutputs(const Options& o,
                         std::to_string(NLOHMANN_JSON_VERSION_PATCH)},
                    {"compiler", __VERSION__}};
   j["threads"] = threads;
-  j["input"] = {{"command", o.command},
-                {"directory", o.dir},
-                {"format", in.format},
-                {"scans", n},
-                {"scale_to_metres", in.scale},
-                {"odometry", in.odometry},
-                {"poses_file", o.poses_file},
-                {"timestamps", in.has_stamps},
-                {"first", o.first},
-                {"last", o.last},
-                {"min_range", o.min_range},
-                {"max_range", std::isfinite(o.max_range) ? nlohmann::json(o.max_range)
-                                                         : nlohmann::json(nullptr)}};
+  j["input"] = {
+      {"command", o.command},
+      {"directory", o.dir},
+      {"format", in.format},
+      {"scans", n},
+      {"scale_to_metres", in.scale},
+      {"odometry", in.odometry},
+      {"poses_file", o.poses_file},
+      {"timestamps", in.has_stamps},
+      {"first", o.first},
+      {"last", o.last},
+      {"min_range", o.min_range},
+      {"max_range",
+       std::isfinite(o.max_range) ? nlohmann::json(o.max_range) : nlohmann::json(nullptr)}};
   j["parameters"] = {{"voxel_size_m", params.voxel_size},
                      {"icp_distance_m", params.icp_distance},
                      {"icp_iterations", params.icp_iterations},

@@ -4,8 +4,11 @@
  */
 #include "progress.h"
 
+#include <cctype>
 #include <csignal>
 #include <cstdio>
+#include <map>
+#include <unistd.h>
 
 namespace pcl_pslam {
 
@@ -40,9 +43,82 @@ checkInterrupt()
     throw Interrupted(g_signal);
 }
 
-ProgressReporter::ProgressReporter(bool quiet, bool live)
-    : quiet_(quiet), live_(live), start_(Clock::now()), stage_start_(start_), last_(start_)
-{}
+ProgressReporter::ProgressReporter(bool quiet, bool live, bool capture)
+    : quiet_(quiet)
+    , live_(live)
+    , start_(Clock::now())
+    , stage_start_(start_)
+    , last_(start_)
+{
+  if (!capture)
+    return;
+  std::fflush(stderr);
+  capture_ = std::tmpfile();
+  saved_stderr_ = capture_ ? ::dup(2) : -1;
+  std::FILE* out = saved_stderr_ >= 0 ? ::fdopen(::dup(saved_stderr_), "w") : nullptr;
+  if (!out || ::dup2(::fileno(capture_), 2) < 0) { // no capture: print as PCL does
+    if (out)
+      std::fclose(out);
+    if (saved_stderr_ >= 0)
+      ::close(saved_stderr_), saved_stderr_ = -1;
+    if (capture_)
+      std::fclose(capture_), capture_ = nullptr;
+    return;
+  }
+  out_ = out;
+}
+
+ProgressReporter::~ProgressReporter()
+{
+  if (!capture_)
+    return;
+  drainWarnings();
+  std::fflush(stderr);
+  ::dup2(saved_stderr_, 2);
+  ::close(saved_stderr_);
+  std::fclose(out_);
+  std::fclose(capture_);
+}
+
+void
+ProgressReporter::drainWarnings()
+{
+  if (!capture_)
+    return;
+  std::fflush(stderr);
+  std::fseek(capture_, read_, SEEK_SET);
+  // Group by the message with its numbers blanked: "Link 3 -> 9 dropped" and "Link 4 ->
+  // 12 dropped" are one kind.
+  std::map<std::string, std::pair<int, std::string>> kinds;
+  std::vector<std::string> order;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof buffer, capture_)) {
+    std::string line(buffer);
+    while (!line.empty() && (line.back() == '\n' || line.back() == '\r'))
+      line.pop_back();
+    if (line.empty())
+      continue;
+    std::string key;
+    for (char c : line)
+      if (!std::isdigit(static_cast<unsigned char>(c)))
+        key += c;
+      else if (key.empty() || key.back() != '#')
+        key += '#';
+    auto& k = kinds[key];
+    if (k.first++ == 0)
+      k.second = line, order.push_back(key);
+  }
+  read_ = std::ftell(capture_);
+  std::fseek(capture_, 0, SEEK_END);
+  for (const auto& key : order) {
+    const auto& [count, first] = kinds[key];
+    if (count == 1)
+      std::fprintf(out_, "%s\n", first.c_str());
+    else
+      std::fprintf(out_, "%s  (and %d more like it)\n", first.c_str(), count - 1);
+  }
+  std::fflush(out_);
+}
 
 double
 ProgressReporter::elapsed() const
@@ -71,10 +147,21 @@ ProgressReporter::update(const std::string& stage, int done, int total)
   if (quiet_ || !live_)
     return;
   const double eta = done > 0 && total > done ? s.seconds / done * (total - done) : 0.0;
-  std::fprintf(stderr, "\r\033[K%-7s %5d / %-5d %7.1f s", stage.c_str(), done, total, s.seconds);
+  std::fprintf(out_, "\r\033[K%-7s %5d / %-5d %7.1f s", stage.c_str(), done, total, s.seconds);
   if (eta > 0.0)
-    std::fprintf(stderr, "   ETA %.0f s", eta);
-  std::fflush(stderr);
+    std::fprintf(out_, "   ETA %.0f s", eta);
+  std::fflush(out_);
+}
+
+void
+ProgressReporter::note(const std::string& text, bool even_if_quiet)
+{
+  if (quiet_ && !even_if_quiet)
+    return;
+  if (live_ && open_)
+    std::fprintf(out_, "\r\033[K");
+  std::fprintf(out_, "%s\n", text.c_str());
+  std::fflush(out_);
 }
 
 void
@@ -84,12 +171,13 @@ ProgressReporter::finish()
     return;
   open_ = false;
   const Stage& s = stages_.back();
+  if (live_ && !quiet_)
+    std::fprintf(out_, "\r\033[K");
+  drainWarnings(); // shown even with -q
   if (quiet_)
     return;
-  if (live_)
-    std::fprintf(stderr, "\r\033[K");
-  std::fprintf(stderr, "%-7s %5d / %-5d %7.1f s\n", s.name.c_str(), s.steps, total_, s.seconds);
-  std::fflush(stderr);
+  std::fprintf(out_, "%-7s %5d / %-5d %7.1f s\n", s.name.c_str(), s.steps, total_, s.seconds);
+  std::fflush(out_);
 }
 
 } // namespace pcl_pslam

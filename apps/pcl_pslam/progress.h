@@ -10,6 +10,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstdio>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -34,8 +35,16 @@ class ProgressReporter {
 public:
   using Clock = std::chrono::steady_clock;
 
-  /** quiet: print nothing; live: one updating line with ETA (stderr is a terminal). */
-  ProgressReporter(bool quiet, bool live);
+  /** quiet: print nothing; live: one updating line with ETA (stderr is a terminal).
+   *  capture: what PCL (and our library through PCL's console) prints on stderr during
+   *  the run is collected and, at the end of each stage, shown condensed: one line per
+   *  kind of message with its count and first instance (LUM alone can warn hundreds of
+   *  times). */
+  ProgressReporter(bool quiet, bool live, bool capture = false);
+  ~ProgressReporter();
+  ProgressReporter(const ProgressReporter&) = delete;
+  ProgressReporter&
+  operator=(const ProgressReporter&) = delete;
 
   /** `done` of `total` steps of `stage` are done. A new stage name ends the previous
    *  stage; its clock started at the previous update. Checks for a signal first. */
@@ -61,8 +70,20 @@ public:
   double
   elapsed() const;
 
+  /** A line for the user (on the real stderr), unless quiet and not even_if_quiet. */
+  void
+  note(const std::string& text, bool even_if_quiet = false);
+
+  /** Prints the captured messages so far, condensed (also done by finish()). */
+  void
+  drainWarnings();
+
 private:
   bool quiet_, live_;
+  int saved_stderr_ = -1;   ///< the real stderr while fd 2 goes to capture_
+  std::FILE* out_ = stderr; ///< where progress goes (the real stderr)
+  std::FILE* capture_ = nullptr;
+  long read_ = 0; ///< bytes of capture_ already shown
   Clock::time_point start_, stage_start_, last_;
   bool open_ = false;
   int total_ = 0;
