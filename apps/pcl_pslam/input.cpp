@@ -168,12 +168,14 @@ loadDirectory(const Options& o, const ReadProgress& progress)
   for (std::size_t i = 0; i < files.size(); ++i)
     if (numbers[i] >= o.first && (o.last < 0 || numbers[i] <= o.last))
       selected.push_back(i);
-  if (selected.size() < 2)
-    throw DataError(o.dir + ": " + std::to_string(selected.size()) + " of its " +
-                    std::to_string(files.size()) + " ." + format +
-                    " scans lie in the range -s " + std::to_string(o.first) +
-                    (o.last >= 0 ? " -e " + std::to_string(o.last) : "") +
-                    "; pcl_pslam needs at least 2");
+  if (files.size() < 2)
+    throw DataError(o.dir + ": 1 ." + format + " scan file; pcl_pslam needs at least 2");
+  if (selected.size() < 2) // the scans are there: -s/-e chose too few
+    throw UsageError(o.dir + ": " + std::to_string(selected.size()) + " of its " +
+                     std::to_string(files.size()) + " ." + format +
+                     " scans lie in the range -s " + std::to_string(o.first) +
+                     (o.last >= 0 ? " -e " + std::to_string(o.last) : "") +
+                     "; pcl_pslam needs at least 2");
 
   const float s = static_cast<float>(in.scale);
   bool have_uos_poses = uos && all_poses.empty();

@@ -36,10 +36,10 @@ struct Input {
 using ReadProgress = std::function<void(int done, int total)>;
 
 /** The scans of o.dir selected by -s/-e, their initial poses and timestamps.
- *  Throws UsageError for a directory that does not exist or a poses/times file that does
- *  not exist, DataError naming the file (and line) for bad data: no scans, a scan that
- *  cannot be parsed or has no finite points within the range limits, a poses or times
- *  file whose line count differs from the number of scan files. */
+ *  Throws UsageError for a directory that does not exist, a poses/times file that does
+ *  not exist or -s/-e that select fewer than 2 scans, DataError naming the file (and line) for
+ * bad data: no scans, a scan that cannot be parsed or has no finite points within the range
+ * limits, a poses or times file whose line count differs from the number of scan files. */
 Input
 loadDirectory(const Options& o, const ReadProgress& progress = ReadProgress());
 

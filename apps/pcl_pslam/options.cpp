@@ -53,9 +53,9 @@ struct Descriptions {
       ("end,e", po::value<int>(&o.last)->value_name("NR"),
        "end after scan NR (inclusive; past the last scan: the last) [default: all]")
       ("max,max-range,m", po::value<double>(&o.max_range)->value_name("NR"),
-       "drop points farther than NR from the scanner, files' units [default: none]")
+       "drop points farther than NR from the scanner, files' units (also --max-range) [default: none]")
       ("min,min-range,M", po::value<double>(&o.min_range)->value_name("NR"),
-       "drop points closer than NR to the scanner, files' units [default 0]")
+       "drop points closer than NR to the scanner, files' units (also --min-range) [default 0]")
       ("poses", po::value<std::string>(&o.poses_file)->value_name("FILE"),
        "initial poses, KITTI format (12 numbers a line), one line per scan file in DIR, "
        "files' units. Default: .pose files beside .3d scans, else none (constant velocity)")
@@ -68,25 +68,25 @@ struct Descriptions {
        "the vertical axis [default z; uos: y]");
     pipeline.add_options()
       ("reduce,voxel,r", po::value<double>()->value_name("NR"),
-       text("voxel size of the reduction (one centroid per voxel) before matching, 0: none "
+       text("voxel size of the reduction (one centroid per voxel) before matching, 0: none (also --voxel) "
             "[default " + std::to_string(d.voxel_size).substr(0, 3) + " m]").c_str())
       ("iter,icp-iterations,i", po::value<int>(&o.icp_iterations)->value_name("NR"),
-       text("maximal number of ICP iterations [default " +
+       text("maximal number of ICP iterations (also --icp-iterations) [default " +
             std::to_string(d.icp_iterations) + "]").c_str())
       ("dist,icp-distance,d", po::value<double>()->value_name("NR"),
-       "maximal point-to-point distance for matching with ICP [default 0.5 m]")
+       "maximal point-to-point distance for matching with ICP (also --icp-distance) [default 0.5 m]")
       ("iterSLAM,lum-iterations,I", po::value<int>(&o.lum_iterations)->value_name("NR"),
-       text("maximal number of pLUM (SLAM) iterations, >= 1 [default " +
+       text("maximal number of pLUM (SLAM) iterations, >= 1 (also --lum-iterations) [default " +
             std::to_string(d.lum_iterations) + "; 3DTK's default 0 skips SLAM]").c_str())
       ("distSLAM,lum-distance,D", po::value<double>()->value_name("NR"),
-       "maximal point-to-point distance for matching with pLUM, first iteration "
+       "maximal point-to-point distance for matching with pLUM, first iteration (also --lum-distance) "
        "[default 1 m]")
       ("lum-final", po::value<double>()->value_name("NR"),
        "pLUM's distance shrinks by x0.7 per iteration down to NR [default 0.2 m]")
       ("cldist,loop-distance,c", po::value<double>()->value_name("NR"),
-       "maximal distance of two scan poses for a closed loop [default 3 m]")
+       "maximal distance of two scan poses for a closed loop (also --loop-distance) [default 3 m]")
       ("loopsize,loop-size,l", po::value<int>(&o.loop_size)->value_name("NR"),
-       text("a loop must exceed NR scans [default " + std::to_string(d.loop_size) + "]")
+       text("a loop must exceed NR scans (also --loop-size) [default " + std::to_string(d.loop_size) + "]")
            .c_str())
       ("epsICP", po::value<double>()->value_name("NR"),
        "stop ICP iteration if the difference is smaller than NR (accepted; today's "
