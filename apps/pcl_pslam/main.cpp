@@ -27,6 +27,15 @@ fail(int status, const std::string& what)
   return status;
 }
 
+/** A failed run leaves no empty --out behind that it created itself. */
+void
+removeIfEmpty(bool created, const std::string& dir)
+{
+  std::error_code ec;
+  if (created && std::filesystem::is_empty(dir, ec))
+    std::filesystem::remove(dir, ec);
+}
+
 } // namespace
 
 int
@@ -55,6 +64,8 @@ main(int argc, char** argv)
   bool created_out = false;
   try {
     created_out = pcl_pslam::prepareOutputDirectory(o.out); // before any work
+    if (created_out)
+      pcl_pslam::removeIfEmptyOnSignal(o.out);
     pcl_pslam::ProgressReporter progress(o.quiet, ::isatty(2) != 0, true);
     pcl_pslam::Input in;
     if (o.command == "demo") {
@@ -83,6 +94,7 @@ main(int argc, char** argv)
         in.scans, in.initial, params, [&](const std::string& stage, int done, int total) {
           progress.update(stage, done, total);
         });
+    pcl_pslam::setWritingOutputs(true);
     const auto written = pcl_pslam::writeOutputs(o, in, r, progress, command_line);
 
     if (r.icp_failures > 0)
@@ -102,16 +114,15 @@ main(int argc, char** argv)
     std::printf("wrote %s/{%s} in %.1f s\n", o.out.c_str(), names.c_str(), progress.elapsed());
   }
   catch (const pcl_pslam::Interrupted& e) {
-    if (created_out) { // remove it again if nothing was written into it
-      std::error_code ec;
-      std::filesystem::remove(o.out, ec);
-    }
+    removeIfEmpty(created_out, o.out);
     return fail(128 + e.signal, std::string(e.what()) + "; outputs are complete or absent");
   }
   catch (const pcl_pslam::UsageError& e) {
+    removeIfEmpty(created_out, o.out);
     return fail(2, e.what());
   }
   catch (const std::exception& e) { // DataError and the pipeline's own checks
+    removeIfEmpty(created_out, o.out);
     return fail(1, e.what());
   }
   return 0;

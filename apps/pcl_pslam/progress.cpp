@@ -15,11 +15,29 @@ namespace pcl_pslam {
 namespace {
 
 volatile std::sig_atomic_t g_signal = 0;
+volatile std::sig_atomic_t g_writing = 0;   // 1 while outputs are being written
+volatile std::sig_atomic_t g_stderr_fd = 2; // the real stderr while PCL's is captured
+char g_remove_dir[4096] = {0};              // an --out this run created, removed if empty
 
+/** Before the outputs nothing exists to leave half-written, and one pICP match or pLUM
+ *  iteration can take seconds, so the run ends at once (only async-signal-safe calls:
+ *  write, rmdir, _exit). While writing, the flag stops it between two complete files. */
 extern "C" void
 onSignal(int s)
 {
   g_signal = s;
+  if (g_writing)
+    return;
+  const char* msg = s == SIGTERM ? "pcl_pslam: terminated (SIGTERM); no outputs were written\n"
+                                 : "pcl_pslam: interrupted (SIGINT); no outputs were written\n";
+  std::size_t n = 0;
+  while (msg[n])
+    ++n;
+  if (::write(g_stderr_fd, msg, n) < 0) { /* nothing left to tell */
+  }
+  if (g_remove_dir[0])
+    ::rmdir(g_remove_dir); // fails, harmlessly, unless empty
+  ::_exit(128 + s);
 }
 
 } // namespace
@@ -34,6 +52,19 @@ installSignalHandlers()
 {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
+}
+
+void
+setWritingOutputs(bool writing)
+{
+  g_writing = writing ? 1 : 0;
+}
+
+void
+removeIfEmptyOnSignal(const std::string& dir)
+{
+  if (dir.size() < sizeof g_remove_dir)
+    dir.copy(g_remove_dir, dir.size()), g_remove_dir[dir.size()] = '\0';
 }
 
 void
@@ -66,6 +97,7 @@ ProgressReporter::ProgressReporter(bool quiet, bool live, bool capture)
     return;
   }
   out_ = out;
+  g_stderr_fd = saved_stderr_;
 }
 
 ProgressReporter::~ProgressReporter()
@@ -74,6 +106,7 @@ ProgressReporter::~ProgressReporter()
     return;
   drainWarnings();
   std::fflush(stderr);
+  g_stderr_fd = 2;
   ::dup2(saved_stderr_, 2);
   ::close(saved_stderr_);
   std::fclose(out_);

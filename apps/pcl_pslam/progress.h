@@ -3,9 +3,10 @@
  * SPDX-License-Identifier: BSD-3-Clause
  *
  * pcl_pslam's progress on stderr (a live line with ETA on a terminal, one line per stage
- * otherwise), the time of every stage and step, and SIGINT/SIGTERM: the handler only sets
- * a flag; every progress update checks it and throws Interrupted, so the run unwinds
- * before any output is written (or between two outputs, each complete).
+ * otherwise), the time of every stage and step, and SIGINT/SIGTERM: before the outputs
+ * are written the run ends at once (there is nothing to leave half-written); while they
+ * are written the handler only sets a flag, every progress update checks it and throws
+ * Interrupted, so the run stops between two complete files.
  */
 #pragma once
 
@@ -26,6 +27,14 @@ struct Interrupted : std::runtime_error {
 /** Routes SIGINT and SIGTERM to the flag checkInterrupt() reads. */
 void
 installSignalHandlers();
+
+/** While true, a signal stops the run at the next progress update instead of at once. */
+void
+setWritingOutputs(bool writing);
+
+/** A directory the run created: a signal before the outputs removes it if empty. */
+void
+removeIfEmptyOnSignal(const std::string& dir);
 
 /** Throws Interrupted once a signal arrived. */
 void
