@@ -9,6 +9,7 @@
 #include "synthetic_graph.h"
 #include "test_data.h"
 
+#include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/registration/loop_detection.h>
 #include <pcl_parallel/registration/lum.h>
@@ -62,8 +63,7 @@ poseErrors(const Poses& a, const Poses& b)
 {
   Errors e;
   for (std::size_t v = 1; v < a.size(); ++v) {
-    double r, t;
-    pcl_parallel::lum::poseError(a[v], b[v], r, t);
+    const auto [r, t] = pcl_parallel::evaluation::poseError(a[v], b[v]);
     e.max_rot = std::max(e.max_rot, r);
     e.max_trans = std::max(e.max_trans, t);
     e.mean_rot += r / static_cast<double>(a.size() - 1);

@@ -5,9 +5,9 @@
  * The built-in simulated scan set: ray casting, scan geometry, determinism over thread
  * counts, odometry drift, a loop closure, and that consecutive scans register with pICP.
  */
+#include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/loop_detection.h>
-#include <pcl_parallel/registration/lum_solver.h>
 #include <pcl_parallel/sim/simulated_scans.h>
 
 #include <pcl/common/transforms.h>
@@ -109,9 +109,9 @@ TEST(SimulatedScans, OdometryDriftsAndTheLoopCloses)
   const double perimeter = 2.0 * (p.outer_length + p.outer_width - 2.0 * p.corridor_width);
   EXPECT_EQ(n, static_cast<std::size_t>(std::floor(p.laps * perimeter / p.step_length)) + 1);
   EXPECT_EQ(set.odometry[0], set.truth[0]);
-  double angle, dist;
-  pcl_parallel::lum::poseError(set.odometry.back(), set.truth.back(), angle, dist);
-  EXPECT_GT(dist, 0.5); // 2% per step over ~60 steps
+  using pcl_parallel::evaluation::poseError;
+  // 2% per step over ~60 steps
+  EXPECT_GT(poseError(set.odometry.back(), set.truth.back()).distance, 0.5);
   const auto links = pcl_parallel::detectLinksByDistance(set.truth, 2.0, 10);
   bool closes = false;
   for (const auto& [i, j] : links)
@@ -120,9 +120,9 @@ TEST(SimulatedScans, OdometryDriftsAndTheLoopCloses)
 
   p.odometry_heading_noise = p.odometry_translation_noise = 0.0;
   const SimulatedScanSet exact = simulateScanSet(p, 2);
-  pcl_parallel::lum::poseError(exact.odometry.back(), exact.truth.back(), angle, dist);
-  EXPECT_LT(dist, 1e-9);
-  EXPECT_LT(angle, 1e-9);
+  const auto exact_error = poseError(exact.odometry.back(), exact.truth.back());
+  EXPECT_LT(exact_error.distance, 1e-9);
+  EXPECT_LT(exact_error.angle, 1e-9);
 }
 
 // Consecutive scans overlap and carry enough structure to register: pICP from the
@@ -155,9 +155,9 @@ TEST(SimulatedScans, ConsecutiveScansRegisterWithPicp)
     pcl::PointCloud<pcl::PointXYZ> aligned;
     icp.align(aligned, odo.cast<float>());
     ASSERT_TRUE(icp.hasConverged()) << "scan " << i;
-    double a, d, a0, d0;
-    pcl_parallel::lum::poseError(icp.getFinalTransformation().cast<double>(), truth, a, d);
-    pcl_parallel::lum::poseError(odo, truth, a0, d0);
+    using pcl_parallel::evaluation::poseError;
+    const auto [a, d] = poseError(icp.getFinalTransformation().cast<double>(), truth);
+    const double d0 = poseError(odo, truth).distance;
     mean_odo += d0 / static_cast<double>(set.scans.size() - 1);
     mean_icp += d / static_cast<double>(set.scans.size() - 1);
     worst_angle = std::max(worst_angle, a);

@@ -14,6 +14,7 @@
 #include "bench_common.h"
 #include "synthetic_graph.h"
 
+#include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/registration/loop_detection.h>
 #include <pcl_parallel/registration/lum.h>
@@ -45,8 +46,7 @@ maxError(const Poses& a, const Poses& b, double& rot, double& trans)
 {
   rot = trans = 0.0;
   for (std::size_t v = 1; v < a.size(); ++v) {
-    double r, t;
-    lum::poseError(a[v], b[v], r, t);
+    const auto [r, t] = evaluation::poseError(a[v], b[v]);
     rot = std::max(rot, r);
     trans = std::max(trans, t);
   }

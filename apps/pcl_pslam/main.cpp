@@ -6,6 +6,7 @@
  * or on the built-in simulated scan set (`pcl_pslam demo`): parse, load, run, write.
  * Exit status: 0 done, 1 bad data, 2 bad usage, 128 + signal when interrupted.
  */
+#include "evaluate_command.h"
 #include "input.h"
 #include "options.h"
 #include "outputs.h"
@@ -16,6 +17,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <iostream>
 #include <unistd.h>
 
 namespace {
@@ -52,7 +54,9 @@ main(int argc, char** argv)
     std::fputs(pcl_pslam::helpText(o.command).c_str(), stdout);
     return 0;
   }
-  if (o.command == "simulate" || o.command == "evaluate") // dispatch point: issue 8
+  if (o.command == "evaluate")
+    return pcl_pslam::evaluateCommand(o.rest, std::cout, std::cerr);
+  if (o.command == "simulate") // dispatch point: issue 8
     return fail(2, o.command + ": not in this build yet");
 
   // PCL's own warnings stay visible (e.g. a reader's complaint), on stderr.
@@ -83,9 +87,9 @@ main(int argc, char** argv)
     progress.note(std::to_string(in.scans.size()) + " scans, " + std::to_string(points) +
                   " points" +
                   (in.odometry ? "" : "; no initial poses: constant-velocity guesses"));
-    if (o.metascan || o.eps_icp || o.eps_slam)
-      progress.note("pcl_pslam: warning: --metascan, --epsICP and --epsSLAM are accepted "
-                    "but not used by this version of the pipeline",
+    if (o.eps_icp || o.eps_slam)
+      progress.note("pcl_pslam: warning: --epsICP and --epsSLAM are accepted but not yet "
+                    "passed to the pipeline",
                     true);
 
     pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);

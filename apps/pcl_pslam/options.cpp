@@ -68,41 +68,49 @@ struct Descriptions {
        "the vertical axis [default z; uos: y]");
     pipeline.add_options()
       ("reduce,voxel,r", po::value<double>()->value_name("NR"),
-       text("voxel size of the reduction (one centroid per voxel) before matching, 0: none (also --voxel) "
-            "[default " + std::to_string(d.voxel_size).substr(0, 3) + " m]").c_str())
+       "voxel size of the reduction (one centroid per voxel) before matching (also "
+       "--voxel) [default: auto, the scans' median range / 20]")
       ("iter,icp-iterations,i", po::value<int>(&o.icp_iterations)->value_name("NR"),
        text("maximal number of ICP iterations (also --icp-iterations) [default " +
             std::to_string(d.icp_iterations) + "]").c_str())
       ("dist,icp-distance,d", po::value<double>()->value_name("NR"),
-       "maximal point-to-point distance for matching with ICP (also --icp-distance) [default 0.5 m]")
+       "maximal point-to-point distance for matching with ICP (also --icp-distance) "
+       "[default: auto, 10 voxels]")
       ("iterSLAM,lum-iterations,I", po::value<int>(&o.lum_iterations)->value_name("NR"),
-       text("maximal number of pLUM (SLAM) iterations, >= 1 (also --lum-iterations) [default " +
-            std::to_string(d.lum_iterations) + "; 3DTK's default 0 skips SLAM]").c_str())
+       text("maximal number of pLUM (SLAM) iterations per relaxation, >= 1 (also "
+            "--lum-iterations) [default " + std::to_string(d.lum_iterations) +
+            "; 3DTK's default 0 skips SLAM: here --no-loops]").c_str())
       ("distSLAM,lum-distance,D", po::value<double>()->value_name("NR"),
-       "maximal point-to-point distance for matching with pLUM, first iteration (also --lum-distance) "
-       "[default 1 m]")
+       "maximal point-to-point distance for matching with pLUM, first iteration (also "
+       "--lum-distance) [default: auto, 10 voxels]")
       ("lum-final", po::value<double>()->value_name("NR"),
        "pLUM's distance shrinks by x0.7 per iteration down to NR [default 0.2 m]")
       ("cldist,loop-distance,c", po::value<double>()->value_name("NR"),
-       "maximal distance of two scan poses for a closed loop (also --loop-distance) [default 3 m]")
+       "maximal distance of two scan poses for a closed loop (also --loop-distance) "
+       "[default: auto, the scans' median range]")
       ("loopsize,loop-size,l", po::value<int>(&o.loop_size)->value_name("NR"),
-       text("a loop must exceed NR scans (also --loop-size) [default " + std::to_string(d.loop_size) + "]")
-           .c_str())
+       text("a loop must exceed NR scans (also --loop-size) [default " +
+            std::to_string(d.loop_size) + "]").c_str())
       ("epsICP", po::value<double>()->value_name("NR"),
-       "stop ICP iteration if the difference is smaller than NR (accepted; today's "
-       "pipeline stops at a transformation change of 1e-10)")
+       "stop ICP iteration if the difference is smaller than NR (accepted, not yet "
+       "passed on: the pipeline stops at a squared transform change of 1e-8)")
       ("epsSLAM", po::value<double>()->value_name("NR"),
-       "stop SLAM iteration if the average difference is smaller than NR (accepted; "
-       "today's pipeline stops at a mean pose update of 1e-5)")
+       "stop SLAM iteration if the average difference is smaller than NR (accepted, not "
+       "yet passed on: the pipeline stops at a mean pose update of 1e-4)")
       ("metascan", po::bool_switch(&o.metascan),
-       "match against a meta scan of all previous scans (accepted; today's pipeline "
-       "matches each scan against its predecessor only)");
+       "match each scan against a map of the previous scans (the default here: a local "
+       "map of the recent scans)")
+      ("scan-to-scan", po::bool_switch(&o.scan_to_scan),
+       "match each scan against its predecessor only (the paper's and slam6D's default)")
+      ("deskew", po::bool_switch(&o.deskew),
+       "deskew scans taken while moving (spinning LiDAR) by the predicted motion")
+      ("no-loops", po::bool_switch(&o.no_loops), "no loop closing (front end only)");
     output.add_options()
       ("out,o", po::value<std::string>(&o.out)->value_name("DIR"),
        "where outputs go, created and checked before any work [default pcl_pslam_out]")
       ("ply", po::bool_switch(&o.ply), "also write the map as map.ply")
       ("map-voxel", po::value<double>()->value_name("NR"),
-       "voxel size of map.pcd/map.ply [default: the reduction voxel]")
+       "voxel size of map.pcd/map.ply [default: -r when given, else 0.1 m]")
       ("no-picture", "do not write map.png")
       ("style", po::value<std::string>(&o.style)->value_name("S"),
        "map.png: height (colour = height above the trajectory), floorplan (walls dark, "
@@ -273,6 +281,8 @@ parseCommandLine(int argc, const char* const* argv)
     o.lum_final = positive(vm, "lum-final");
   if (vm.count("cldist"))
     o.loop_distance = positive(vm, "cldist", true);
+  if (o.metascan && o.scan_to_scan)
+    throw UsageError("--metascan and --scan-to-scan exclude each other");
   if (vm.count("map-voxel"))
     o.map_voxel = positive(vm, "map-voxel", true);
   if (vm.count("epsICP"))
@@ -312,13 +322,18 @@ toParameters(const Options& o, double scale)
   p.lum_final_distance = length(o.lum_final, p.lum_final_distance);
   p.lum_iterations = o.lum_iterations;
   p.num_threads = o.threads;
+  p.scan_to_scan = o.scan_to_scan;
+  p.deskew = o.deskew;
+  p.close_loops = !o.no_loops;
   return p;
 }
 
 double
 mapVoxel(const Options& o, double scale)
 {
-  return o.map_voxel ? *o.map_voxel * scale : toParameters(o, scale).voxel_size;
+  if (o.map_voxel)
+    return *o.map_voxel * scale;
+  return o.voxel ? *o.voxel * scale : 0.1; // the automatic voxel is the pipeline's own
 }
 
 } // namespace pcl_pslam

@@ -52,8 +52,11 @@ struct Options {
   int icp_iterations = Parameters().icp_iterations;
   int loop_size = Parameters().loop_size;
   int lum_iterations = Parameters().lum_iterations;
-  std::optional<double> eps_icp, eps_slam; ///< accepted; today's pipeline has fixed ones
-  bool metascan = false;                   ///< accepted; today's pipeline matches pairs
+  std::optional<double> eps_icp, eps_slam; ///< accepted; not yet passed to the pipeline
+  bool metascan = false;     ///< against a map of previous scans (the pipeline's default)
+  bool scan_to_scan = false; ///< against the previous scan only (the paper's default)
+  bool deskew = false;
+  bool no_loops = false;
   unsigned threads = 0;
   bool quiet = false;
   bool ply = false;                ///< also write map.ply
@@ -75,7 +78,8 @@ helpText(const std::string& command);
 Parameters
 toParameters(const Options& o, double scale);
 
-/** Map voxel size in metres (map_voxel scaled, else the reduction voxel). */
+/** Map voxel size in metres (map_voxel scaled, else the reduction voxel, else 0.1 m when
+ *  the reduction voxel is automatic). */
 double
 mapVoxel(const Options& o, double scale);
 

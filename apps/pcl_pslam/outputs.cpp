@@ -5,10 +5,7 @@
 #include "map_picture.h"
 #include "outputs.h"
 
-#if __has_include(<pcl_parallel/filters/voxel_grid.h>)
 #include <pcl_parallel/filters/voxel_grid.h>
-#define PCL_PSLAM_HAVE_VOXEL_CENTROID 1
-#endif
 #include <pcl_parallel/parallel.h>
 
 #include <pcl/common/transforms.h>
@@ -174,12 +171,7 @@ buildMap(const std::vector<Cloud::Ptr>& scans,
     pcl::transformPointCloud(*scans[i], moved, poses[i]);
     map += moved;
   }
-#ifdef PCL_PSLAM_HAVE_VOXEL_CENTROID
   return pcl_parallel::filters::voxelCentroid(map, voxel_size, num_threads);
-#else // TEMPORARY until main has the filter
-  (void)num_threads;
-  return reduce(map.makeShared(), voxel_size);
-#endif
 }
 
 double
@@ -332,7 +324,9 @@ writeOutputs(const Options& o,
                      {"lum_link_iterations", params.lum_link_iterations},
                      {"lum_point_to_plane", params.lum_point_to_plane},
                      {"map_voxel_m", map_voxel},
-                     {"metascan", o.metascan},
+                     {"scan_to_scan", params.scan_to_scan},
+                     {"deskew", params.deskew},
+                     {"close_loops", params.close_loops},
                      {"epsICP", o.eps_icp ? nlohmann::json(*o.eps_icp) : nullptr},
                      {"epsSLAM", o.eps_slam ? nlohmann::json(*o.eps_slam) : nullptr}};
   const ProgressReporter::Stage* icp_stage = nullptr;
@@ -353,10 +347,10 @@ writeOutputs(const Options& o,
                         {"points_reduced", r.reduced[i]->size()}};
     if (!in.files[i].empty())
       s["file"] = in.files[i];
-    // Today's pipeline reports each match's end through its progress callback only:
-    // the time is known, its iterations and residual are not.
-    if (i > 0 && icp_stage && i - 1 < icp_stage->step_seconds.size())
-      s["icp_seconds"] = icp_stage->step_seconds[i - 1];
+    // The pipeline reports each scan's end through its progress callback only: the time
+    // is known (all its stages for this scan), its iterations and residual are not.
+    if (icp_stage && icp_stage->step_seconds.size() == n)
+      s["seconds"] = icp_stage->step_seconds[i];
     scans.push_back(s);
   }
   j["scans"] = scans;

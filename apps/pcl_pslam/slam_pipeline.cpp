@@ -8,12 +8,16 @@
 #include <pcl_parallel/registration/loop_detection.h>
 #include <pcl_parallel/registration/lum.h>
 #include <pcl_parallel/registration/lum_solver.h>
+#include <pcl_parallel/slam/pipeline.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/io/png_io.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <optional>
 #include <cmath>
 #include <fstream>
 #include <stdexcept>
@@ -48,70 +52,53 @@ run(const std::vector<Cloud::Ptr>& scans,
   if (initial.size() != scans.size())
     throw std::invalid_argument("pcl_pslam: " + std::to_string(initial.size()) +
                                 " initial poses for " + std::to_string(n) + " scans");
+  pcl_parallel::slam::Parameters p;
+  p.voxel_size = params.voxel_size;
+  p.icp_distance = params.icp_distance;
+  p.icp_iterations = params.icp_iterations;
+  p.loop_distance = params.loop_distance;
+  p.loop_size = params.loop_size;
+  p.lum_distance = params.lum_distance;
+  p.lum_iterations = params.lum_iterations;
+  p.num_threads = params.num_threads;
+  p.deskew = params.deskew;
+  p.close_loops = params.close_loops;
+  p.match_target = params.scan_to_scan ? pcl_parallel::slam::MatchTarget::kPreviousScan
+                                       : pcl_parallel::slam::MatchTarget::kLocalMap;
+  pcl_parallel::slam::Pipeline pipeline(p);
   for (int i = 0; i < n; ++i) {
     if (!scans[i] || scans[i]->empty())
       throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
-    if (!initial[i].allFinite())
-      throw std::invalid_argument("pcl_pslam: initial pose " + std::to_string(i) +
-                                  " is not finite");
-  }
-  auto report = [&](const char* stage, int done, int total) {
+    pipeline.addScan(*scans[i], params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
     if (progress)
-      progress(stage, done, total);
-  };
-
+      progress("icp", i + 1, n);
+  }
+  pipeline.finish();
+  if (std::getenv("PSLAM_DEBUG"))
+    for (std::size_t i = 0; i < pipeline.reports().size(); ++i) {
+      const auto& r = pipeline.reports()[i];
+      std::fprintf(stderr, "scan %zu: %zu pts, %zu reduced, %zu source, conv %d fit %.4f %.3f s lum %d", i,
+                   r.points, r.reduced_points, r.source_points, int(r.converged), r.fitness, r.seconds, r.lum_iterations);
+      for (const auto& c : r.loops)
+        std::fprintf(stderr, " [%u-%u o=%.2f e=%.3f %s]", c.link.target, c.link.source, c.overlap, c.error, c.accepted ? "ok" : "no");
+      std::fprintf(stderr, "\n");
+    }
   Result result;
-  for (int i = 0; i < n; ++i) {
-    result.reduced.push_back(reduce(scans[i], params.voxel_size));
-    report("reduce", i + 1, n);
-  }
-
-  // Sequential pICP (paper Sec. II): scan i against scan i-1, starting from the odometry
-  // step put on top of scan i-1's matched pose.
-  pcl_parallel::ParallelIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
-  icp.setNumberOfThreads(params.num_threads);
-  icp.setMaxCorrespondenceDistance(params.icp_distance);
-  icp.setMaximumIterations(params.icp_iterations);
-  icp.setTransformationEpsilon(1e-10);
-  result.icp.push_back(initial[0]);
-  for (int i = 1; i < n; ++i) {
-    const Eigen::Matrix4d step =
-        params.odometry ? Eigen::Matrix4d(initial[i - 1].inverse() * initial[i])
-        : i >= 2        ? Eigen::Matrix4d(result.icp[i - 2].inverse() * result.icp[i - 1])
-                        : Eigen::Matrix4d::Identity();
-    icp.setInputSource(result.reduced[i]);
-    icp.setInputTarget(result.reduced[i - 1]);
-    Cloud aligned;
-    icp.align(aligned, step.cast<float>());
-    // A failed match keeps the odometry step rather than a wrong one.
-    const bool ok = icp.hasConverged();
-    result.icp_failures += ok ? 0 : 1;
-    const Eigen::Matrix4d matched = ok ? icp.getFinalTransformation().cast<double>() : step;
-    result.icp.push_back(result.icp.back() * matched);
-    report("icp", i, n - 1);
-  }
-
-  // Loops by pose distance (paper Sec. VI-C), then pLUM over all links (Sec. III, V).
-  result.links = pcl_parallel::detectLinksByDistance(
-      result.icp, params.loop_distance, static_cast<std::size_t>(params.loop_size));
-  pcl_parallel::ParallelLUM<pcl::PointXYZ> lum;
-  lum.setNumberOfThreads(params.num_threads);
+  result.icp = pipeline.frontEndPoses();
+  result.final = pipeline.poses();
+  for (const auto& l : pipeline.links())
+    if (l.loop)
+      result.links.emplace_back(l.source, l.target);
+  for (const auto& r : pipeline.reports())
+    result.icp_failures += r.converged ? 0 : 1;
+  result.lum_iterations = pipeline.relaxations();
   for (int i = 0; i < n; ++i)
-    lum.addPointCloud(result.reduced[i], Eigen::Matrix4f(result.icp[i].cast<float>()));
-  for (const auto& [i, j] : result.links)
-    lum.addLink(i, j);
-  lum.setCorrespondenceDistanceSchedule(
-      params.lum_distance, std::min(params.lum_distance, params.lum_final_distance), 0.7);
-  lum.setPointToPlane(params.lum_point_to_plane);
-  lum.setLinkIterations(params.lum_link_iterations);
-  lum.setMaxIterations(params.lum_iterations);
-  lum.setConvergenceThreshold(1e-5f);
-  lum.setIterationCallback(
-      [&](int it, double) { report("lum", it + 1, params.lum_iterations); });
-  lum.compute();
-  result.lum_iterations = lum.getNumIterationsDone();
-  for (int i = 0; i < n; ++i)
-    result.final.push_back(lum.getPoseMatrix(i));
+    result.reduced.push_back(std::const_pointer_cast<Cloud>(pipeline.reducedScan(i)));
+  const auto& t = pipeline.times();
+  std::printf("stage times: preprocess %.2f s, front end %.2f s, loop detection %.2f s, "
+              "loop closing %.2f s (%d relaxations), %zu bytes/scan kept\n",
+              t.preprocess, t.front_end, t.loop_detection, t.loop_closing,
+              pipeline.relaxations(), pipeline.bytesPerScan());
   return result;
 }
 

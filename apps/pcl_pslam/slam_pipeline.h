@@ -27,14 +27,14 @@ using Poses = std::vector<Eigen::Matrix4d>;
 
 /** Everything the pipeline can be told; the defaults suit metre-scale indoor scans. */
 struct Parameters {
-  double voxel_size = 0.1;         ///< reduction before matching, metres (0: none)
-  double icp_distance = 0.5;       ///< pICP correspondence distance, metres
+  double voxel_size = 0.0;         ///< reduction before matching, metres (0: none)
+  double icp_distance = 0.0;       ///< pICP correspondence distance, metres
   int icp_iterations = 100;        ///< pICP iteration cap
-  double loop_distance = 3.0;      ///< link scans closer than this (paper: cldist), metres
-  int loop_size = 10;              ///< ... at least this many scans apart (paper: loopsize)
-  double lum_distance = 1.0;       ///< pLUM gate of the first iteration, metres
+  double loop_distance = 0.0;      ///< link scans closer than this (paper: cldist), metres
+  int loop_size = 20;              ///< ... at least this many scans apart (paper: loopsize)
+  double lum_distance = 0.0;       ///< pLUM gate of the first iteration, metres
   double lum_final_distance = 0.2; ///< pLUM gate it shrinks to (x0.7 per iteration)
-  int lum_iterations = 30;         ///< pLUM iteration cap
+  int lum_iterations = 20;         ///< pLUM iteration cap
   int lum_link_iterations = 5;     ///< pairing steps per link and iteration
   bool lum_point_to_plane = true;
   unsigned num_threads = 0; ///< 0: all cores
@@ -42,6 +42,9 @@ struct Parameters {
    *  carry no motion; each pICP starts from the previous matched step (constant
    *  velocity), the first from the identity. */
   bool odometry = true;
+  bool deskew = false;       ///< spinning LiDAR scans taken while moving
+  bool scan_to_scan = false; ///< the paper's sequential pICP instead of the local map
+  bool close_loops = true;
 };
 
 /** Progress: a stage name ("reduce", "icp", "lum"), steps done, steps in all. */

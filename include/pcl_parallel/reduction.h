@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace pcl_parallel {
@@ -17,24 +18,21 @@ namespace pcl_parallel {
 constexpr std::size_t kReductionBlockSize = 2048;
 
 /**
- * \brief Thread-count independent parallel reduction (paper Eq. 11-13).
- *
- * [0, n) is cut into fixed blocks of \a block_size. Each block is reduced on its own by
- * `Acc block(std::size_t begin, std::size_t end)`, whichever thread runs it, and the block
- * results are then folded in block order by `void combine(Acc& into, const Acc& from)`.
- * Neither the grouping nor the order of floating-point operations depends on the number
- * of threads, so the result is bit-identical for any thread count. Block results live in
- * cache-line padded slots so no two threads write to one line.
+ * \brief The map half of deterministicReduce(): [0, n) cut into fixed blocks of
+ * \a block_size, `Acc block(std::size_t begin, std::size_t end)` run on each block by
+ * whichever thread takes it, the results returned in block order. What a block computes
+ * depends only on its range, never on the thread count. Use it directly when the
+ * combination is not a plain fold (e.g. pICP's Eq. 12 needs every block's centroid).
  */
-template <typename Acc, typename BlockFn, typename CombineFn>
-Acc
-deterministicReduce(std::size_t n,
+template <typename Acc, typename BlockFn>
+std::vector<Acc>
+deterministicBlocks(std::size_t n,
                     unsigned num_threads,
                     const Acc& identity,
                     BlockFn&& block,
-                    CombineFn&& combine,
                     std::size_t block_size = kReductionBlockSize)
 {
+  // Block results in cache-line padded slots so no two threads write to one line.
   struct alignas(kCacheLineSize) Slot {
     Acc value;
   };
@@ -50,9 +48,35 @@ deterministicReduce(std::size_t n,
     const std::size_t end = begin + block_size < n ? begin + block_size : n;
     partial[b].value = block(begin, end);
   }
+  std::vector<Acc> out;
+  out.reserve(blocks);
+  for (Slot& s : partial)
+    out.push_back(std::move(s.value));
+  return out;
+}
+
+/**
+ * \brief Thread-count independent parallel reduction.
+ *
+ * deterministicBlocks() reduces each fixed block on its own; the block results are then
+ * folded in block order by `void combine(Acc& into, const Acc& from)`. Neither the
+ * grouping nor the order of floating-point operations depends on the number of threads,
+ * so the result is bit-identical for any thread count.
+ */
+template <typename Acc, typename BlockFn, typename CombineFn>
+Acc
+deterministicReduce(std::size_t n,
+                    unsigned num_threads,
+                    const Acc& identity,
+                    BlockFn&& block,
+                    CombineFn&& combine,
+                    std::size_t block_size = kReductionBlockSize)
+{
+  const std::vector<Acc> partial =
+      deterministicBlocks(n, num_threads, identity, block, block_size);
   Acc total = identity;
-  for (const Slot& s : partial)
-    combine(total, s.value);
+  for (const Acc& a : partial)
+    combine(total, a);
   return total;
 }
 

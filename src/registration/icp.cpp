@@ -15,9 +15,6 @@
 #include <pcl/impl/instantiate.hpp>
 #include <pcl/point_types.h>
 
-#include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
-
 #include <algorithm>
 #include <cmath>
 #include <utility>
@@ -73,50 +70,6 @@ spatialOrder(const float* xyz,
   std::sort(keyed.begin(), keyed.end());
   for (std::size_t k = 0; k < keyed.size(); ++k)
     order[k] = keyed[k].second;
-}
-
-Eigen::Matrix4d
-rigidTransformFromMoments(const PairMoments& mo, const double ref[3], bool horn)
-{
-  const double n = mo.n;
-  // Centroids (Eq. 3) of the shifted pairs.
-  const Eigen::Vector3d cd(mo.sd[0] / n, mo.sd[1] / n, mo.sd[2] / n);
-  const Eigen::Vector3d cm(mo.sm[0] / n, mo.sm[1] / n, mo.sm[2] / n);
-  // Correlation matrix H = Σ (d - cd)(m - cm)ᵀ = Σ d mᵀ - n cd cmᵀ (Eq. 9, 11-12).
-  Eigen::Matrix3d H;
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b)
-      H(a, b) = mo.sdm[3 * a + b] - n * cd[a] * cm[b];
-
-  Eigen::Matrix3d R;
-  if (!horn) {
-    // Arun et al.: H = U Λ Vᵀ, R = V Uᵀ; a reflection (det < 0) flips V's last column.
-    Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    const Eigen::Matrix3d& u = svd.matrixU();
-    Eigen::Matrix3d v = svd.matrixV();
-    if (u.determinant() * v.determinant() < 0)
-      v.col(2) *= -1.0;
-    R = v * u.transpose();
-  }
-  else {
-    // Horn (1987): the unit quaternion maximising Σ m'·(R d') is the eigenvector of the
-    // largest eigenvalue of N built from S = H (S_ab = Σ d'_a m'_b).
-    const Eigen::Matrix3d& S = H;
-    Eigen::Matrix4d N;
-    N << S(0, 0) + S(1, 1) + S(2, 2), S(1, 2) - S(2, 1), S(2, 0) - S(0, 2), S(0, 1) - S(1, 0),
-        S(1, 2) - S(2, 1), S(0, 0) - S(1, 1) - S(2, 2), S(0, 1) + S(1, 0), S(2, 0) + S(0, 2),
-        S(2, 0) - S(0, 2), S(0, 1) + S(1, 0), -S(0, 0) + S(1, 1) - S(2, 2), S(1, 2) + S(2, 1),
-        S(0, 1) - S(1, 0), S(2, 0) + S(0, 2), S(1, 2) + S(2, 1), -S(0, 0) - S(1, 1) + S(2, 2);
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(N);
-    const Eigen::Vector4d q = eig.eigenvectors().col(3); // eigenvalues ascending
-    R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
-  }
-  // t = cm - R cd (Eq. 7), back in unshifted coordinates.
-  const Eigen::Vector3d r(ref[0], ref[1], ref[2]);
-  Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
-  T.topLeftCorner<3, 3>() = R;
-  T.topRightCorner<3, 1>() = (cm + r) - R * (cd + r);
-  return T;
 }
 
 } // namespace detail

@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/registration/lum_solver.h>
@@ -77,9 +78,9 @@ applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta)
 void
 poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, double& dist)
 {
-  const Eigen::Matrix3d r = a.topLeftCorner<3, 3>().transpose() * b.topLeftCorner<3, 3>();
-  angle = Eigen::AngleAxisd(r).angle();
-  dist = (a.topRightCorner<3, 1>() - b.topRightCorner<3, 1>()).norm();
+  const evaluation::PoseError e = evaluation::poseError(a, b);
+  angle = e.angle;
+  dist = e.distance;
 }
 
 bool

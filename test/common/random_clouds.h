@@ -103,5 +103,37 @@ bruteSortedDistances(const PointQ& q, const pcl::PointCloud<PointT>& cloud)
   return d;
 }
 
+/** n points on the walls, floor and ceiling of a 4 x 3 x 2.5 room with a 0.8 m box on the
+ *  floor, Gaussian noise of sigma (fixed seed): planes in three directions constrain all
+ *  six degrees of freedom, and a new seed samples the same surfaces at other points. */
+inline pcl::PointCloud<pcl::PointXYZ>
+roomCloud(std::size_t n, std::uint32_t seed, float sigma = 0.0f)
+{
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::normal_distribution<float> g(0.0f, sigma > 0 ? sigma : 1.0f);
+  const float ext[3] = {4.0f, 3.0f, 2.5f};
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t face = i % 9;
+    float p[3];
+    if (face < 6) { // a wall
+      for (int a = 0; a < 3; ++a)
+        p[a] = u(rng) * ext[a];
+      p[face / 2] = (face % 2) ? ext[face / 2] : 0.0f;
+    }
+    else { // one of three faces of the box at (1, 1, 0)
+      for (int a = 0; a < 3; ++a)
+        p[a] = (a == 0 ? 1.0f : a == 1 ? 1.0f : 0.0f) + 0.8f * u(rng);
+      p[face - 6] = face == 8 ? 0.8f : 1.8f; // top, and the two sides facing the room
+    }
+    if (sigma > 0)
+      for (float& c : p)
+        c += g(rng);
+    cloud.push_back(pcl::PointXYZ(p[0], p[1], p[2]));
+  }
+  return cloud;
+}
+
 } // namespace test
 } // namespace pcl_parallel

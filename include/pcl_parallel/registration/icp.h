@@ -6,8 +6,10 @@
 
 #include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/registration/correspondence_estimation.h>
+#include <pcl_parallel/registration/icp_factors.h>
 #include <pcl_parallel/registration/mixed_point_types.h>
 #include <pcl_parallel/search/kdtree.h>
+#include <pcl_parallel/search/transformed_nearest.h>
 
 #include <pcl/registration/default_convergence_criteria.h>
 #include <pcl/registration/icp.h>
@@ -74,19 +76,28 @@ private:
  *
  * **Fast path.** With PCL's default components (our parallel correspondence estimation,
  * no rejectors, TransformationEstimationSVD, no reciprocal correspondences, no
- * visualisation callback) each iteration is one fused parallel pass: every source point
- * is transformed by the current estimate, its closest target point within the maximum
- * distance is searched (warm-started from its match of the previous iteration), and the
- * pair is folded into per-block sums n, Σd, Σm, Σ d mᵀ and Σ|m-d|² in double
- * (Eq. 11-13). No correspondence vector is built. Source points are visited in Morton
- * order (computed once per align()), so consecutive searches reuse the cached part of
- * the tree; non-finite source points are skipped. Blocks of fixed size are combined in a
- * fixed order (deterministicReduce), and the search result per point is exact, so the
- * result is bit-identical for any thread count. The rotation comes from the SVD of the
- * correlation matrix H (Eq. 9, Arun's method with the reflection case handled) or,
- * optionally, Horn's unit quaternion; the translation from Eq. 7. The iteration then
- * follows PCL's order (incremental transform, final = incremental * final, convergence
- * check with PCL's DefaultConvergenceCriteria rules), so iteration counts match PCL's.
+ * visualisation callback) each iteration is one parallel pass over fixed blocks of source
+ * points (small_gicp's split: search, per-point factor, robust kernel, reduction):
+ * - search (transformedNearest): every source point is transformed by the current
+ *   estimate and its closest target point within the maximum distance is searched in our
+ *   tree, warm-started from its match of the previous iteration. Source points are visited
+ *   in Morton order (computed once per align()), so consecutive searches reuse the cached
+ *   part of the tree; non-finite source points are skipped. No correspondence vector is
+ *   built.
+ * - factor: point-to-point (default, PCL's error) reduces each block to its pairs'
+ *   centroids and H_i (paper Eq. 13) and combines the blocks by Eq. 12; the rotation comes
+ *   from the SVD of H (Eq. 9, Arun's method with the reflection case handled) or, optionally,
+ *   Horn's unit quaternion, the translation from Eq. 7. Point-to-plane
+ *   (setUsePointToPlane) sums Gauss-Newton normal equations of the linearised rotation per
+ *   block (PointToPlaneFactor), with target normals from the point type's normal fields or
+ *   estimated in parallel (estimateNormals), both kept while the target is unchanged.
+ * - robust kernel (setRobustKernel): Huber or Geman-McClure IRLS weights on the residuals,
+ *   in the same pass (weighted centroids and H for point-to-point).
+ * - reduction (deterministicBlocks): blocks of fixed size combined in a fixed order. The
+ *   search result per point is exact, so the result is bit-identical for any thread count.
+ * The iteration then follows PCL's order (incremental transform, final = incremental *
+ * final, convergence check with PCL's DefaultConvergenceCriteria rules on the MSE of the
+ * squared pair distances), so iteration counts match PCL's.
  *
  * **PCL loop.** With any user-supplied rejector, correspondence or transformation
  * estimator, reciprocal correspondences or a visualisation callback, PCL's own loop
@@ -106,6 +117,11 @@ private:
  * - As PCL's loop, the fast path uses every point of the input source (PCL's ICP does not
  *   honour setIndices for the correspondence search either).
  * - After a fast-path align() the registration's correspondence vector is left empty.
+ * - Point-to-plane applies the solved rotation about the matched points' centroid where
+ *   PCL's TransformationEstimationPointToPlaneLLS applies it about the origin: the same
+ *   linear step and the same fixed point, steps differ at second order.
+ * - Point-to-plane, the robust kernel and alignDouble act on the fast path only; PCL's loop
+ *   (a user component) ignores them with a PCL_WARN.
  * - getFitnessScore() hides Registration::getFitnessScore (not virtual in PCL) with a
  *   parallel version on our tree; called through a pcl::Registration pointer, PCL's serial
  *   version runs (same value up to summation order).
@@ -158,6 +174,79 @@ public:
   getRotationMethod() const
   {
     return rotation_method_;
+  }
+
+  /** Point-to-plane error instead of PCL's point-to-point (fast path only), as
+   *  pcl::IterativeClosestPointWithNormals with TransformationEstimationPointToPlaneLLS.
+   *  Target normals come from the target's normal_x/y/z fields when PointTarget has them
+   *  and setUseTargetNormalFields(true) (default), else they are estimated from the
+   *  setNormalEstimationK() nearest target points (PCA, oriented towards the origin). */
+  void
+  setUsePointToPlane(bool point_to_plane)
+  {
+    point_to_plane_ = point_to_plane;
+  }
+  bool
+  getUsePointToPlane() const
+  {
+    return point_to_plane_;
+  }
+  void
+  setUseTargetNormalFields(bool use)
+  {
+    use_normal_fields_ = use;
+    normals_valid_ = false;
+  }
+  bool
+  getUseTargetNormalFields() const
+  {
+    return use_normal_fields_;
+  }
+  /** Neighbours per estimated normal (default 10; at least 3). */
+  void
+  setNormalEstimationK(unsigned k)
+  {
+    normal_k_ = k < 3 ? 3 : k;
+    normals_valid_ = false;
+  }
+  unsigned
+  getNormalEstimationK() const
+  {
+    return normal_k_;
+  }
+  /** Target normals of the last point-to-plane align(), 3 floats per target tree position
+   *  (empty before). They are reused by the next align() as long as the target is
+   *  unchanged: no setInputTarget() in between, or setSearchMethodTarget(tree, true) (the
+   *  caller's promise that tree and target are current) before it. */
+  const std::vector<float>&
+  getTargetNormals() const
+  {
+    return target_normals_;
+  }
+
+  /** IRLS weights on the residuals (fast path only); RobustKernel::Type::kNone (default)
+   *  is PCL's unweighted least squares. Throws std::invalid_argument for a kernel whose
+   *  scale is not positive and finite. */
+  void
+  setRobustKernel(const RobustKernel& kernel);
+  const RobustKernel&
+  getRobustKernel() const
+  {
+    return kernel_;
+  }
+
+  /** align() with a double-precision guess: on the fast path the estimate is composed in
+   *  double (getFinalTransformationDouble()), so poses far from the origin keep their
+   *  precision; getFinalTransformation() is its Scalar rounding. On PCL's loop the guess is
+   *  rounded to Scalar. */
+  void
+  alignDouble(PointCloudSource& output, const Eigen::Matrix4d& guess);
+  /** The final transform in double: composed in double after alignDouble(), the Scalar
+   *  result widened after align(). */
+  const Eigen::Matrix4d&
+  getFinalTransformationDouble() const
+  {
+    return final_transformation_double_;
   }
 
   /** Drops the private target tree, then PCL's setInputTarget. */
@@ -215,6 +304,19 @@ protected:
   void
   computeTransformationFused(PointCloudSource& output, const Matrix4& guess);
 
+  /** One pass over the source: the step for the current estimate \a tr, the pairs' count
+   *  and MSE. False when the step cannot be solved (point-to-plane: singular system). */
+  bool
+  fusedStep(const KdTreeIndex& target,
+            const SearchTransform& tr,
+            Eigen::Matrix4d& step,
+            double& pairs,
+            double& mse);
+
+  /** Target normals per tree position (fields or estimated), reused while valid. */
+  void
+  updateTargetNormals(const KdTreeIndex& target);
+
   /** The index the target is searched with: tree_'s if it is ours (built here if the
    *  target changed and force_no_recompute is off), else a private one. Null on error. */
   const KdTreeIndex*
@@ -227,19 +329,20 @@ private:
   typename TargetTree::Ptr private_tree_; ///< when tree_ is not a pcl_parallel tree
   std::vector<std::uint32_t> order_;      ///< source points in spatial (Morton) order
   std::vector<std::uint32_t> warm_;       ///< per order_ entry: last match (tree position)
+  std::vector<std::vector<MatchedPair>> pair_buffers_; ///< one per thread: a block's pairs
+  bool point_to_plane_ = false;
+  bool use_normal_fields_ = true;
+  unsigned normal_k_ = 10;
+  RobustKernel kernel_;
+  std::vector<float> target_normals_; ///< 3 per target tree position
+  bool normals_valid_ = false;
+  const KdTreeIndex* normals_index_ = nullptr; ///< the tree target_normals_ belong to
+  bool use_double_ = false;                    ///< alignDouble() in progress
+  Eigen::Matrix4d guess_double_ = Eigen::Matrix4d::Identity();
+  Eigen::Matrix4d final_transformation_double_ = Eigen::Matrix4d::Identity();
 };
 
 namespace detail {
-/** Sums of one block of point pairs (d: transformed source, m: target), shifted by a
- *  fixed reference point to keep the double sums well conditioned (Eq. 11-13). */
-struct PairMoments {
-  double n = 0.0;
-  double sqr_dist = 0.0; ///< Σ |m - d|² (the correspondences' `distance` in PCL)
-  double sd[3] = {0, 0, 0};
-  double sm[3] = {0, 0, 0};
-  double sdm[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; ///< Σ d mᵀ, row-major
-};
-
 /** Indices of the finite points among \a n (stride floats apart) sorted by the Morton
  *  (Z-order) code of their position in a 2^21 grid over their bounding box, ties by
  *  index. Visiting queries in this order makes consecutive searches walk the same part
@@ -251,11 +354,6 @@ spatialOrder(const float* xyz,
              std::size_t stride,
              std::vector<std::uint32_t>& order);
 
-/** Rigid transform that maps d onto m in the least-squares sense (Eq. 7 and 9), from
- *  the moments of \a n pairs shifted by \a ref. \a horn: Horn's quaternion instead of
- *  the SVD. */
-Eigen::Matrix4d
-rigidTransformFromMoments(const PairMoments& moments, const double ref[3], bool horn);
 } // namespace detail
 
 } // namespace registration

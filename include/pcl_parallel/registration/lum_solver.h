@@ -43,7 +43,8 @@ matrixToPose(const Eigen::Matrix4d& m);
 void
 applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta);
 
-/** Rotation angle (rad) and translation distance between two poses. */
+/** Rotation angle (rad) and translation distance between two poses: evaluation::poseError
+ *  (the one place pose errors are computed), kept for existing callers. */
 void
 poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, double& dist);
 

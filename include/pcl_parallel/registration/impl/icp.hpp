@@ -4,6 +4,7 @@
  */
 #pragma once
 
+#include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/reduction.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/impl/correspondence_estimation.hpp>
@@ -11,11 +12,14 @@
 
 #include <pcl/console/print.h>
 #include <pcl/registration/transformation_estimation_svd.h>
+#include <pcl/type_traits.h>
 
 #include <omp.h>
 
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 #include <typeinfo>
 
 namespace pcl_parallel {
@@ -110,7 +114,41 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::setInputTarget(
     const PointCloudTargetConstPtr& cloud)
 {
   private_tree_.reset();
+  // force_no_recompute: the caller promises tree (and so normals) match the target.
+  if (!force_no_recompute_)
+    normals_valid_ = false;
   Base::setInputTarget(cloud);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::setRobustKernel(
+    const RobustKernel& kernel)
+{
+  if (kernel.type != RobustKernel::Type::kNone &&
+      (!(kernel.scale > 0.0) || !std::isfinite(kernel.scale)))
+    throw std::invalid_argument("[pcl_parallel::" + getClassName() +
+                                "::setRobustKernel] the kernel scale must be positive and "
+                                "finite, got " +
+                                std::to_string(kernel.scale));
+  kernel_ = kernel;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::alignDouble(
+    PointCloudSource& output, const Eigen::Matrix4d& guess)
+{
+  use_double_ = true;
+  guess_double_ = guess;
+  try {
+    this->align(output, guess.template cast<Scalar>());
+  }
+  catch (...) {
+    use_double_ = false;
+    throw;
+  }
+  use_double_ = false;
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -130,6 +168,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::targetIndex()
       ours->setNumberOfThreads(num_threads_);
       ours->setInputCloud(target_);
       target_cloud_updated_ = false;
+      normals_valid_ = false;
     }
   }
   else {
@@ -138,6 +177,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::targetIndex()
       private_tree_.reset(new TargetTree);
       private_tree_->setNumberOfThreads(num_threads_);
       private_tree_->setInputCloud(target_);
+      normals_valid_ = false;
     }
     ours = private_tree_.get();
   }
@@ -175,11 +215,131 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
     computeTransformationFused(output, guess);
     return;
   }
+  if (point_to_plane_ || kernel_.type != RobustKernel::Type::kNone)
+    PCL_WARN("[pcl_parallel::%s::computeTransformation] A user component runs PCL's loop: "
+             "point-to-plane and the robust kernel are ignored.\n",
+             getClassName().c_str());
   if (criteria)
     criteria->clearCorrespondencesMSE();
   if (auto* ce = dynamic_cast<CorrespondenceEstimation*>(correspondence_estimation_.get()))
     ce->setNumberOfThreads(num_threads_);
   Base::computeTransformation(output, guess);
+  final_transformation_double_ = final_transformation_.template cast<double>();
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::updateTargetNormals(
+    const KdTreeIndex& target)
+{
+  if (normals_valid_ && normals_index_ == &target &&
+      target_normals_.size() == 3 * target.size())
+    return;
+  normals_index_ = &target;
+  normals_valid_ = true;
+  if constexpr (pcl::traits::has_normal_v<PointTarget>) {
+    if (use_normal_fields_) {
+      // The target's own normals, copied into tree order (contiguous per leaf).
+      const PointCloudTarget& tgt = *target_;
+      target_normals_.resize(3 * target.size());
+      for (std::uint32_t pos = 0; pos < target.size(); ++pos) {
+        const auto& p = tgt[target.id(pos)];
+        target_normals_[3 * pos] = p.normal_x;
+        target_normals_[3 * pos + 1] = p.normal_y;
+        target_normals_[3 * pos + 2] = p.normal_z;
+      }
+      return;
+    }
+  }
+  estimateNormals(target, normal_k_, num_threads_, target_normals_);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+bool
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
+    const KdTreeIndex& target,
+    const SearchTransform& tr,
+    Eigen::Matrix4d& step,
+    double& pairs,
+    double& mse)
+{
+  const PointCloudSource& src = *input_;
+  const std::size_t n = order_.size();
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+  const float bound = sqrDistanceBound(corr_dist_threshold_);
+  const RobustKernel kernel = kernel_;
+  // Per thread: its padded search slot (paper Sec. IV-B) and a block's pair buffer.
+  std::vector<NearestSlot> slots(threads);
+  pair_buffers_.resize(threads);
+
+  if (!point_to_plane_) {
+    const std::vector<PointToPointMoments> children = deterministicBlocks(
+        n, threads, PointToPointMoments{}, [&](std::size_t begin, std::size_t end) {
+          const std::size_t t = static_cast<std::size_t>(omp_get_thread_num()) % threads;
+          NearestSlot& slot = slots[t];
+          std::vector<MatchedPair>& buf = pair_buffers_[t];
+          buf.clear();
+          double sqr_dist = 0.0;
+          MatchedPair pair;
+          for (std::size_t i = begin; i < end; ++i) {
+            const std::uint32_t pos = transformedNearest(
+                target, slot, tr, src[order_[i]].data, pair.d, bound, warm_[i]);
+            if (pos == KdTreeIndex::kInvalid)
+              continue;
+            warm_[i] = pos;
+            pair.m = target.point(pos);
+            pair.w = kernel.weight(slot.sqr_dist);
+            sqr_dist += slot.sqr_dist;
+            buf.push_back(pair);
+          }
+          return PointToPointFactor::child(buf.data(), buf.size(), sqr_dist);
+        });
+    const PointToPointMoments total = PointToPointFactor::combine(children);
+    pairs = total.n;
+    mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
+    if (total.n < static_cast<double>(min_number_correspondences_) || !(total.w > 0.0))
+      return true; // the caller reports too few pairs
+    step =
+        PointToPointFactor::solve(total, rotation_method_ == RotationMethod::kHornQuaternion);
+    return true;
+  }
+
+  // Point-to-plane: normal equations in coordinates shifted by a target point.
+  updateTargetNormals(target);
+  const float* r = target.point(0);
+  const double ref[3] = {r[0], r[1], r[2]};
+  const NormalEquations total = deterministicReduce(
+      n,
+      threads,
+      NormalEquations{},
+      [&](std::size_t begin, std::size_t end) {
+        NormalEquations acc;
+        NearestSlot& slot = slots[static_cast<std::size_t>(omp_get_thread_num()) % threads];
+        float q[3];
+        for (std::size_t i = begin; i < end; ++i) {
+          const std::uint32_t pos =
+              transformedNearest(target, slot, tr, src[order_[i]].data, q, bound, warm_[i]);
+          if (pos == KdTreeIndex::kInvalid)
+            continue;
+          warm_[i] = pos;
+          const float* nrm = &target_normals_[3 * static_cast<std::size_t>(pos)];
+          if (!std::isfinite(nrm[0]) || !std::isfinite(nrm[1]) || !std::isfinite(nrm[2]))
+            continue; // no plane there (PCL's LLS would turn the pair into NaN)
+          const float* m = target.point(pos);
+          const double dd[3] = {q[0] - ref[0], q[1] - ref[1], q[2] - ref[2]};
+          const double mm[3] = {m[0] - ref[0], m[1] - ref[1], m[2] - ref[2]};
+          acc.n += 1.0;
+          acc.sqr_dist += slot.sqr_dist;
+          acc.add(dd, mm, nrm, kernel);
+        }
+        return acc;
+      },
+      [](NormalEquations& into, const NormalEquations& from) { into += from; });
+  pairs = total.n;
+  mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
+  if (total.n < static_cast<double>(min_number_correspondences_))
+    return true;
+  return PointToPlaneFactor::solve(total, ref, step);
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
@@ -206,6 +366,8 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
   else
     criteria.setRotationThreshold(1.0 - transformation_epsilon_);
 
+  final_transformation_double_ =
+      use_double_ ? guess_double_ : Eigen::Matrix4d(guess.template cast<double>());
   const KdTreeIndex* target = targetIndex();
   if (target) {
     const PointCloudSource& src = *input_;
@@ -214,83 +376,51 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
                          src.size(),
                          sizeof(PointSource) / sizeof(float),
                          order_);
-    const std::size_t n = order_.size();
-    const unsigned threads = resolveNumberOfThreads(num_threads_);
-    const float bound = sqrDistanceBound(corr_dist_threshold_);
-    // A target point as reference: shifted sums stay small (Eq. 11-13 in double).
-    const float* r = target->point(0);
-    const double ref[3] = {r[0], r[1], r[2]};
-    warm_.assign(n, KdTreeIndex::kInvalid);
-    // Paper Sec. IV-B: one padded search slot per thread, indexed by thread number.
-    std::vector<NearestSlot> slots(threads);
+    warm_.assign(order_.size(), KdTreeIndex::kInvalid);
 
     do {
       previous_transformation_ = transformation_;
-      // Row-major float copy of the current estimate (the search runs in float).
-      float tr[12];
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c)
-          tr[4 * r + c] = static_cast<float>(final_transformation_(r, c));
+      // The search runs in float on the current estimate (composed in double after
+      // alignDouble, in Scalar as PCL otherwise).
+      const SearchTransform tr = use_double_
+                                     ? SearchTransform::from(final_transformation_double_)
+                                     : SearchTransform::from(final_transformation_);
+      Eigen::Matrix4d step = Eigen::Matrix4d::Identity();
+      double pairs = 0.0, mse = 0.0;
+      const bool solved = fusedStep(*target, tr, step, pairs, mse);
 
-      // One fused parallel pass: transform, closest point (warm start), moments.
-      auto block = [&](std::size_t begin, std::size_t end) {
-        detail::PairMoments acc;
-        NearestSlot& slot = slots[static_cast<std::size_t>(omp_get_thread_num()) % threads];
-        float q[3];
-        slot.query = q;
-        for (std::size_t i = begin; i < end; ++i) {
-          const auto& p = src[order_[i]];
-          for (int r = 0; r < 3; ++r)
-            q[r] = tr[4 * r] * p.x + tr[4 * r + 1] * p.y + tr[4 * r + 2] * p.z + tr[4 * r + 3];
-          const std::uint32_t pos = target->nearest(slot, bound, warm_[i]);
-          if (pos == KdTreeIndex::kInvalid)
-            continue;
-          warm_[i] = pos;
-          const float* m = target->point(pos);
-          const double dd[3] = {q[0] - ref[0], q[1] - ref[1], q[2] - ref[2]};
-          const double mm[3] = {m[0] - ref[0], m[1] - ref[1], m[2] - ref[2]};
-          acc.n += 1.0;
-          acc.sqr_dist += slot.sqr_dist;
-          for (int a = 0; a < 3; ++a) {
-            acc.sd[a] += dd[a];
-            acc.sm[a] += mm[a];
-            for (int b = 0; b < 3; ++b)
-              acc.sdm[3 * a + b] += dd[a] * mm[b];
-          }
-        }
-        return acc;
-      };
-      auto combine = [](detail::PairMoments& into, const detail::PairMoments& from) {
-        into.n += from.n;
-        into.sqr_dist += from.sqr_dist;
-        for (int a = 0; a < 3; ++a) {
-          into.sd[a] += from.sd[a];
-          into.sm[a] += from.sm[a];
-        }
-        for (int k = 0; k < 9; ++k)
-          into.sdm[k] += from.sdm[k];
-      };
-      const detail::PairMoments total =
-          deterministicReduce(n, threads, detail::PairMoments{}, block, combine);
-
-      if (total.n < static_cast<double>(min_number_correspondences_)) {
+      if (pairs < static_cast<double>(min_number_correspondences_)) {
         PCL_ERROR("[pcl_parallel::%s::computeTransformation] Not enough correspondences "
                   "found (%.0f). Relax your threshold parameters.\n",
                   getClassName().c_str(),
-                  total.n);
+                  pairs);
+        criteria.setConvergenceState(State::CONVERGENCE_CRITERIA_NO_CORRESPONDENCES);
+        converged_ = false;
+        break;
+      }
+      if (!solved) {
+        PCL_ERROR("[pcl_parallel::%s::computeTransformation] The point-to-plane system of "
+                  "%.0f pairs is singular (too few independent normals).\n",
+                  getClassName().c_str(),
+                  pairs);
         criteria.setConvergenceState(State::CONVERGENCE_CRITERIA_NO_CORRESPONDENCES);
         converged_ = false;
         break;
       }
 
-      transformation_ = detail::rigidTransformFromMoments(
-                            total, ref, rotation_method_ == RotationMethod::kHornQuaternion)
-                            .template cast<Scalar>();
-      final_transformation_ = transformation_ * final_transformation_;
+      transformation_ = step.template cast<Scalar>();
+      if (use_double_) {
+        final_transformation_double_ = step * final_transformation_double_;
+        final_transformation_ = final_transformation_double_.template cast<Scalar>();
+      }
+      else {
+        final_transformation_ = transformation_ * final_transformation_;
+        final_transformation_double_ = final_transformation_.template cast<double>();
+      }
       ++nr_iterations_;
 
       // PCL's MSE: mean of the correspondences' squared distances.
-      criteria.setCorrespondencesMSE(total.sqr_dist / total.n);
+      criteria.setCorrespondencesMSE(mse);
       converged_ = static_cast<bool>(criteria);
     } while (criteria.getConvergenceState() == State::CONVERGENCE_CRITERIA_NOT_CONVERGED);
   }

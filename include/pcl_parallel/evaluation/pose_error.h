@@ -1,0 +1,55 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <vector>
+
+namespace pcl_parallel {
+namespace evaluation {
+
+using Poses = std::vector<Eigen::Matrix4d>;
+
+/** Angle (rad, in [0, pi]) of the rotation r: atan2(|skew part|, (trace - 1) / 2), which,
+ *  unlike acos((trace - 1) / 2), keeps small angles of float-rounded matrices. */
+double
+rotationAngle(const Eigen::Matrix3d& r);
+
+/** The error of pose a against pose b: the angle (rad) of the rotation between them,
+ *  R_aᵀ·R_b, and the distance between their positions (in the poses' unit). */
+struct PoseError {
+  double angle = 0.0;
+  double distance = 0.0;
+};
+
+PoseError
+poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b);
+
+/** Summary statistics of a list of errors, as evo reports them (evo/core/metrics.py,
+ *  PE.get_statistic): rmse = sqrt(mean(e²)), mean, median (mean of the two middle values
+ *  for an even count, as numpy), std (population, numpy's default), min, max. All zero for
+ *  an empty list (count tells). */
+struct Statistics {
+  std::size_t count = 0;
+  double rmse = 0.0, mean = 0.0, median = 0.0, std = 0.0, min = 0.0, max = 0.0;
+};
+
+Statistics
+computeStatistics(std::vector<double> values);
+
+/** Per-pose errors of a against b, index by index, without any alignment, from index
+ *  \a first on (e.g. 1 to skip a pose fixed at the truth): angles in rad, distances in the
+ *  poses' unit. Throws std::invalid_argument when a and b differ in size. */
+struct PoseErrorSummary {
+  Statistics angle, distance;
+};
+
+PoseErrorSummary
+summarizePoseErrors(const Poses& a, const Poses& b, std::size_t first = 0);
+
+} // namespace evaluation
+} // namespace pcl_parallel

@@ -1,0 +1,105 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <Eigen/Core>
+
+#include <string>
+#include <vector>
+
+/* Trajectory files: KITTI (poses/NN.txt), TUM (evo's and most SLAM evaluations' format) and
+ * 3DTK's .frames. Every reader throws std::runtime_error "pcl_parallel::io: FILE:LINE: what"
+ * for a file it cannot read or parse; every writer writes a temporary file beside the target
+ * and renames it, so a target is either complete or untouched. Numbers are read and written
+ * independently of the locale; written in the shortest form that reads back exactly. */
+
+namespace pcl_parallel {
+namespace io {
+
+enum class PoseFileFormat { Kitti, Tum, Frames };
+
+/** "kitti", "tum", "frames". */
+std::string
+toString(PoseFileFormat format);
+
+/** 3DTK's unit: centimetres. The frames functions take "unit", the metres per file unit:
+ *  translations are multiplied by it when read and divided by it when written (rotations
+ *  are kept: like the app, we work in 3DTK's own left-handed, y-up frame, only scaled). */
+constexpr double kFramesUnit = 0.01;
+
+/** 3DTK's frame type codes (Scan::AlgoType), which its viewer colours. */
+constexpr int kFramesInvalid = 0, kFramesIcp = 1, kFramesIcpInactive = 2, kFramesLum = 3;
+
+/** A trajectory as read from a file: poses (p_world = T·p), and one timestamp per pose (in
+ *  seconds) where the format has them (TUM), else none. */
+struct Trajectory {
+  std::vector<Eigen::Matrix4d> poses;
+  std::vector<double> timestamps;
+  PoseFileFormat format = PoseFileFormat::Kitti;
+};
+
+/** Writes KITTI pose lines (12 numbers: the 3x4 [R|t], row-major), read by loadKittiPoses. */
+void
+writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& poses);
+
+/** Reads a TUM trajectory: per line "timestamp tx ty tz qx qy qz qw" (Sturm et al., TUM
+ *  RGB-D benchmark; evo's file_interface), blank lines and lines starting with '#' skipped.
+ *  The quaternion is normalised; a line whose quaternion norm is not within 1 ± 0.01 (a
+ *  column missing or in another order) is an error, as is any line without exactly 8
+ *  finite numbers. */
+Trajectory
+loadTumTrajectory(const std::string& path);
+
+/** Writes a TUM trajectory (with a "# timestamp tx ty tz qx qy qz qw" header line).
+ *  Without timestamps, pose i gets timestamp i; otherwise one per pose is required
+ *  (std::invalid_argument). */
+void
+writeTumTrajectory(const std::string& path,
+                   const std::vector<Eigen::Matrix4d>& poses,
+                   const std::vector<double>& timestamps = {});
+
+/** Reads every line of one 3DTK .frames file (one scan's pose history, 16 numbers of the
+ *  4x4 matrix in column-major order, then a type code; the last line is the final pose).
+ *  With unit = 1 the last element equals loadFramesFinalPose(path). */
+std::vector<Eigen::Matrix4d>
+loadFrames(const std::string& path, double unit = kFramesUnit);
+
+/** Writes one .frames file: one line per pose of the history (the last is the final one),
+ *  each with the given type code. */
+void
+writeFrames(const std::string& path,
+            const std::vector<Eigen::Matrix4d>& history,
+            double unit = kFramesUnit,
+            int type = kFramesIcp);
+
+/** The final poses of the scanNNN.frames files in a directory, in scan-number order (files
+ *  not named scanNNN.frames after them, by name), as a trajectory. Throws when the directory
+ *  holds no .frames file. */
+std::vector<Eigen::Matrix4d>
+loadFramesDirectory(const std::string& dir, double unit = kFramesUnit);
+
+/** Writes scanNNN.frames (NNN = first_index + i, 3 digits at least, as 3DTK) into an
+ *  existing directory, one line (the final pose) per file. */
+void
+writeFramesDirectory(const std::string& dir,
+                     const std::vector<Eigen::Matrix4d>& poses,
+                     double unit = kFramesUnit,
+                     int type = kFramesIcp,
+                     std::size_t first_index = 0);
+
+/** The format of a pose file or directory: a directory is 3DTK .frames; a file is TUM by
+ *  the extension .tum, KITTI by .kitti, else by its first line that is neither blank nor a
+ *  '#' comment: 8 numbers TUM, 12 KITTI. Throws std::runtime_error naming the path (and
+ *  line) when it is missing or none of these (e.g. a single .frames file: pass its
+ *  directory). */
+PoseFileFormat
+detectPoseFileFormat(const std::string& path);
+
+/** Reads a trajectory in any of the formats above (detectPoseFileFormat). */
+Trajectory
+loadTrajectory(const std::string& path, double frames_unit = kFramesUnit);
+
+} // namespace io
+} // namespace pcl_parallel

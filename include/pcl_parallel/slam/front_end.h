@@ -1,0 +1,91 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/slam/local_map.h>
+#include <pcl_parallel/slam/types.h>
+
+#include <memory>
+#include <optional>
+
+namespace pcl_parallel {
+namespace slam {
+
+/** How a scan is matched: against its predecessor (the paper's sequential pICP, Sec. II)
+ *  or against the local map of the recent scans (3DTK's metascan, KISS-ICP). */
+enum class MatchTarget { kPreviousScan, kLocalMap };
+
+/** The front end's settings; lengths in the scans' units (metres for the defaults). */
+struct FrontEndParameters {
+  MatchTarget target = MatchTarget::kLocalMap;
+  double voxel_size = 0.1;        ///< scan reduction kept in the map and for loop closing
+  double source_voxel_size = 0.3; ///< coarser reduction of the registered points
+  double map_distance = 30.0;     ///< local map: voxels within this of the scanner
+  double map_voxel_size = 0.3;    ///< local map voxel
+  int map_points_per_voxel = 20;  ///< local map density
+  double max_correspondence_distance = 0.5; ///< pICP gate
+  int max_iterations = 50;
+  double transformation_epsilon = 1e-8; ///< pICP stop: squared change of the transform
+  /** Deskew scans of a spinning LiDAR (sweep time from azimuth, see sweepTime) with the
+   *  predicted motion; off for stop-and-go scanners. */
+  bool deskew = false;
+  unsigned num_threads = 0;
+};
+
+/** What the front end did with one scan. */
+struct FrontEndResult {
+  Pose pose;               ///< matched pose (world)
+  Pose prediction;         ///< where the motion prior put it
+  Cloud::Ptr reduced;      ///< deskewed, reduced at voxel_size, scanner frame
+  std::size_t source_points = 0;
+  bool converged = true;   ///< false: pICP failed and the prediction was kept
+  double fitness = 0.0;    ///< mean squared distance of matched pairs (pICP's fitness)
+};
+
+/**
+ * \brief The front end (paper Sec. II with KISS-ICP's structure): per scan, predict the
+ * pose from the odometry step or, without odometry, constant velocity; deskew; reduce;
+ * match with pICP; update the local map.
+ */
+class FrontEnd {
+public:
+  explicit FrontEnd(const FrontEndParameters& params = FrontEndParameters());
+  ~FrontEnd();
+
+  /** Matches the next scan (scanner frame). `odometry`: its odometry pose, if known. */
+  FrontEndResult
+  track(const Cloud& scan, const std::optional<Pose>& odometry = std::nullopt);
+
+  /** Moves the front end's state (last pose, map) by a rigid correction, e.g. after
+   *  loop closing moved the latest scan from last pose to correction * last pose. */
+  void
+  applyCorrection(const Pose& correction);
+
+  /** Sets the pose of the last scan (loop closing); the map moves with it. */
+  void
+  setLastPose(const Pose& pose);
+
+  const Pose&
+  lastPose() const
+  {
+    return pose_;
+  }
+
+private:
+  struct Registration;
+
+  FrontEndParameters params_;
+  std::unique_ptr<Registration> icp_;
+  LocalMap map_;
+  Cloud::Ptr previous_; ///< kPreviousScan: the last scan, reduced, world frame
+  Cloud::ConstPtr target_; ///< what pICP's target tree was built from
+  std::size_t scans_ = 0;
+  Pose pose_ = Pose::Identity();
+  Pose velocity_ = Pose::Identity(); ///< last matched step
+  std::optional<Pose> last_odometry_;
+};
+
+} // namespace slam
+} // namespace pcl_parallel

@@ -1,0 +1,89 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/slam/types.h>
+
+#include <array>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+namespace pcl_parallel {
+namespace slam {
+
+/**
+ * \brief The local map a scan is matched against: the recent scans' points in world
+ * coordinates, thinned to at most `max_points_per_voxel` per voxel and cropped to
+ * `max_distance` around the scanner (3DTK's metascan; KISS-ICP's voxel hash map, Vizzo
+ * et al. 2023, Sec. III-D).
+ *
+ * A voxel keeps the first points that reach it, so the map is a deterministic function
+ * of the scans added, in order. cloud() is the map as one point cloud for the
+ * registration's k-d tree. It is refreshed only when the points added since its last
+ * refresh reach `refresh_fraction` of it: a tree build costs far more than a scan's
+ * matching, and a scan overlaps the map it is matched against mostly in what earlier
+ * scans already saw.
+ */
+class LocalMap {
+public:
+  LocalMap(double voxel_size,
+           double max_distance,
+           int max_points_per_voxel,
+           double refresh_fraction = 0.1);
+
+  /** Adds points (world frame), then drops the voxels farther than max_distance from
+   *  `origin` (the scanner's position). */
+  void
+  update(const Cloud& points, const Eigen::Vector3d& origin);
+
+  /** Moves every point by a rigid correction (after loop closing moved the scans). */
+  void
+  transform(const Pose& correction);
+
+  void
+  clear();
+
+  bool
+  empty() const
+  {
+    return voxels_.empty();
+  }
+
+  /** The map's points as of the last refresh; the same object until the next refresh. */
+  Cloud::ConstPtr
+  cloud() const;
+
+private:
+  using Key = std::array<std::int32_t, 3>;
+  struct KeyHash {
+    std::size_t
+    operator()(const Key& k) const
+    {
+      // The spatial hash of Teschner et al. 2003 (also KISS-ICP's).
+      return static_cast<std::size_t>(static_cast<std::uint32_t>(k[0]) * 73856093u ^
+                                      static_cast<std::uint32_t>(k[1]) * 19349669u ^
+                                      static_cast<std::uint32_t>(k[2]) * 83492791u);
+    }
+  };
+  Key
+  key(const PointT& p) const;
+  void
+  insert(const PointT& p);
+  void
+  refresh();
+
+  double voxel_size_;
+  double max_distance_;
+  std::size_t max_points_;
+  double refresh_fraction_;
+  std::size_t added_ = 0; ///< points added since cloud_ was built
+  std::unordered_map<Key, std::vector<PointT>, KeyHash> voxels_;
+  std::vector<Key> order_; ///< voxels in creation order: cloud() is independent of hashing
+  Cloud::Ptr cloud_;
+};
+
+} // namespace slam
+} // namespace pcl_parallel

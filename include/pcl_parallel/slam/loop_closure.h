@@ -1,0 +1,128 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/slam/types.h>
+
+#include <memory>
+#include <vector>
+
+namespace pcl_parallel {
+namespace slam {
+
+/** Loop detection and closing; lengths in the scans' units (metres for the defaults). */
+struct LoopClosureParameters {
+  double distance = 5.0;  ///< cldist: scans whose positions are closer may be linked
+  int min_separation = 20; ///< loopsize: ... if at least this many scans apart
+  double icp_distance = 1.0; ///< pICP gate when a loop pair is matched
+  int icp_iterations = 50;
+  double overlap_distance = 0.2; ///< a point overlaps if its partner is this close ...
+  double min_overlap = 0.3;      ///< ... and a loop link needs this fraction of overlap
+  int max_candidates = 16; ///< nearest candidates looked at per scan; the best is matched
+  /** A loop's error (see LoopCandidate::error) must be explainable by the front end's
+   *  drift: at most this fraction of the path between the two scans (translation plus
+   *  rotation times the median range), or 2 overlap distances. A larger correction is a
+   *  false match (two similar rooms, a scanner turning in place) and is rejected. */
+  double max_drift = 0.05;
+  bool distribute_error = true;  ///< spread a loop's error along it before pLUM (ELCH's idea)
+  // pLUM (Sec. III, V): pairs within a gate shrinking from lum_distance to
+  // lum_final_distance (x0.7 per iteration), point-to-plane, up to lum_iterations,
+  // stopped once the mean pose update is below lum_epsilon (3DTK's --epsSLAM).
+  double lum_distance = 1.0;
+  double lum_final_distance = 0.2;
+  int lum_iterations = 20;
+  double lum_epsilon = 1e-4;
+  int lum_link_iterations = 1;
+  bool lum_point_to_plane = true;
+  std::size_t lum_queries_per_scan = 500; ///< pairs searched per scan and link direction
+  double median_range = 10.0; ///< of the scans: converts a rotation error to a displacement
+  unsigned num_threads = 0;
+};
+
+/** A loop link that was tried, and what became of it. */
+struct LoopCandidate {
+  Link link;
+  double overlap = 0.0; ///< after matching
+  bool accepted = false;
+  /** How far matching moved the newer scan from where its pose put it: translation plus
+   *  the rotation's displacement at the scans' median range (KISS-ICP's model error). */
+  double error = 0.0;
+};
+
+/**
+ * \brief The pose graph and its loop closing (paper Sec. III, V, VI-C): scans are added
+ * as the front end matches them (each linked to its predecessor); detect() links the
+ * newest scan to earlier ones closer than `distance` and at least `min_separation` scans
+ * back, keeping a link only if the pair, matched with pICP, overlaps by `min_overlap`,
+ * and only one per `min_separation / 2` scans (so a scanner that lingers makes a graph
+ * linear in the scans, not quadratic); relax() runs pLUM over the whole graph.
+ */
+class LoopCloser {
+public:
+  explicit LoopCloser(const LoopClosureParameters& params = LoopClosureParameters());
+  ~LoopCloser();
+
+  /** Adds the next scan (reduced, scanner frame) at its front-end pose. */
+  void
+  addScan(const Cloud::ConstPtr& scan, const Pose& pose);
+
+  /** Looks for loop links of the newest scan; adds the accepted ones to the graph and,
+   *  with distribute_error, moves the poses since the loop's start to close it. Returns
+   *  every pair tried. */
+  std::vector<LoopCandidate>
+  detect();
+
+  /** pLUM over the whole graph from the current poses; returns its iterations. */
+  int
+  relax();
+
+  std::size_t
+  size() const
+  {
+    return poses_.size();
+  }
+  const Poses&
+  poses() const
+  {
+    return poses_;
+  }
+  const std::vector<Link>&
+  links() const
+  {
+    return links_;
+  }
+  const Cloud::ConstPtr&
+  scan(std::size_t i) const
+  {
+    return scans_[i];
+  }
+  /** Bytes held per scan on average (reduced points and their k-d tree). */
+  std::size_t
+  bytesPerScan() const;
+
+private:
+  struct Impl;
+
+  LoopClosureParameters params_;
+  std::unique_ptr<Impl> impl_;
+  std::vector<Cloud::ConstPtr> scans_;
+  Poses poses_;
+  std::vector<Link> links_;
+  std::vector<std::uint32_t> loop_sources_; ///< source scan of each loop link
+};
+
+/** Candidates for loop links of scan j: scans i <= j - min_separation with positions
+ *  closer than distance, nearest first. */
+std::vector<std::uint32_t>
+loopCandidates(const Poses& poses, std::size_t j, double distance, int min_separation);
+
+/** Closes a loop before relaxation: the poses of scans i+1..j move by growing shares of
+ *  the correction that puts j where `measured` (j's pose in i's frame) says, by path
+ *  length along the loop (by index where the scanner did not move). */
+void
+distributeLoopError(Poses& poses, std::size_t i, std::size_t j, const Pose& measured);
+
+} // namespace slam
+} // namespace pcl_parallel

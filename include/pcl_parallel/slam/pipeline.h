@@ -1,0 +1,171 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/slam/front_end.h>
+#include <pcl_parallel/slam/loop_closure.h>
+#include <pcl_parallel/slam/types.h>
+
+#include <functional>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace pcl_parallel {
+namespace slam {
+
+/**
+ * \brief Everything the mapping pipeline can be told (the app's options, 3DTK slam6D's
+ * names in brackets). Lengths are in the scans' units; a length of 0 is chosen from the
+ * first scan's median range r (docs/design.md, "Automatic scale"), so one set of defaults
+ * serves a tilting 2D scanner indoors (r ~ 4 m), a spinning LiDAR on a car (r ~ 15 m)
+ * and a terrestrial scanner (r ~ 30 m).
+ */
+struct Parameters {
+  double min_range = 0.0;                                      ///< [-M] drop closer points
+  double max_range = std::numeric_limits<double>::infinity(); ///< [-m] drop farther points
+  double voxel_size = 0.0; ///< [-r] reduction kept per scan; auto r / 20
+  MatchTarget match_target = MatchTarget::kLocalMap; ///< [--metascan] vs the paper's scan-to-scan
+  double icp_distance = 0.0;      ///< [-d] pICP gate; auto 10 voxels
+  int icp_iterations = 50;        ///< [-i]
+  double icp_epsilon = 1e-8;      ///< [--epsICP] squared change of the transform
+  bool deskew = false;            ///< spinning LiDAR: deskew by the predicted motion
+  bool close_loops = true;
+  double loop_distance = 0.0;     ///< [--cldist] auto r
+  int loop_size = 20;             ///< [--loopsize]
+  double min_overlap = 0.3;       ///< loop links need this overlap after matching
+  double lum_distance = 0.0;      ///< [-D] pLUM's first gate; auto 10 voxels
+  int lum_iterations = 20;        ///< [-I]
+  double lum_epsilon = 1e-4;      ///< [--epsSLAM] mean pose update that ends pLUM
+  bool relax_each_loop = true;    ///< pLUM when a loop is found (the paper), not only at the end
+  unsigned num_threads = 0;       ///< 0: all cores
+};
+
+/** Median distance of the finite points from the scanner (0 for an empty scan). */
+double
+medianRange(const Cloud& scan);
+
+/** The front end's and loop closing's settings for parameters p on scans of median range
+ *  r (resolves the automatic lengths). */
+FrontEndParameters
+frontEndParameters(const Parameters& p, double median_range);
+LoopClosureParameters
+loopClosureParameters(const Parameters& p, double median_range);
+
+/** What happened to one scan. */
+struct ScanReport {
+  std::size_t points = 0;         ///< read
+  std::size_t reduced_points = 0; ///< kept (after crop, deskew and reduction)
+  std::size_t source_points = 0;  ///< registered against the map
+  bool converged = true;          ///< pICP; false: the prediction was kept
+  double fitness = 0.0;           ///< pICP's mean squared pair distance
+  double seconds = 0.0;           ///< all stages for this scan
+  std::vector<LoopCandidate> loops; ///< loop pairs tried
+  int lum_iterations = 0;         ///< pLUM run after this scan (0: none)
+};
+
+/** Seconds spent per stage. */
+struct StageTimes {
+  double preprocess = 0.0, front_end = 0.0, loop_detection = 0.0, loop_closing = 0.0;
+  double
+  total() const
+  {
+    return preprocess + front_end + loop_detection + loop_closing;
+  }
+};
+
+/**
+ * \brief The mapping pipeline (paper Sec. VI; KISS-ICP's per-scan structure) as a
+ * streaming library stage: feed scans one at a time, get poses, links and the map.
+ *
+ * Per scan: crop -> front end (predict, deskew, reduce, pICP against the local map or the
+ * previous scan) -> add to the pose graph -> loop detection -> pLUM when a loop closes.
+ * finish() relaxes once more. Only each scan's reduced points are kept (bytesPerScan()),
+ * never the full-resolution scans. The result is the same for any thread count.
+ */
+class Pipeline {
+public:
+  explicit Pipeline(const Parameters& params = Parameters());
+  ~Pipeline();
+
+  /** Adds the next scan (scanner frame) with its odometry pose, if known: either every
+   *  scan has one or none. Returns the scan's index. Throws std::invalid_argument for a
+   *  scan with no points left after cropping or a non-finite odometry pose. */
+  std::size_t
+  addScan(const Cloud& scan, const std::optional<Pose>& odometry = std::nullopt);
+
+  /** Final pLUM over the whole graph (when loops were found). */
+  void
+  finish();
+
+  std::size_t
+  size() const
+  {
+    return front_end_poses_.size();
+  }
+  /** Current best poses: after the last loop closing. */
+  const Poses&
+  poses() const;
+  /** The front end's poses, before any loop closing. */
+  const Poses&
+  frontEndPoses() const
+  {
+    return front_end_poses_;
+  }
+  const std::vector<Link>&
+  links() const;
+  const std::vector<ScanReport>&
+  reports() const
+  {
+    return reports_;
+  }
+  const StageTimes&
+  times() const
+  {
+    return times_;
+  }
+  /** The resolved lengths (after the first scan). */
+  const FrontEndParameters&
+  frontEndParameters() const
+  {
+    return front_end_params_;
+  }
+  const LoopClosureParameters&
+  loopClosureParameters() const
+  {
+    return loop_params_;
+  }
+  int
+  relaxations() const
+  {
+    return relaxations_;
+  }
+  /** A scan's reduced points (scanner frame), as kept for loop closing and the map. */
+  Cloud::ConstPtr
+  reducedScan(std::size_t i) const;
+  /** The map: the kept scans at the current poses, reduced with voxel_size (<= 0: none). */
+  Cloud::Ptr
+  map(double voxel_size) const;
+  /** Bytes kept per scan (reduced points, their k-d tree and normals, poses). */
+  std::size_t
+  bytesPerScan() const;
+
+private:
+  Parameters params_;
+  FrontEndParameters front_end_params_;
+  LoopClosureParameters loop_params_;
+  std::unique_ptr<FrontEnd> front_end_;
+  std::unique_ptr<LoopCloser> loops_;
+  Poses front_end_poses_;
+  std::vector<ScanReport> reports_;
+  StageTimes times_;
+  int relaxations_ = 0;
+  std::size_t last_loop_scan_ = 0;
+  bool has_odometry_ = false;
+};
+
+} // namespace slam
+} // namespace pcl_parallel

@@ -1,0 +1,34 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace pcl_parallel {
+namespace slam {
+
+/** The mapping pipeline works on xyz points; poses are double from input to output. */
+using PointT = pcl::PointXYZ;
+using Cloud = pcl::PointCloud<PointT>;
+/** A scan's pose: p_world = pose * p_scan. */
+using Pose = Eigen::Matrix4d;
+using Poses = std::vector<Pose>;
+
+/** An edge of the pose graph: scan `target` < scan `source`; `loop` is false for the
+ *  front end's consecutive pairs. */
+struct Link {
+  std::uint32_t target = 0;
+  std::uint32_t source = 0;
+  bool loop = false;
+};
+
+} // namespace slam
+} // namespace pcl_parallel

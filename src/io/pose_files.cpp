@@ -1,0 +1,373 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "detail.h"
+
+#include <pcl_parallel/io/pose_files.h>
+#include <pcl_parallel/io/scan_io.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <regex>
+#include <string_view>
+#include <system_error>
+#include <tuple>
+#include <unistd.h>
+
+namespace pcl_parallel {
+namespace io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using detail::fail;
+
+/** The white-space separated fields of a line. */
+std::vector<std::string_view>
+splitFields(const std::string& line)
+{
+  std::vector<std::string_view> fields;
+  std::size_t pos = 0;
+  while ((pos = line.find_first_not_of(detail::kSpace, pos)) != std::string::npos) {
+    const std::size_t end = std::min(line.find_first_of(detail::kSpace, pos), line.size());
+    fields.emplace_back(line.data() + pos, end - pos);
+    pos = end;
+  }
+  return fields;
+}
+
+/** A whole field as a finite double, independent of the locale (std::from_chars). */
+bool
+parseFinite(std::string_view field, double& value)
+{
+  const char* begin = field.data();
+  const char* end = begin + field.size();
+  if (begin != end && *begin == '+')
+    ++begin;
+  const auto [ptr, ec] = std::from_chars(begin, end, value);
+  return begin != end && ec == std::errc() && ptr == end && std::isfinite(value);
+}
+
+/** Parses exactly n finite numbers (the first `optional` further fields are allowed and
+ *  ignored when they are numbers), or fails naming the line and the column. */
+void
+parseLine(const std::string& path,
+          std::size_t line_no,
+          const std::string& line,
+          double* out,
+          std::size_t n,
+          std::size_t optional,
+          const char* layout)
+{
+  const std::vector<std::string_view> fields = splitFields(line);
+  if (fields.size() < n || fields.size() > n + optional)
+    fail(path,
+         line_no,
+         "expected " + std::to_string(n) + " numbers (" + layout + "), got " +
+             std::to_string(fields.size()) + " fields");
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    double v;
+    if (!parseFinite(fields[k], v))
+      fail(path,
+           line_no,
+           "column " + std::to_string(k + 1) + " is not a finite number: \"" +
+               std::string(fields[k]) + "\"");
+    if (k < n)
+      out[k] = v;
+  }
+}
+
+bool
+isComment(const std::string& line)
+{
+  const std::size_t pos = line.find_first_not_of(detail::kSpace);
+  return pos != std::string::npos && line[pos] == '#';
+}
+
+/** Shortest decimal form that reads back to the same double (std::to_chars). */
+void
+writeNumber(std::ostream& out, double v)
+{
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  out.write(buf, res.ptr - buf);
+}
+
+/** Writes through a temporary file in the target's directory, then renames it over the
+ *  target (atomic on POSIX), so readers never see a half-written file. */
+void
+writeAtomically(const std::string& path, const std::function<void(std::ostream&)>& body)
+{
+  const fs::path target(path);
+  const fs::path tmp = target.parent_path() /
+                       ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()));
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out)
+      fail(path, 0, "cannot open for writing (" + tmp.string() + ")");
+    body(out);
+    out.flush();
+    if (!out) {
+      out.close();
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      fail(path, 0, "write error");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, target, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    fail(path, 0, "cannot rename the written file into place: " + ec.message());
+  }
+}
+
+void
+requireExisting(const std::string& path)
+{
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    fail(path, 0, "no such file or directory");
+}
+
+} // namespace
+
+std::string
+toString(PoseFileFormat format)
+{
+  switch (format) {
+  case PoseFileFormat::Kitti:
+    return "kitti";
+  case PoseFileFormat::Tum:
+    return "tum";
+  case PoseFileFormat::Frames:
+    return "frames";
+  }
+  return "?";
+}
+
+void
+writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& poses)
+{
+  writeAtomically(path, [&](std::ostream& out) {
+    for (const auto& p : poses)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) {
+          writeNumber(out, p(r, c));
+          out << (r == 2 && c == 3 ? '\n' : ' ');
+        }
+  });
+}
+
+Trajectory
+loadTumTrajectory(const std::string& path)
+{
+  requireExisting(path);
+  Trajectory t;
+  t.format = PoseFileFormat::Tum;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    if (isComment(line))
+      return;
+    double v[8];
+    parseLine(path, line_no, line, v, 8, 0, "timestamp tx ty tz qx qy qz qw");
+    Eigen::Quaterniond q(v[7], v[4], v[5], v[6]); // Eigen: (w, x, y, z)
+    const double norm = q.norm();
+    if (!(std::abs(norm - 1.0) <= 0.01))
+      fail(path,
+           line_no,
+           "the quaternion (qx qy qz qw) has norm " + std::to_string(norm) +
+               ", not 1: a missing column or another order?");
+    q.normalize();
+    Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+    pose.topLeftCorner<3, 3>() = q.toRotationMatrix();
+    pose.topRightCorner<3, 1>() = Eigen::Vector3d(v[1], v[2], v[3]);
+    t.timestamps.push_back(v[0]);
+    t.poses.push_back(pose);
+  });
+  return t;
+}
+
+void
+writeTumTrajectory(const std::string& path,
+                   const std::vector<Eigen::Matrix4d>& poses,
+                   const std::vector<double>& timestamps)
+{
+  if (!timestamps.empty() && timestamps.size() != poses.size())
+    throw std::invalid_argument("pcl_parallel::io::writeTumTrajectory: " + path + ": " +
+                                std::to_string(timestamps.size()) + " timestamps for " +
+                                std::to_string(poses.size()) + " poses");
+  writeAtomically(path, [&](std::ostream& out) {
+    out << "# timestamp tx ty tz qx qy qz qw\n";
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      const Eigen::Matrix3d r = poses[i].topLeftCorner<3, 3>();
+      const Eigen::Quaterniond q(r);
+      const double v[8] = {timestamps.empty() ? static_cast<double>(i) : timestamps[i],
+                           poses[i](0, 3),
+                           poses[i](1, 3),
+                           poses[i](2, 3),
+                           q.x(),
+                           q.y(),
+                           q.z(),
+                           q.w()};
+      for (int k = 0; k < 8; ++k) {
+        writeNumber(out, v[k]);
+        out << (k == 7 ? '\n' : ' ');
+      }
+    }
+  });
+}
+
+std::vector<Eigen::Matrix4d>
+loadFrames(const std::string& path, double unit)
+{
+  requireExisting(path);
+  std::vector<Eigen::Matrix4d> history;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    double v[16];
+    parseLine(path, line_no, line, v, 16, 1, "a column-major 4x4 matrix, then a type code");
+    Eigen::Matrix4d pose;
+    for (int i = 0; i < 16; ++i)
+      pose(i % 4, i / 4) = v[i];
+    pose.topRightCorner<3, 1>() *= unit;
+    history.push_back(pose);
+  });
+  if (history.empty())
+    fail(path, 0, "holds no frame (an empty .frames file)");
+  return history;
+}
+
+void
+writeFrames(const std::string& path,
+            const std::vector<Eigen::Matrix4d>& history,
+            double unit,
+            int type)
+{
+  writeAtomically(path, [&](std::ostream& out) {
+    for (const auto& p : history) {
+      for (int i = 0; i < 16; ++i) {
+        const int r = i % 4, c = i / 4;
+        writeNumber(out, c == 3 && r < 3 ? p(r, c) / unit : p(r, c));
+        out << ' ';
+      }
+      out << type << '\n';
+    }
+  });
+}
+
+std::vector<Eigen::Matrix4d>
+loadFramesDirectory(const std::string& dir, double unit)
+{
+  requireExisting(dir);
+  // scanNNN.frames by number (3DTK pads to 3 digits, so scan1000 follows scan999), others
+  // after them by name.
+  static const std::regex numbered("scan([0-9]+)\\.frames");
+  std::vector<std::tuple<bool, unsigned long long, std::string>> files;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() != ".frames" || !entry.is_regular_file())
+      continue;
+    std::smatch m;
+    if (std::regex_match(name, m, numbered) && m[1].length() < 19)
+      files.emplace_back(false, std::stoull(m[1]), name);
+    else
+      files.emplace_back(true, 0, name);
+  }
+  if (ec)
+    fail(dir, 0, "cannot list the directory: " + ec.message());
+  if (files.empty())
+    fail(dir, 0, "holds no .frames files (3DTK's scanNNN.frames)");
+  std::sort(files.begin(), files.end());
+  std::vector<Eigen::Matrix4d> poses;
+  for (const auto& f : files)
+    poses.push_back(loadFrames((fs::path(dir) / std::get<2>(f)).string(), unit).back());
+  return poses;
+}
+
+void
+writeFramesDirectory(const std::string& dir,
+                     const std::vector<Eigen::Matrix4d>& poses,
+                     double unit,
+                     int type,
+                     std::size_t first_index)
+{
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    std::string number = std::to_string(first_index + i);
+    number.insert(0, number.size() < 3 ? 3 - number.size() : 0, '0');
+    writeFrames(
+        (fs::path(dir) / ("scan" + number + ".frames")).string(), {poses[i]}, unit, type);
+  }
+}
+
+PoseFileFormat
+detectPoseFileFormat(const std::string& path)
+{
+  requireExisting(path);
+  if (fs::is_directory(path))
+    return PoseFileFormat::Frames;
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
+  if (ext == ".frames")
+    fail(
+        path, 0, "a .frames file holds one scan's poses; pass the directory of scanNNN.frames");
+  if (ext == ".tum")
+    return PoseFileFormat::Tum;
+  if (ext == ".kitti")
+    return PoseFileFormat::Kitti;
+  bool found = false;
+  PoseFileFormat format = PoseFileFormat::Kitti;
+  std::size_t first_line = 0;
+  std::size_t fields = 0;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    if (found || first_line || isComment(line))
+      return;
+    first_line = line_no;
+    fields = splitFields(line).size();
+    found = fields == 8 || fields == 12;
+    format = fields == 8 ? PoseFileFormat::Tum : PoseFileFormat::Kitti;
+  });
+  if (!first_line)
+    fail(path, 0, "holds no poses (empty, or comments only)");
+  if (!found)
+    fail(path,
+         first_line,
+         "unknown pose file format: " + std::to_string(fields) +
+             " fields (KITTI has 12 numbers a line, TUM 8: timestamp tx ty tz qx qy qz qw)");
+  return format;
+}
+
+Trajectory
+loadTrajectory(const std::string& path, double frames_unit)
+{
+  switch (detectPoseFileFormat(path)) {
+  case PoseFileFormat::Tum:
+    return loadTumTrajectory(path);
+  case PoseFileFormat::Frames: {
+    Trajectory t;
+    t.format = PoseFileFormat::Frames;
+    t.poses = loadFramesDirectory(path, frames_unit);
+    return t;
+  }
+  case PoseFileFormat::Kitti:
+    break;
+  }
+  Trajectory t;
+  t.format = PoseFileFormat::Kitti;
+  t.poses = loadKittiPoses(path);
+  return t;
+}
+
+} // namespace io
+} // namespace pcl_parallel

@@ -1,0 +1,67 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/normal_estimation.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace pcl_parallel {
+
+void
+estimateNormals(const KdTreeIndex& tree,
+                unsigned k,
+                unsigned num_threads,
+                std::vector<float>& normals,
+                const float viewpoint[3])
+{
+  const std::size_t n = tree.size();
+  normals.assign(3 * n, std::numeric_limits<float>::quiet_NaN());
+  if (k < 3 || n < 3)
+    return;
+  const float vp[3] = {viewpoint ? viewpoint[0] : 0.0f,
+                       viewpoint ? viewpoint[1] : 0.0f,
+                       viewpoint ? viewpoint[2] : 0.0f};
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+#pragma omp parallel num_threads(threads) if (threads > 1)
+  {
+    std::vector<std::uint32_t> pos(k);
+    std::vector<float> d2(k);
+#pragma omp for schedule(dynamic, 512)
+    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+      const float* p = tree.point(static_cast<std::uint32_t>(i));
+      const std::size_t found = tree.knn(p, k, pos.data(), d2.data());
+      if (found < 3)
+        continue;
+      // Covariance about the neighbourhood's centroid, in double.
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (std::size_t j = 0; j < found; ++j)
+        c += Eigen::Vector3f(tree.point(pos[j])).cast<double>();
+      c /= static_cast<double>(found);
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      for (std::size_t j = 0; j < found; ++j) {
+        const Eigen::Vector3d e = Eigen::Vector3f(tree.point(pos[j])).cast<double>() - c;
+        cov += e * e.transpose();
+      }
+      if (!(cov.trace() > 0.0))
+        continue; // all neighbours coincide
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+      eig.computeDirect(cov);
+      Eigen::Vector3d nrm = eig.eigenvectors().col(0); // eigenvalues ascending
+      // PCL's flipNormalTowardsViewpoint: n · (vp - p) >= 0.
+      const double dot =
+          nrm[0] * (vp[0] - p[0]) + nrm[1] * (vp[1] - p[1]) + nrm[2] * (vp[2] - p[2]);
+      if (dot < 0)
+        nrm = -nrm;
+      float* out = &normals[3 * static_cast<std::size_t>(i)];
+      for (int a = 0; a < 3; ++a)
+        out[a] = static_cast<float>(nrm[a]);
+    }
+  }
+}
+
+} // namespace pcl_parallel

@@ -1,0 +1,158 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/registration/icp_factors.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+
+namespace pcl_parallel {
+namespace registration {
+
+PointToPointMoments
+PointToPointFactor::child(const MatchedPair* pairs, std::size_t count, double sqr_dist)
+{
+  PointToPointMoments c;
+  c.n = static_cast<double>(count);
+  c.sqr_dist = sqr_dist;
+  double sd[3] = {0, 0, 0}, sm[3] = {0, 0, 0};
+  for (std::size_t k = 0; k < count; ++k) {
+    const MatchedPair& p = pairs[k];
+    c.w += p.w;
+    for (int a = 0; a < 3; ++a) {
+      sd[a] += p.w * p.d[a];
+      sm[a] += p.w * p.m[a];
+    }
+  }
+  if (!(c.w > 0.0))
+    return c;
+  // Centroids c_di, c_mi of the child (Eq. 13's), then H_i about them.
+  for (int a = 0; a < 3; ++a) {
+    c.cd[a] = sd[a] / c.w;
+    c.cm[a] = sm[a] / c.w;
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    const MatchedPair& p = pairs[k];
+    const double dd[3] = {p.d[0] - c.cd[0], p.d[1] - c.cd[1], p.d[2] - c.cd[2]};
+    const double mm[3] = {p.m[0] - c.cm[0], p.m[1] - c.cm[1], p.m[2] - c.cm[2]};
+    for (int a = 0; a < 3; ++a) {
+      const double wd = p.w * dd[a];
+      for (int b = 0; b < 3; ++b)
+        c.h[3 * a + b] += wd * mm[b];
+    }
+  }
+  return c;
+}
+
+PointToPointMoments
+PointToPointFactor::combine(const std::vector<PointToPointMoments>& children)
+{
+  PointToPointMoments t;
+  double sd[3] = {0, 0, 0}, sm[3] = {0, 0, 0};
+  for (const PointToPointMoments& c : children) {
+    t.n += c.n;
+    t.w += c.w;
+    t.sqr_dist += c.sqr_dist;
+    for (int a = 0; a < 3; ++a) {
+      sd[a] += c.w * c.cd[a];
+      sm[a] += c.w * c.cm[a];
+    }
+  }
+  if (!(t.w > 0.0))
+    return t;
+  for (int a = 0; a < 3; ++a) {
+    t.cd[a] = sd[a] / t.w;
+    t.cm[a] = sm[a] / t.w;
+  }
+  // Eq. 12: each child's H_i plus its centroids' offset from the global ones.
+  for (const PointToPointMoments& c : children) {
+    if (!(c.w > 0.0))
+      continue;
+    const double od[3] = {c.cd[0] - t.cd[0], c.cd[1] - t.cd[1], c.cd[2] - t.cd[2]};
+    const double om[3] = {c.cm[0] - t.cm[0], c.cm[1] - t.cm[1], c.cm[2] - t.cm[2]};
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        t.h[3 * a + b] += c.h[3 * a + b] + c.w * od[a] * om[b];
+  }
+  return t;
+}
+
+Eigen::Matrix4d
+PointToPointFactor::solve(const PointToPointMoments& mo, bool horn)
+{
+  const Eigen::Matrix3d H =
+      Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(mo.h);
+  Eigen::Matrix3d R;
+  if (!horn) {
+    // Arun et al.: H = U Λ Vᵀ, R = V Uᵀ; a reflection (det < 0) flips V's last column.
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Matrix3d& u = svd.matrixU();
+    Eigen::Matrix3d v = svd.matrixV();
+    if (u.determinant() * v.determinant() < 0)
+      v.col(2) *= -1.0;
+    R = v * u.transpose();
+  }
+  else {
+    // Horn (1987): the unit quaternion maximising Σ m'·(R d') is the eigenvector of the
+    // largest eigenvalue of N built from S = H (S_ab = Σ d'_a m'_b).
+    const Eigen::Matrix3d& S = H;
+    Eigen::Matrix4d N;
+    N << S(0, 0) + S(1, 1) + S(2, 2), S(1, 2) - S(2, 1), S(2, 0) - S(0, 2), S(0, 1) - S(1, 0),
+        S(1, 2) - S(2, 1), S(0, 0) - S(1, 1) - S(2, 2), S(0, 1) + S(1, 0), S(2, 0) + S(0, 2),
+        S(2, 0) - S(0, 2), S(0, 1) + S(1, 0), -S(0, 0) + S(1, 1) - S(2, 2), S(1, 2) + S(2, 1),
+        S(0, 1) - S(1, 0), S(2, 0) + S(0, 2), S(1, 2) + S(2, 1), -S(0, 0) - S(1, 1) + S(2, 2);
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d> eig(N);
+    const Eigen::Vector4d q = eig.eigenvectors().col(3); // eigenvalues ascending
+    R = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+  }
+  // t = cm - R cd (Eq. 7).
+  const Eigen::Vector3d cd(mo.cd[0], mo.cd[1], mo.cd[2]);
+  const Eigen::Vector3d cm(mo.cm[0], mo.cm[1], mo.cm[2]);
+  Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+  T.topLeftCorner<3, 3>() = R;
+  T.topRightCorner<3, 1>() = cm - R * cd;
+  return T;
+}
+
+bool
+PointToPlaneFactor::solve(const NormalEquations& eq, const double ref[3], Eigen::Matrix4d& step)
+{
+  if (!(eq.w > 0.0))
+    return false;
+  Eigen::Matrix<double, 6, 6> A;
+  int k = 0;
+  for (int a = 0; a < 6; ++a)
+    for (int b = a; b < 6; ++b)
+      A(a, b) = A(b, a) = eq.jtj[k++];
+  const Eigen::Matrix<double, 6, 1> g = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(eq.jtr);
+  // Gauss-Newton step: (Σ Jᵀ J) x = -Σ Jᵀ r. A rank-deficient system (fewer than six
+  // independent constraints) has no unique step: report it instead of a wild one.
+  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(A);
+  lu.setThreshold(1e-12);
+  if (lu.rank() < 6)
+    return false;
+  const Eigen::Matrix<double, 6, 1> x = lu.solve(-g);
+  if (!x.allFinite())
+    return false;
+  const Eigen::Vector3d omega = x.head<3>();
+  // Same linear motion ω × d + t about the weighted centroid c: t_c = t + ω × c.
+  const Eigen::Vector3d c = Eigen::Vector3d(eq.sd[0], eq.sd[1], eq.sd[2]) / eq.w;
+  const Eigen::Vector3d t_c = x.tail<3>() + omega.cross(c);
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(omega[2], Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(omega[1], Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(omega[0], Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  // d -> R (d - r - c) + r + c + t_c in unshifted coordinates.
+  const Eigen::Vector3d rc = Eigen::Vector3d(ref[0], ref[1], ref[2]) + c;
+  step = Eigen::Matrix4d::Identity();
+  step.topLeftCorner<3, 3>() = R;
+  step.topRightCorner<3, 1>() = rc + t_c - R * rc;
+  return true;
+}
+
+} // namespace registration
+} // namespace pcl_parallel

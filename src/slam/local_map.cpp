@@ -1,0 +1,115 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/slam/local_map.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace pcl_parallel {
+namespace slam {
+
+LocalMap::LocalMap(double voxel_size,
+                   double max_distance,
+                   int max_points_per_voxel,
+                   double refresh_fraction)
+    : voxel_size_(voxel_size)
+    , max_distance_(max_distance)
+    , max_points_(static_cast<std::size_t>(std::max(1, max_points_per_voxel)))
+    , refresh_fraction_(std::max(0.0, refresh_fraction))
+{
+  if (!(voxel_size > 0.0) || !(max_distance > 0.0))
+    throw std::invalid_argument("LocalMap: voxel size and distance must be positive");
+}
+
+LocalMap::Key
+LocalMap::key(const PointT& p) const
+{
+  return {static_cast<std::int32_t>(std::floor(p.x / voxel_size_)),
+          static_cast<std::int32_t>(std::floor(p.y / voxel_size_)),
+          static_cast<std::int32_t>(std::floor(p.z / voxel_size_))};
+}
+
+void
+LocalMap::insert(const PointT& p)
+{
+  const Key k = key(p);
+  auto [it, created] = voxels_.try_emplace(k);
+  if (created)
+    order_.push_back(k);
+  if (it->second.size() < max_points_) {
+    it->second.push_back(p);
+    ++added_;
+  }
+}
+
+void
+LocalMap::update(const Cloud& points, const Eigen::Vector3d& origin)
+{
+  for (const auto& p : points)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
+        p.getVector3fMap().cwiseAbs().maxCoeff() < 2e9 * voxel_size_) // int32 voxel keys
+      insert(p);
+  // Crop: a voxel goes when its first point is out of reach (KISS-ICP's rule).
+  const double max2 = max_distance_ * max_distance_;
+  std::vector<Key> kept;
+  kept.reserve(order_.size());
+  for (const Key& k : order_) {
+    auto it = voxels_.find(k);
+    if ((it->second.front().getVector3fMap().cast<double>() - origin).squaredNorm() > max2)
+      voxels_.erase(it);
+    else
+      kept.push_back(k);
+  }
+  order_.swap(kept);
+  if (!cloud_ || static_cast<double>(added_) > refresh_fraction_ * cloud_->size())
+    refresh();
+}
+
+void
+LocalMap::transform(const Pose& correction)
+{
+  const Eigen::Matrix3f r = correction.topLeftCorner<3, 3>().cast<float>();
+  const Eigen::Vector3f t = correction.topRightCorner<3, 1>().cast<float>();
+  std::vector<PointT> points;
+  for (const Key& k : order_)
+    for (const auto& p : voxels_.at(k)) {
+      PointT q;
+      q.getVector3fMap() = r * p.getVector3fMap() + t;
+      points.push_back(q);
+    }
+  clear();
+  for (const auto& p : points)
+    insert(p);
+  refresh();
+}
+
+void
+LocalMap::clear()
+{
+  voxels_.clear();
+  order_.clear();
+  cloud_.reset();
+  added_ = 0;
+}
+
+void
+LocalMap::refresh()
+{
+  cloud_.reset(new Cloud);
+  for (const Key& k : order_)
+    for (const auto& p : voxels_.at(k))
+      cloud_->push_back(p);
+  added_ = 0;
+}
+
+Cloud::ConstPtr
+LocalMap::cloud() const
+{
+  return cloud_ ? cloud_ : Cloud::ConstPtr(new Cloud);
+}
+
+} // namespace slam
+} // namespace pcl_parallel

@@ -1,0 +1,233 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/registration/icp.h>
+#include <pcl_parallel/registration/lum.h>
+#include <pcl_parallel/slam/loop_closure.h>
+#include <pcl_parallel/slam/preprocess.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+
+namespace pcl_parallel {
+namespace slam {
+
+struct LoopCloser::Impl {
+  ParallelLUM<PointT> lum;
+  ParallelIterativeClosestPoint<PointT, PointT, double> icp;
+  std::vector<KdTreeIndex> trees; ///< per scan, scanner frame: overlap checks
+  std::size_t points = 0;
+};
+
+namespace {
+
+/** Fraction of (every step-th point of) `source`, moved by `pose`, that has a point of
+ *  `target` within max_distance. */
+double
+overlap(const Cloud& source, const Pose& pose, const KdTreeIndex& target, double max_distance,
+        std::size_t step)
+{
+  const Eigen::Matrix3f r = pose.topLeftCorner<3, 3>().cast<float>();
+  const Eigen::Vector3f t = pose.topRightCorner<3, 1>().cast<float>();
+  const float max_sqr = static_cast<float>(max_distance * max_distance);
+  std::size_t tried = 0, hits = 0;
+  for (std::size_t k = 0; k < source.size(); k += step) {
+    const Eigen::Vector3f q = r * source[k].getVector3fMap() + t;
+    float d2;
+    ++tried;
+    hits += target.nearest(q.data(), max_sqr, d2) != KdTreeIndex::kInvalid ? 1 : 0;
+  }
+  return tried ? static_cast<double>(hits) / static_cast<double>(tried) : 0.0;
+}
+
+/** Size of a relative motion as a displacement: translation plus the chord the rotation
+ *  sweeps at `range` (KISS-ICP's model error, Vizzo et al. 2023, Eq. 8). */
+double
+displacement(const Pose& motion, double range)
+{
+  const double angle = Eigen::AngleAxisd(Eigen::Matrix3d(motion.topLeftCorner<3, 3>())).angle();
+  return motion.topRightCorner<3, 1>().norm() + 2.0 * range * std::sin(angle / 2.0);
+}
+
+} // namespace
+
+LoopCloser::LoopCloser(const LoopClosureParameters& params)
+    : params_(params), impl_(new Impl)
+{
+  impl_->icp.setNumberOfThreads(params.num_threads);
+  impl_->icp.setMaxCorrespondenceDistance(params.icp_distance);
+  impl_->icp.setMaximumIterations(params.icp_iterations);
+  impl_->icp.setTransformationEpsilon(1e-10);
+  auto& lum = impl_->lum;
+  lum.setNumberOfThreads(params.num_threads);
+  lum.setCorrespondenceDistanceSchedule(
+      params.lum_distance, std::min(params.lum_distance, params.lum_final_distance), 0.7);
+  lum.setPointToPlane(params.lum_point_to_plane);
+  lum.setLinkIterations(params.lum_link_iterations);
+  lum.setMaxIterations(params.lum_iterations);
+  lum.setConvergenceThreshold(static_cast<float>(params.lum_epsilon));
+}
+
+LoopCloser::~LoopCloser() = default;
+
+void
+LoopCloser::addScan(const Cloud::ConstPtr& scan, const Pose& pose)
+{
+  // ParallelLUM takes PCL's non-const pointer; it never modifies the cloud.
+  const auto v = impl_->lum.addPointCloud(std::const_pointer_cast<Cloud>(scan),
+                                          Eigen::Matrix4f(pose.cast<float>()));
+  impl_->lum.setPoseMatrix(v, pose); // keep the double pose
+  impl_->points += scan->size();
+  impl_->trees.emplace_back();
+  if (!scan->empty())
+    impl_->trees.back().build(scan->front().data, scan->size(), sizeof(PointT) / sizeof(float),
+                            nullptr, params_.num_threads);
+  scans_.push_back(scan);
+  poses_.push_back(pose);
+  if (scans_.size() > 1) {
+    const auto j = static_cast<std::uint32_t>(scans_.size() - 1);
+    links_.push_back({j - 1, j, false});
+    impl_->lum.addLink(j, j - 1);
+  }
+}
+
+std::vector<LoopCandidate>
+LoopCloser::detect()
+{
+  std::vector<LoopCandidate> tried;
+  const std::size_t j = scans_.size() - 1;
+  // One loop link per min_separation / 2 scans: a lingering scanner adds no more.
+  const std::size_t spacing = static_cast<std::size_t>(std::max(1, params_.min_separation / 2));
+  if (!loop_sources_.empty() && j - loop_sources_.back() < spacing)
+    return tried;
+  auto candidates = loopCandidates(poses_, j, params_.distance, params_.min_separation);
+  if (candidates.empty())
+    return tried;
+  // Cheap first look: overlap at the current poses from a sample of the scan; only the
+  // best candidate is matched with pICP (paper Sec. VI-C links by distance alone).
+  const std::size_t limit = static_cast<std::size_t>(std::max(1, params_.max_candidates));
+  if (candidates.size() > limit)
+    candidates.resize(limit);
+  const Cloud& scan = *scans_[j];
+  const std::size_t step = std::max<std::size_t>(1, scan.size() / 256);
+  double best = -1.0;
+  std::uint32_t best_i = 0;
+  for (const std::uint32_t i : candidates) {
+    const double o = overlap(scan, Pose(poses_[i].inverse() * poses_[j]), impl_->trees[i],
+                             params_.overlap_distance * 2.0, step);
+    if (o > best)
+      best = o, best_i = i;
+  }
+  LoopCandidate c;
+  c.link = {best_i, static_cast<std::uint32_t>(j), true};
+  c.overlap = best;
+  if (best < 0.5 * params_.min_overlap) {
+    tried.push_back(c);
+    return tried;
+  }
+  const std::uint32_t i = best_i;
+  auto& icp = impl_->icp;
+  icp.setInputSource(scans_[j]);
+  icp.setInputTarget(scans_[i]);
+  Cloud aligned;
+  icp.align(aligned, Pose(poses_[i].inverse() * poses_[j]));
+  Pose measured = Pose::Identity();
+  if (icp.hasConverged()) {
+    measured = icp.getFinalTransformation();
+    c.overlap = overlap(scan, measured, impl_->trees[i], params_.overlap_distance, 1);
+    c.error = displacement((poses_[i] * measured).inverse() * poses_[j], params_.median_range);
+    double path = 0.0; // what the front end travelled from i to j
+    for (std::size_t k = i + 1; k <= j; ++k)
+      path += displacement(poses_[k - 1].inverse() * poses_[k], params_.median_range);
+    c.accepted = c.overlap >= params_.min_overlap &&
+                 c.error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path);
+  }
+  if (c.accepted) {
+    if (params_.distribute_error)
+      distributeLoopError(poses_, i, j, measured);
+    links_.push_back(c.link);
+    loop_sources_.push_back(static_cast<std::uint32_t>(j));
+    impl_->lum.addLink(j, i);
+  }
+  tried.push_back(c);
+  return tried;
+}
+
+int
+LoopCloser::relax()
+{
+  auto& lum = impl_->lum;
+  if (poses_.size() < 2)
+    return 0;
+  for (std::size_t v = 0; v < poses_.size(); ++v)
+    lum.setPoseMatrix(v, poses_[v]);
+  const std::size_t mean = impl_->points / poses_.size();
+  const std::size_t per_scan = std::max<std::size_t>(1, params_.lum_queries_per_scan);
+  lum.setQueryStep(std::max<std::size_t>(1, mean / per_scan));
+  lum.compute();
+  for (std::size_t v = 0; v < poses_.size(); ++v)
+    poses_[v] = lum.getPoseMatrix(v);
+  return lum.getNumIterationsDone();
+}
+
+std::size_t
+LoopCloser::bytesPerScan() const
+{
+  if (scans_.empty())
+    return 0;
+  // Cloud (16 B per PointXYZ), two k-d trees (ours and pLUM's: points copied as float[3],
+  // an id, ~1/6 node of 16 B each), normals in point-to-plane mode (float[3]).
+  const double tree = 12 + 4 + 16.0 / 6;
+  const double per_point = sizeof(PointT) + 2 * tree + (params_.lum_point_to_plane ? 12 : 0);
+  return static_cast<std::size_t>(per_point * impl_->points / scans_.size()) + sizeof(Pose);
+}
+
+std::vector<std::uint32_t>
+loopCandidates(const Poses& poses, std::size_t j, double distance, int min_separation)
+{
+  std::vector<std::pair<double, std::uint32_t>> near;
+  if (min_separation < 1 || j < static_cast<std::size_t>(min_separation))
+    return {};
+  const Eigen::Vector3d pj = poses[j].topRightCorner<3, 1>();
+  for (std::size_t i = 0; i + min_separation <= j; ++i) {
+    const double d = (poses[i].topRightCorner<3, 1>() - pj).norm();
+    if (d < distance)
+      near.emplace_back(d, static_cast<std::uint32_t>(i));
+  }
+  std::sort(near.begin(), near.end());
+  std::vector<std::uint32_t> out;
+  for (const auto& n : near)
+    out.push_back(n.second);
+  return out;
+}
+
+void
+distributeLoopError(Poses& poses, std::size_t i, std::size_t j, const Pose& measured)
+{
+  // The correction that moves j to where the loop link puts it, as a rotation about j's
+  // position and a translation; scan k gets the share of the path from i to k.
+  const Pose target = poses[i] * measured;
+  const Eigen::Matrix3d dr = target.topLeftCorner<3, 3>() * poses[j].topLeftCorner<3, 3>().transpose();
+  const Eigen::AngleAxisd aa(dr);
+  const Eigen::Vector3d pivot = poses[j].topRightCorner<3, 1>();
+  const Eigen::Vector3d dt = target.topRightCorner<3, 1>() - pivot;
+  std::vector<double> along(j - i + 1, 0.0);
+  for (std::size_t k = i + 1; k <= j; ++k)
+    along[k - i] = along[k - i - 1] +
+                   (poses[k].topRightCorner<3, 1>() - poses[k - 1].topRightCorner<3, 1>()).norm();
+  const bool moved = along.back() > 1e-9;
+  for (std::size_t k = i + 1; k <= j; ++k) {
+    const double s = moved ? along[k - i] / along.back() : double(k - i) / double(j - i);
+    const Eigen::Matrix3d r = Eigen::AngleAxisd(s * aa.angle(), aa.axis()).toRotationMatrix();
+    Pose& p = poses[k];
+    p.topRightCorner<3, 1>() = r * (p.topRightCorner<3, 1>() - pivot) + pivot + s * dt;
+    p.topLeftCorner<3, 3>() = r * p.topLeftCorner<3, 3>();
+  }
+}
+
+} // namespace slam
+} // namespace pcl_parallel

@@ -1,0 +1,216 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/slam/pipeline.h>
+#include <pcl_parallel/slam/preprocess.h>
+
+#include <pcl/common/transforms.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace pcl_parallel {
+namespace slam {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double
+seconds(Clock::time_point since)
+{
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+/** A length: the user's if set (> 0), else `automatic`. */
+double
+orAuto(double value, double automatic)
+{
+  return value > 0.0 ? value : automatic;
+}
+
+} // namespace
+
+double
+medianRange(const Cloud& scan)
+{
+  std::vector<float> r;
+  r.reserve(scan.size());
+  for (const auto& p : scan)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      r.push_back(p.getVector3fMap().norm());
+  if (r.empty())
+    return 0.0;
+  std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+  return r[r.size() / 2];
+}
+
+FrontEndParameters
+frontEndParameters(const Parameters& p, double r)
+{
+  FrontEndParameters f;
+  f.target = p.match_target;
+  f.voxel_size = orAuto(p.voxel_size, r / 20.0);
+  f.source_voxel_size = 3.0 * f.voxel_size; // KISS-ICP registers a 1.5x coarser sample
+  f.map_voxel_size = 2.0 * f.voxel_size;
+  f.map_points_per_voxel = 20;
+  f.map_distance = std::min(p.max_range, 5.0 * r);
+  f.max_correspondence_distance = orAuto(p.icp_distance, 10.0 * f.voxel_size);
+  f.max_iterations = p.icp_iterations;
+  f.transformation_epsilon = p.icp_epsilon;
+  f.deskew = p.deskew;
+  f.num_threads = p.num_threads;
+  return f;
+}
+
+LoopClosureParameters
+loopClosureParameters(const Parameters& p, double r)
+{
+  const double voxel = orAuto(p.voxel_size, r / 20.0);
+  LoopClosureParameters l;
+  l.distance = orAuto(p.loop_distance, r);
+  l.min_separation = p.loop_size;
+  l.icp_distance = orAuto(p.icp_distance, 10.0 * voxel);
+  l.icp_iterations = std::max(p.icp_iterations, 50);
+  l.overlap_distance = 2.0 * voxel;
+  l.min_overlap = p.min_overlap;
+  l.lum_distance = orAuto(p.lum_distance, 10.0 * voxel);
+  l.lum_final_distance = std::min(l.lum_distance, 2.0 * voxel);
+  l.lum_iterations = p.lum_iterations;
+  l.lum_epsilon = p.lum_epsilon;
+  l.median_range = r;
+  l.num_threads = p.num_threads;
+  return l;
+}
+
+Pipeline::Pipeline(const Parameters& params) : params_(params) {}
+
+Pipeline::~Pipeline() = default;
+
+std::size_t
+Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
+{
+  const auto start = Clock::now();
+  const std::size_t index = size();
+  if (odometry && !odometry->allFinite())
+    throw std::invalid_argument("scan " + std::to_string(index) + ": odometry pose is not finite");
+  if (index > 0 && odometry.has_value() != has_odometry_)
+    throw std::invalid_argument("scan " + std::to_string(index) +
+                                ": odometry given for some scans but not for others");
+  has_odometry_ = odometry.has_value();
+
+  ScanReport report;
+  report.points = scan.size();
+  const Cloud::Ptr cropped = cropRange(scan, params_.min_range, params_.max_range);
+  if (cropped->empty())
+    throw std::invalid_argument("scan " + std::to_string(index) + " has no finite points in range");
+  if (!front_end_) { // lengths from the first scan
+    const double r = medianRange(*cropped);
+    front_end_params_ = slam::frontEndParameters(params_, r);
+    loop_params_ = slam::loopClosureParameters(params_, r);
+    front_end_.reset(new FrontEnd(front_end_params_));
+    loops_.reset(new LoopCloser(loop_params_));
+  }
+  times_.preprocess += seconds(start);
+
+  // Front end: predict, deskew, reduce, match (paper Sec. II; KISS-ICP Sec. III).
+  auto stage = Clock::now();
+  const FrontEndResult fe = front_end_->track(*cropped, odometry);
+  front_end_poses_.push_back(fe.pose);
+  report.reduced_points = fe.reduced->size();
+  report.source_points = fe.source_points;
+  report.converged = fe.converged;
+  report.fitness = fe.fitness;
+  times_.front_end += seconds(stage);
+
+  // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
+  stage = Clock::now();
+  loops_->addScan(fe.reduced, fe.pose);
+  if (params_.close_loops) {
+    report.loops = loops_->detect();
+    const auto found = std::find_if(
+        report.loops.begin(), report.loops.end(), [](const auto& c) { return c.accepted; });
+    times_.loop_detection += seconds(stage);
+    if (found != report.loops.end()) {
+      // A new loop (not the continuation of one just closed) whose error shows in the map
+      // is relaxed at once; the others wait for finish().
+      const bool new_loop = last_loop_scan_ == 0 ||
+                            index - last_loop_scan_ > static_cast<std::size_t>(params_.loop_size);
+      const bool visible = found->error > loop_params_.overlap_distance;
+      last_loop_scan_ = index;
+      stage = Clock::now();
+      if (new_loop && visible && params_.relax_each_loop) {
+        report.lum_iterations = loops_->relax();
+        ++relaxations_;
+      }
+      front_end_->setLastPose(loops_->poses().back());
+      times_.loop_closing += seconds(stage);
+    }
+  }
+  report.seconds = seconds(start);
+  reports_.push_back(std::move(report));
+  return index;
+}
+
+void
+Pipeline::finish()
+{
+  if (!loops_ || !params_.close_loops)
+    return;
+  const bool any_loop = std::any_of(
+      loops_->links().begin(), loops_->links().end(), [](const Link& l) { return l.loop; });
+  if (!any_loop)
+    return;
+  const auto stage = Clock::now();
+  const int iterations = loops_->relax();
+  ++relaxations_;
+  if (!reports_.empty())
+    reports_.back().lum_iterations += iterations;
+  times_.loop_closing += seconds(stage);
+}
+
+const Poses&
+Pipeline::poses() const
+{
+  static const Poses none;
+  return loops_ ? loops_->poses() : none;
+}
+
+const std::vector<Link>&
+Pipeline::links() const
+{
+  static const std::vector<Link> none;
+  return loops_ ? loops_->links() : none;
+}
+
+Cloud::ConstPtr
+Pipeline::reducedScan(std::size_t i) const
+{
+  return loops_->scan(i);
+}
+
+Cloud::Ptr
+Pipeline::map(double voxel_size) const
+{
+  Cloud all;
+  for (std::size_t i = 0; i < size(); ++i) {
+    Cloud moved;
+    pcl::transformPointCloud(*loops_->scan(i), moved, poses()[i]);
+    all += moved;
+  }
+  return filters::voxelCentroid(all, voxel_size, params_.num_threads);
+}
+
+std::size_t
+Pipeline::bytesPerScan() const
+{
+  return loops_ ? loops_->bytesPerScan() + sizeof(Pose) + sizeof(ScanReport) : 0;
+}
+
+} // namespace slam
+} // namespace pcl_parallel

@@ -1,0 +1,543 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * Trajectory errors (evaluation/) against hand-computed answers, and the pose files
+ * (io/pose_files.h): round trips, the existing 3DTK reader, errors naming file and line.
+ */
+#include "scratch_dir.h"
+#include "test_data.h"
+
+#include <pcl_parallel/evaluation/alignment.h>
+#include <pcl_parallel/evaluation/pose_error.h>
+#include <pcl_parallel/evaluation/trajectory_error.h>
+#include <pcl_parallel/io/pose_files.h>
+#include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/io/uos.h>
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+#include <filesystem>
+#include <gtest/gtest.h>
+#include <random>
+
+namespace {
+
+namespace ev = pcl_parallel::evaluation;
+namespace pio = pcl_parallel::io;
+using ev::Poses;
+using pcl_parallel::test::ScratchDir;
+
+constexpr double kDeg = M_PI / 180.0;
+
+Eigen::Matrix4d
+makePose(const Eigen::Matrix3d& r, const Eigen::Vector3d& t)
+{
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = r;
+  m.topRightCorner<3, 1>() = t;
+  return m;
+}
+
+Eigen::Matrix3d
+rotZ(double a)
+{
+  return Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+/** n poses on a circle of radius r in the xy-plane, heading along it. */
+Poses
+circle(std::size_t n, double r)
+{
+  Poses p;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double a = 2.0 * M_PI * static_cast<double>(i) / static_cast<double>(n);
+    p.push_back(
+        makePose(rotZ(a + M_PI / 2), Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0)));
+  }
+  return p;
+}
+
+/** n poses along x, 1 m apart (path distances exactly 0, 1, 2, ...). */
+Poses
+line(std::size_t n)
+{
+  Poses p;
+  for (std::size_t i = 0; i < n; ++i)
+    p.push_back(makePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(double(i), 0, 0)));
+  return p;
+}
+
+Poses
+randomPoses(std::size_t n, std::uint32_t seed)
+{
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Poses p;
+  for (std::size_t i = 0; i < n; ++i) {
+    Eigen::Quaterniond q(u(rng), u(rng), u(rng), u(rng));
+    q.normalize();
+    p.push_back(makePose(q.toRotationMatrix(), 50.0 * Eigen::Vector3d(u(rng), u(rng), u(rng))));
+  }
+  return p;
+}
+
+void
+expectPosesNear(const Poses& a, const Poses& b, double tol)
+{
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i)
+    EXPECT_LT((a[i] - b[i]).cwiseAbs().maxCoeff(), tol) << "pose " << i;
+}
+
+// ---------------------------------------------------------------- pose errors
+
+TEST(PoseError, AngleAndDistance)
+{
+  const Eigen::Matrix3d ra = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) *
+                              Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX()))
+                                 .toRotationMatrix();
+  const Eigen::Vector3d axis = Eigen::Vector3d(1, 2, 2) / 3.0;
+  const Eigen::Matrix4d a = makePose(ra, Eigen::Vector3d(1, 2, 3));
+  for (const double angle : {0.7, 1e-8, 3.1}) { // small: acos((tr - 1) / 2) would give 0
+    const Eigen::Matrix4d b = makePose(ra * Eigen::AngleAxisd(angle, axis).toRotationMatrix(),
+                                       Eigen::Vector3d(4, 6, 3));
+    const ev::PoseError e = ev::poseError(a, b);
+    EXPECT_NEAR(e.angle, angle, 1e-12 * std::max(1.0, angle) + 1e-15) << angle;
+    EXPECT_DOUBLE_EQ(e.distance, 5.0);
+  }
+}
+
+TEST(Statistics, HandComputed)
+{
+  const ev::Statistics s = ev::computeStatistics({3, 1, 4, 1, 5});
+  EXPECT_EQ(s.count, 5u);
+  EXPECT_DOUBLE_EQ(s.mean, 2.8);
+  EXPECT_DOUBLE_EQ(s.median, 3.0);
+  EXPECT_DOUBLE_EQ(s.min, 1.0);
+  EXPECT_DOUBLE_EQ(s.max, 5.0);
+  EXPECT_DOUBLE_EQ(s.rmse, std::sqrt(52.0 / 5.0));
+  EXPECT_NEAR(s.std, 1.6, 1e-15); // population: sqrt(12.8 / 5)
+  EXPECT_DOUBLE_EQ(ev::computeStatistics({4, 1, 3, 2}).median, 2.5);
+  EXPECT_EQ(ev::computeStatistics({}).count, 0u);
+}
+
+TEST(PoseError, SummaryAndSizeMismatch)
+{
+  Poses a = line(4), b = line(4);
+  b[2](1, 3) = 0.5;
+  b[3](1, 3) = 1.0;
+  const ev::PoseErrorSummary s = ev::summarizePoseErrors(a, b, 1);
+  EXPECT_EQ(s.distance.count, 3u);
+  EXPECT_DOUBLE_EQ(s.distance.max, 1.0);
+  EXPECT_DOUBLE_EQ(s.distance.mean, 0.5);
+  EXPECT_THROW(ev::summarizePoseErrors(a, line(3)), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------- alignment, ATE
+
+// Our Umeyama against Eigen's implementation of the same paper.
+TEST(Umeyama, MatchesEigen)
+{
+  const Poses est = randomPoses(30, 7);
+  const Eigen::Matrix3d r =
+      Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  for (const bool with_scale : {false, true}) {
+    Poses ref;
+    Eigen::Matrix3Xd src(3, est.size()), dst(3, est.size());
+    for (std::size_t i = 0; i < est.size(); ++i) {
+      const Eigen::Vector3d p = 1.7 * r * est[i].topRightCorner<3, 1>() +
+                                Eigen::Vector3d(3, 4, 5) +
+                                Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      ref.push_back(makePose(Eigen::Matrix3d::Identity(), p));
+      src.col(static_cast<Eigen::Index>(i)) = est[i].topRightCorner<3, 1>();
+      dst.col(static_cast<Eigen::Index>(i)) = p;
+    }
+    const ev::Similarity s = ev::umeyamaAlignment(est, ref, with_scale);
+    const Eigen::Matrix4d eigen = Eigen::umeyama(src, dst, with_scale);
+    EXPECT_LT((s.scale * s.rotation - eigen.topLeftCorner<3, 3>()).norm(), 1e-10);
+    EXPECT_LT((s.translation - eigen.topRightCorner<3, 1>()).norm(), 1e-9);
+    EXPECT_NEAR(s.rotation.determinant(), 1.0, 1e-12);
+    if (with_scale) {
+      EXPECT_NEAR(s.scale, 1.7, 0.05);
+    }
+  }
+}
+
+TEST(Umeyama, DegenerateThrows)
+{
+  EXPECT_THROW(ev::umeyamaAlignment(line(10), line(10), false), std::invalid_argument);
+  EXPECT_THROW(ev::umeyamaAlignment(line(1), line(1), false), std::invalid_argument);
+  EXPECT_THROW(ev::umeyamaAlignment(line(3), line(4), false), std::invalid_argument);
+}
+
+TEST(Ate, IdenticalTrajectoriesGiveZero)
+{
+  const Poses gt = circle(40, 10.0);
+  for (const ev::Alignment a : {ev::Alignment::None, ev::Alignment::SE3, ev::Alignment::Sim3}) {
+    ev::EvaluationOptions o;
+    o.alignment = a;
+    const ev::TrajectoryEvaluation e = ev::evaluateTrajectory(gt, gt, o);
+    EXPECT_LT(e.ate.translation.max, 1e-12);
+    EXPECT_LT(e.ate.rotation_deg.max, 1e-9);
+    EXPECT_LT(e.ate_unaligned.translation.max, 1e-15);
+    EXPECT_TRUE(e.kitti.valid());
+    EXPECT_LT(e.kitti.translation_percent, 1e-9);
+    EXPECT_LT(e.kitti.rotation_deg_per_m, 1e-9);
+    EXPECT_EQ(e.rpe.translation.count, 39u);
+    EXPECT_LT(e.rpe.translation.max, 1e-12);
+    EXPECT_LT(e.rpe.rotation_deg.max, 1e-9);
+    EXPECT_NEAR(e.ate.similarity.scale, 1.0, 1e-12);
+  }
+}
+
+// A whole trajectory moved rigidly: alignment removes it; unaligned, a pure translation
+// (0.3, -0.4, 1.2) leaves |t| = 1.3 at every pose; relative errors are zero either way.
+TEST(Ate, RigidOffsetIsRemovedByAlignment)
+{
+  const Poses gt = circle(40, 10.0);
+  const Eigen::Matrix4d t = makePose(
+      Eigen::AngleAxisd(40 * kDeg, Eigen::Vector3d(1, 1, 1).normalized()).toRotationMatrix(),
+      Eigen::Vector3d(5, -3, 2));
+  const Eigen::Matrix4d shift =
+      makePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.3, -0.4, 1.2));
+  Poses moved, shifted;
+  for (const auto& p : gt) {
+    moved.push_back(t * p);
+    shifted.push_back(shift * p);
+  }
+  const ev::TrajectoryEvaluation e = ev::evaluateTrajectory(moved, gt);
+  EXPECT_LT(e.ate.translation.max, 1e-9);
+  EXPECT_LT(e.ate.rotation_deg.max, 1e-7);
+  EXPECT_GT(e.ate_unaligned.translation.rmse, 1.0);
+  EXPECT_LT(e.kitti.translation_percent, 1e-9);
+  EXPECT_LT(e.rpe.translation.max, 1e-9);
+  for (std::size_t i = 0; i < gt.size(); ++i)
+    EXPECT_LT((e.ate.similarity.apply(moved[i]) - gt[i]).norm(), 1e-9);
+
+  const ev::TrajectoryEvaluation s = ev::evaluateTrajectory(shifted, gt);
+  EXPECT_LT(s.ate.translation.max, 1e-12);
+  EXPECT_NEAR(s.ate_unaligned.translation.rmse, 1.3, 1e-12);
+  EXPECT_NEAR(s.ate_unaligned.translation.min, 1.3, 1e-12);
+  EXPECT_NEAR(s.ate_unaligned.translation.max, 1.3, 1e-12);
+  EXPECT_LT(s.ate_unaligned.rotation_deg.max, 1e-12);
+}
+
+// The estimate at half scale: Sim(3) alignment finds scale 2 and removes everything; the
+// rigid one cannot.
+TEST(Ate, Sim3AlignmentRecoversScale)
+{
+  const Poses gt = circle(40, 10.0);
+  Poses half;
+  for (const auto& p : gt) {
+    Eigen::Matrix4d q = p;
+    q.topRightCorner<3, 1>() = 0.5 * p.topRightCorner<3, 1>() + Eigen::Vector3d(1, 2, 3);
+    half.push_back(q);
+  }
+  ev::EvaluationOptions o;
+  o.alignment = ev::Alignment::Sim3;
+  const ev::TrajectoryEvaluation s = ev::evaluateTrajectory(half, gt, o);
+  EXPECT_NEAR(s.ate.similarity.scale, 2.0, 1e-12);
+  EXPECT_LT(s.ate.translation.max, 1e-9);
+  EXPECT_LT(s.rpe.translation.max, 1e-9); // on the rescaled estimate
+  const ev::TrajectoryEvaluation r = ev::evaluateTrajectory(half, gt);
+  EXPECT_NEAR(r.ate.translation.rmse, 5.0, 1e-9); // radius 5 against 10, centred
+}
+
+// Known noise, chosen so the best alignment is the identity: on a circle of 40 poses
+// (in the xy-plane), heights +a, -a, +b, -b, ... have zero mean and are uncorrelated with
+// the positions (sum of c_i e^{i theta_i} = 0), so the alignment cannot absorb any of it:
+// rmse = sqrt((a² + b²) / 2), mean = median = (a + b) / 2, std = |a - b| / 2. The same
+// for orientations turned by +-0.01 rad about the local x axis.
+TEST(Ate, KnownNoiseGivesKnownRmse)
+{
+  const double a = 0.03, b = 0.04, tilt = 0.01;
+  const Poses gt = circle(40, 10.0);
+  Poses noisy = gt;
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    const double sign = i % 2 ? -1.0 : 1.0;
+    noisy[i](2, 3) += sign * (i % 4 < 2 ? a : b);
+    noisy[i].topLeftCorner<3, 3>() *=
+        Eigen::AngleAxisd(sign * tilt, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  }
+  for (const ev::Alignment al : {ev::Alignment::None, ev::Alignment::SE3}) {
+    const ev::AbsoluteError e = ev::absoluteTrajectoryError(noisy, gt, al);
+    EXPECT_NEAR(e.translation.rmse, std::sqrt((a * a + b * b) / 2), 1e-9);
+    EXPECT_NEAR(e.translation.mean, 0.035, 1e-9);
+    EXPECT_NEAR(e.translation.median, 0.035, 1e-9);
+    EXPECT_NEAR(e.translation.std, 0.005, 1e-9);
+    EXPECT_NEAR(e.translation.min, a, 1e-9);
+    EXPECT_NEAR(e.translation.max, b, 1e-9);
+    EXPECT_NEAR(e.rotation_deg.rmse, tilt / kDeg, 1e-7);
+  }
+}
+
+// ---------------------------------------------------------------- KITTI devkit RPE
+
+// 1% scale drift on a straight 100 m path (poses 1 m apart). The devkit's segment from
+// frame f for length L ends at the first frame MORE than L further, f + L + 1, so each
+// segment's error is 0.01 (L + 1) / L: 1.1% (L = 10), 1.05% (20), 1.02% (50). Starts
+// 0, 10, ..., 90 with f + L + 1 <= 100: 9, 8 and 5 segments; the mean over all 22 is
+// (9 * 1.1 + 8 * 1.05 + 5 * 1.02) / 22 %.
+TEST(KittiRpe, ScaleDriftGivesKnownPercent)
+{
+  const Poses gt = line(101);
+  Poses est = gt;
+  for (auto& p : est)
+    p.topRightCorner<3, 1>() *= 1.01;
+  const ev::KittiRelativeError k = ev::kittiRelativeError(est, gt, {10, 20, 50}, 10);
+  ASSERT_EQ(k.segments.size(), 22u);
+  EXPECT_EQ(k.segments[0].first_frame, 0u);
+  EXPECT_EQ(k.segments[0].last_frame, 11u);
+  ASSERT_EQ(k.per_length.size(), 3u);
+  EXPECT_EQ(k.per_length[0].segments, 9u);
+  EXPECT_EQ(k.per_length[1].segments, 8u);
+  EXPECT_EQ(k.per_length[2].segments, 5u);
+  EXPECT_NEAR(k.per_length[0].translation_percent, 1.1, 1e-9);
+  EXPECT_NEAR(k.per_length[1].translation_percent, 1.05, 1e-9);
+  EXPECT_NEAR(k.per_length[2].translation_percent, 1.02, 1e-9);
+  EXPECT_NEAR(k.translation_percent, (9 * 1.1 + 8 * 1.05 + 5 * 1.02) / 22, 1e-9);
+  EXPECT_LT(k.rotation_deg_per_m, 1e-12);
+}
+
+// Heading drift: positions exact, orientation of pose i turned by i·d about z. For a
+// segment f -> l = f + k, est_rel = [Rz(k d) | Rz(-f d)(k, 0, 0)], gt_rel = [I | (k, 0, 0)],
+// so E = est_rel⁻¹·gt_rel turns by k d and moves by |(k,0,0) - Rz(-f d)(k,0,0)| =
+// 2 k sin(f d / 2): per segment k d / L rad/m and 2 k sin(f d / 2) / L.
+TEST(KittiRpe, HeadingDriftGivesKnownDegPerMetre)
+{
+  const double d = 0.001;
+  const Poses gt = line(101);
+  Poses est = gt;
+  for (std::size_t i = 0; i < est.size(); ++i)
+    est[i].topLeftCorner<3, 3>() = rotZ(static_cast<double>(i) * d);
+  const std::vector<double> lengths = {10, 20, 50};
+  const ev::KittiRelativeError kr = ev::kittiRelativeError(est, gt, lengths, 10);
+  double t_sum = 0, r_sum = 0;
+  std::size_t n = 0;
+  for (std::size_t f = 0; f <= 100; f += 10)
+    for (const double len : lengths) {
+      const double k = len + 1;
+      if (f + static_cast<std::size_t>(k) > 100)
+        continue;
+      r_sum += k * d / len;
+      t_sum += 2 * k * std::sin(static_cast<double>(f) * d / 2) / len;
+      ++n;
+    }
+  ASSERT_EQ(kr.segments.size(), n);
+  EXPECT_NEAR(kr.rotation_deg_per_m, r_sum / static_cast<double>(n) / kDeg, 1e-9);
+  EXPECT_NEAR(kr.translation_percent, 100 * t_sum / static_cast<double>(n), 1e-9);
+}
+
+TEST(KittiRpe, LengthsForShortAndLongPaths)
+{
+  const std::vector<double> devkit = {100, 200, 300, 400, 500, 600, 700, 800};
+  EXPECT_EQ(ev::kittiLengthsFor(line(1002)), devkit);                   // 1001 m
+  const std::vector<double> short_path = ev::kittiLengthsFor(line(51)); // 50 m
+  ASSERT_EQ(short_path.size(), 8u);
+  for (int k = 1; k <= 8; ++k)
+    EXPECT_NEAR(short_path[k - 1], 5.0 * k, 1e-12);
+  EXPECT_TRUE(ev::kittiLengthsFor(line(1)).empty());
+  // A path too short for any segment: no result rather than a made-up one.
+  EXPECT_FALSE(ev::kittiRelativeError(line(5), line(5), {100}).valid());
+}
+
+// ---------------------------------------------------------------- evo's per-frame RPE
+
+// Straight ground truth 1 m a step; the estimate steps 1.1 m and turns d a step. Pair
+// (i, i+1): E = Q_rel⁻¹·P_rel = [Rz(d) | 1.1 Rz(-i d) x - x], so translation
+// sqrt(1.21 + 1 - 2.2 cos(i d)), rotation d, point distance |1 - 1.1| = 0.1.
+TEST(FrameRpe, HandComputed)
+{
+  const double d = 0.01;
+  const Poses gt = line(11);
+  Poses est;
+  for (std::size_t i = 0; i < gt.size(); ++i)
+    est.push_back(
+        makePose(rotZ(static_cast<double>(i) * d), Eigen::Vector3d(1.1 * double(i), 0, 0)));
+  for (const std::size_t delta : {1u, 2u}) {
+    const double step = static_cast<double>(delta);
+    std::vector<double> expected;
+    for (std::size_t i = 0; i + delta < gt.size(); i += delta)
+      expected.push_back(std::sqrt(1.21 * step * step + step * step -
+                                   2.2 * step * step * std::cos(static_cast<double>(i) * d)));
+    const ev::Statistics want = ev::computeStatistics(expected);
+    const ev::FrameRelativeError r = ev::frameRelativeError(est, gt, delta);
+    EXPECT_EQ(r.translation.count, 10u / delta);
+    EXPECT_NEAR(r.translation.rmse, want.rmse, 1e-12);
+    EXPECT_NEAR(r.translation.max, want.max, 1e-12);
+    EXPECT_NEAR(r.rotation_deg.rmse, step * d / kDeg, 1e-9);
+    EXPECT_NEAR(r.point_distance.rmse, 0.1 * step, 1e-12);
+  }
+}
+
+// ---------------------------------------------------------------- association
+
+TEST(Association, NearestTimestampWithinMaxDiffLikeEvo)
+{
+  using Pairs = std::vector<std::pair<std::size_t, std::size_t>>;
+  // The estimate is shorter: each of its stamps looks for the nearest reference stamp;
+  // 0.5 has none within 0.01 s.
+  EXPECT_EQ(
+      ev::associateByTimestamp({0.0, 0.1, 0.2, 0.305, 0.5}, {0.001, 0.1, 0.2, 0.3, 0.4, 0.6}),
+      (Pairs{{0, 0}, {1, 1}, {2, 2}, {3, 3}}));
+  // The estimate is longer: the reference's stamps look in it.
+  EXPECT_EQ(ev::associateByTimestamp({0.0, 0.05, 0.1, 0.15, 0.2}, {0.052, 0.2}),
+            (Pairs{{1, 0}, {4, 1}}));
+  EXPECT_TRUE(ev::associateByTimestamp({0.0}, {1.0}).empty());
+  EXPECT_THROW(ev::evaluateTrajectory(line(5), line(4)), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------- pose files
+
+TEST(PoseFiles, KittiRoundTripIsExact)
+{
+  ScratchDir dir;
+  const Poses poses = randomPoses(20, 1);
+  pio::writeKittiPoses(dir / "poses.txt", poses);
+  const Poses back = pio::loadKittiPoses(dir / "poses.txt");
+  ASSERT_EQ(back.size(), poses.size());
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    EXPECT_EQ(back[i], poses[i]) << i; // shortest form that reads back exactly
+  EXPECT_EQ(pio::detectPoseFileFormat(dir / "poses.txt"), pio::PoseFileFormat::Kitti);
+  // Only the target is left (the temporary file was renamed).
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.str()),
+                          std::filesystem::directory_iterator()),
+            1);
+}
+
+TEST(PoseFiles, TumRoundTripKeepsTimestamps)
+{
+  ScratchDir dir;
+  const Poses poses = randomPoses(20, 2);
+  std::vector<double> stamps;
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    stamps.push_back(1317384506.40 + 0.1 * static_cast<double>(i));
+  pio::writeTumTrajectory(dir / "a.txt", poses, stamps);
+  const pio::Trajectory t = pio::loadTrajectory(dir / "a.txt");
+  EXPECT_EQ(t.format, pio::PoseFileFormat::Tum);
+  EXPECT_EQ(t.timestamps, stamps);
+  expectPosesNear(t.poses, poses, 1e-12);
+  pio::writeTumTrajectory(dir / "b.tum", poses);
+  const pio::Trajectory u = pio::loadTrajectory(dir / "b.tum");
+  ASSERT_EQ(u.timestamps.size(), 20u);
+  EXPECT_EQ(u.timestamps[7], 7.0);
+  EXPECT_THROW(pio::writeTumTrajectory(dir / "c.txt", poses, {1.0}), std::invalid_argument);
+}
+
+TEST(PoseFiles, TumHandWritten)
+{
+  ScratchDir dir;
+  const std::string path = dir.write("t.txt",
+                                     "# timestamp tx ty tz qx qy qz qw\n"
+                                     "\n"
+                                     "1.5 1 2 3 0 0 0.70710678118654757 0.70710678118654757\n");
+  const pio::Trajectory t = pio::loadTumTrajectory(path);
+  ASSERT_EQ(t.poses.size(), 1u);
+  EXPECT_EQ(t.timestamps[0], 1.5);
+  EXPECT_LT((t.poses[0].topLeftCorner<3, 3>() - rotZ(M_PI / 2)).norm(), 1e-15);
+  EXPECT_TRUE((t.poses[0].topRightCorner<3, 1>() == Eigen::Vector3d(1, 2, 3)));
+}
+
+// .frames: 3DTK's column-major matrix in centimetres; read back in metres, and as raw
+// numbers by the existing reader (loadFramesFinalPose), which must agree.
+TEST(PoseFiles, FramesRoundTripAndExistingReader)
+{
+  ScratchDir dir;
+  const Poses history = randomPoses(3, 3);
+  pio::writeFrames(dir / "scan000.frames", history);
+  expectPosesNear(pio::loadFrames(dir / "scan000.frames"), history, 1e-12);
+  const Eigen::Matrix4d raw = pio::loadFramesFinalPose(dir / "scan000.frames");
+  EXPECT_LT((raw.topLeftCorner<3, 3>() - history.back().topLeftCorner<3, 3>()).norm(), 1e-15);
+  EXPECT_LT((raw.topRightCorner<3, 1>() - 100.0 * history.back().topRightCorner<3, 1>()).norm(),
+            1e-9);
+  std::ifstream in(dir / "scan000.frames");
+  std::string first;
+  std::getline(in, first);
+  EXPECT_EQ(first.substr(first.size() - 2), " 1"); // the type code (ICP)
+}
+
+TEST(PoseFiles, FramesDirectoryInScanNumberOrder)
+{
+  ScratchDir dir;
+  const Poses poses = randomPoses(4, 4);
+  pio::writeFramesDirectory(dir.str(), poses, pio::kFramesUnit, pio::kFramesLum, 998);
+  for (const char* name :
+       {"scan998.frames", "scan999.frames", "scan1000.frames", "scan1001.frames"})
+    EXPECT_TRUE(std::filesystem::exists(dir / name)) << name;
+  const pio::Trajectory t = pio::loadTrajectory(dir.str());
+  EXPECT_EQ(t.format, pio::PoseFileFormat::Frames);
+  EXPECT_TRUE(t.timestamps.empty());
+  expectPosesNear(t.poses, poses, 1e-12); // scan1000 after scan999, not before scan998
+}
+
+TEST(PoseFiles, ReadsThe3dtkReferenceFrames)
+{
+  PCL_PARALLEL_REQUIRE_DATA(frames, "3dtk_dat/reference_frames_2009");
+  const Poses poses = pio::loadFramesDirectory(frames);
+  ASSERT_EQ(poses.size(), 3u);
+  const Eigen::Matrix4d raw = pio::loadFramesFinalPose(frames + "/scan001.frames");
+  EXPECT_TRUE((poses[1].topLeftCorner<3, 3>() == raw.topLeftCorner<3, 3>()));
+  EXPECT_LT((poses[1].topRightCorner<3, 1>() - 0.01 * raw.topRightCorner<3, 1>()).norm(),
+            1e-12);
+}
+
+/** The message of the exception f throws (fails the test when none). */
+template <typename F>
+std::string
+errorOf(F&& f)
+{
+  try {
+    f();
+  }
+  catch (const std::exception& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no exception";
+  return "";
+}
+
+/** The message holds the text (printed when not). */
+#define EXPECT_HAS(message, text)                                                              \
+  do {                                                                                         \
+    const std::string m_ = (message);                                                          \
+    EXPECT_NE(m_.find(text), std::string::npos) << "message: " << m_;                          \
+  } while (0)
+
+TEST(PoseFiles, BadFilesNameFileAndLine)
+{
+  ScratchDir dir;
+  const std::string short_line = dir.write("short.txt", "0 0 0 0 0 0 0 1\n\n1 0 0 0 0 0 1\n");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(short_line); }),
+             "short.txt:3: expected 8 numbers");
+  const std::string word = dir.write("word.txt", "0 0 0 0 0 0 0 1\n1 0 0 x 0 0 0 1\n");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(word); }),
+             "word.txt:2: column 4 is not a finite number: \"x\"");
+  const std::string quat = dir.write("quat.txt", "0 0 0 0 0 0 0 2\n");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(quat); }), "quat.txt:1: the quaternion");
+  const std::string odd = dir.write("odd.txt", "# x y z\n1 2 3 4 5\n");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(odd); }),
+             "odd.txt:2: unknown pose file format: 5 fields");
+  const std::string kitti =
+      dir.write("k.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(kitti); }), "k.txt:2:");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(dir / "missing.txt"); }),
+             "missing.txt: no such file");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(dir.write("empty.txt", "# nothing\n")); }),
+             "empty.txt: holds no poses");
+  std::filesystem::create_directory(dir / "frames");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(dir / "frames"); }), "holds no .frames");
+  const std::string frames = dir.write("frames/scan000.frames",
+                                       "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 1\n"
+                                       "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0\n");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(dir / "frames"); }),
+             "scan000.frames:2: expected 16 numbers");
+  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(frames); }), "pass the directory");
+  EXPECT_HAS(errorOf([&] { pio::writeKittiPoses(dir / "no/such/dir/p.txt", line(2)); }),
+             "p.txt: cannot open for writing");
+}
+
+} // namespace

@@ -1,0 +1,136 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/filters/voxel_grid.h>
+
+#include <pcl/filters/voxel_grid.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <tuple>
+#include <vector>
+
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+Cloud
+randomCloud(std::size_t n, float extent, unsigned seed)
+{
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-extent, extent);
+  Cloud c;
+  for (std::size_t i = 0; i < n; ++i)
+    c.push_back(pcl::PointXYZ(u(rng), u(rng), 0.1f * u(rng)));
+  return c;
+}
+
+std::vector<std::tuple<float, float, float>>
+sorted(const Cloud& c)
+{
+  std::vector<std::tuple<float, float, float>> v;
+  for (const auto& p : c)
+    v.emplace_back(p.x, p.y, p.z);
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+// The same centroids as pcl::VoxelGrid where VoxelGrid works (it sums in float).
+TEST(VoxelCentroid, MatchesPclVoxelGrid)
+{
+  const Cloud cloud = randomCloud(50000, 5.0f, 1);
+  const auto ours = pcl_parallel::filters::voxelCentroid(cloud, 0.25);
+  Cloud pcl_out;
+  pcl::VoxelGrid<pcl::PointXYZ> grid;
+  grid.setInputCloud(cloud.makeShared());
+  grid.setLeafSize(0.25f, 0.25f, 0.25f);
+  grid.filter(pcl_out);
+  ASSERT_EQ(ours->size(), pcl_out.size());
+  const auto a = sorted(*ours), b = sorted(pcl_out);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_NEAR(std::get<0>(a[i]), std::get<0>(b[i]), 1e-5);
+    EXPECT_NEAR(std::get<1>(a[i]), std::get<1>(b[i]), 1e-5);
+    EXPECT_NEAR(std::get<2>(a[i]), std::get<2>(b[i]), 1e-5);
+  }
+}
+
+// Every output point is the mean of the input points of its voxel (brute force).
+TEST(VoxelCentroid, CentroidOfEachVoxel)
+{
+  const Cloud cloud = randomCloud(2000, 2.0f, 2);
+  const double v = 0.5;
+  const auto out = pcl_parallel::filters::voxelCentroid(cloud, v);
+  std::size_t total = 0;
+  for (const auto& q : *out) {
+    const auto key = [&](const pcl::PointXYZ& p) {
+      return std::make_tuple(std::floor(p.x / v), std::floor(p.y / v), std::floor(p.z / v));
+    };
+    double sx = 0, sy = 0, sz = 0;
+    int count = 0;
+    for (const auto& p : cloud)
+      if (key(p) == key(q))
+        sx += p.x, sy += p.y, sz += p.z, ++count;
+    ASSERT_GT(count, 0);
+    total += count;
+    EXPECT_NEAR(q.x, sx / count, 1e-6);
+    EXPECT_NEAR(q.y, sy / count, 1e-6);
+    EXPECT_NEAR(q.z, sz / count, 1e-6);
+  }
+  EXPECT_EQ(total, cloud.size()); // the voxels partition the cloud
+}
+
+// VoxelGrid gives up beyond 2^31 voxels in the bounding box; we reduce.
+TEST(VoxelCentroid, LargeExtentStillReduced)
+{
+  Cloud cloud = randomCloud(20000, 1.0f, 3);
+  cloud.push_back(pcl::PointXYZ(5000.0f, -5000.0f, 300.0f)); // one far return
+  const auto out = pcl_parallel::filters::voxelCentroid(cloud, 0.1);
+  EXPECT_LT(out->size(), 20000u / 2);
+  EXPECT_GT(out->size(), 100u);
+  EXPECT_EQ(out->back().x, 5000.0f);
+}
+
+TEST(VoxelCentroid, DropsNonFiniteAndIsDense)
+{
+  Cloud cloud = randomCloud(100, 1.0f, 4);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  cloud.push_back(pcl::PointXYZ(nan, 0, 0));
+  cloud.push_back(pcl::PointXYZ(0, std::numeric_limits<float>::infinity(), 0));
+  for (double v : {0.0, 0.3}) {
+    const auto out = pcl_parallel::filters::voxelCentroid(cloud, v);
+    EXPECT_TRUE(out->is_dense);
+    for (const auto& p : *out)
+      EXPECT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+  }
+  EXPECT_EQ(pcl_parallel::filters::voxelCentroid(cloud, 0.0)->size(), 100u);
+  EXPECT_TRUE(pcl_parallel::filters::voxelCentroid(Cloud(), 0.1)->empty());
+}
+
+TEST(VoxelCentroid, TooFarFromOriginThrows)
+{
+  Cloud cloud;
+  cloud.push_back(pcl::PointXYZ(1e9f, 0, 0));
+  EXPECT_THROW(pcl_parallel::filters::voxelCentroid(cloud, 1e-3), std::invalid_argument);
+}
+
+TEST(VoxelCentroid, SameForAnyThreadCount)
+{
+  const Cloud cloud = randomCloud(100000, 20.0f, 5);
+  const auto one = pcl_parallel::filters::voxelCentroid(cloud, 0.2, 1);
+  for (unsigned t : {2u, 3u, 4u}) {
+    const auto many = pcl_parallel::filters::voxelCentroid(cloud, 0.2, t);
+    ASSERT_EQ(one->size(), many->size());
+    for (std::size_t i = 0; i < one->size(); ++i) {
+      EXPECT_EQ((*one)[i].x, (*many)[i].x);
+      EXPECT_EQ((*one)[i].y, (*many)[i].y);
+      EXPECT_EQ((*one)[i].z, (*many)[i].z);
+    }
+  }
+}
+
+} // namespace
