@@ -269,6 +269,46 @@ TEST(PslamPicture, ExtentIsRobustToFarReturns)
     EXPECT_TRUE(covers(bare, t));
 }
 
+// A room (floor, ceiling, walls) reads as a floor plan; open ground with a few trees as a
+// height map; both pictures are PNGs at least as wide as the caption needs.
+TEST(PslamPicture, StyleAndFile)
+{
+  pcl_pslam::Cloud room, field;
+  for (double x = -5; x <= 5; x += 0.1)
+    for (double y = -4; y <= 4; y += 0.1) {
+      room.emplace_back(x, y, -1.0f); // floor 1 m below the scanner, ceiling 1.5 m above
+      room.emplace_back(x, y, 1.5f);
+      field.emplace_back(x * 4, y * 4, -1.8f);
+    }
+  for (double z = -1; z <= 1.5; z += 0.1)
+    for (double t = -4; t <= 4; t += 0.1) {
+      room.emplace_back(-5.0f, t, z), room.emplace_back(5.0f, t, z);
+      field.emplace_back(8.0f, 6.0f + 0.1 * t, z + 1.0); // a tree trunk
+    }
+  pcl_pslam::Poses path;
+  for (int i = 0; i < 8; ++i) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m(0, 3) = -3.5 + i;
+    path.push_back(m);
+  }
+  EXPECT_EQ(pcl_pslam::chooseStyle(room, path, 2), "floorplan");
+  EXPECT_EQ(pcl_pslam::chooseStyle(field, path, 2), "height");
+  const fs::path dir = scratch("picture");
+  pcl_pslam::PictureOptions po;
+  po.caption = {"test"};
+  po.loops = {{0, 7}};
+  for (const auto* cloud : {&room, &field}) {
+    const std::string path_png = (dir / "map.png").string();
+    const std::string style = pcl_pslam::writeMapPicture(path_png, *cloud, path, po);
+    EXPECT_EQ(style, cloud == &room ? "floorplan" : "height");
+    std::ifstream in(path_png, std::ios::binary);
+    char magic[8] = {};
+    in.read(magic, 8);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  }
+  fs::remove_all(dir);
+}
+
 namespace {
 
 // Real 3DTK data through the app's input, pipeline and .frames writer, against slam6D's
