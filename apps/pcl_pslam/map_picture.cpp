@@ -275,30 +275,26 @@ writeMapPicture(const std::string& path,
         static_cast<float>(map[i].data[opt.up] - (k >= 0 ? trajectory[k](opt.up, 3) : 0.0));
     cell_of[i] = static_cast<std::int64_t>(xy.y()) * gw + static_cast<std::int64_t>(xy.x());
   }
-  // Floor plan: the floor and the ceiling are the most populated 5 cm height bins below
-  // and above the trajectory; what stands between them (walls, furniture) is drawn dark.
-  double floor_h = -1e30, ceiling_h = 1e30;
-  if (style == "floorplan") {
-    std::unordered_map<int, std::size_t> bins;
-    for (std::size_t i = 0; i < map.size(); ++i)
-      if (cell_of[i] >= 0 && std::abs(rel[i]) < 10.0f)
-        ++bins[static_cast<int>(std::floor(rel[i] / 0.05))];
-    std::size_t best_lo = 0, best_hi = 0;
-    for (const auto& [b, count] : bins) {
-      if (b < -2 && count > best_lo)
-        best_lo = count, floor_h = (b + 0.5) * 0.05;
-      if (b > 6 && count > best_hi)
-        best_hi = count, ceiling_h = (b + 0.5) * 0.05;
-    }
-  }
+  // Floor plan, per cell: the lowest and highest points are floor and ceiling (or a table
+  // top); points between them, over 25 cm of height, are a wall or an object. Per cell,
+  // so a world frame that is not level (a handheld scanner's first pose) does not turn a
+  // tilted floor into walls.
+  std::vector<float> hmin(cells, 1e30f);
   for (std::size_t i = 0; i < map.size(); ++i) {
     if (cell_of[i] < 0)
       continue;
     const auto c = static_cast<std::size_t>(cell_of[i]);
     hmax[c] = std::max(hmax[c], rel[i]);
-    if (rel[i] > floor_h + 0.15 && rel[i] < ceiling_h - 0.15)
-      band_lo[c] = std::min(band_lo[c], rel[i]), band_hi[c] = std::max(band_hi[c], rel[i]);
+    hmin[c] = std::min(hmin[c], rel[i]);
   }
+  if (style == "floorplan")
+    for (std::size_t i = 0; i < map.size(); ++i) {
+      if (cell_of[i] < 0)
+        continue;
+      const auto c = static_cast<std::size_t>(cell_of[i]);
+      if (rel[i] > hmin[c] + 0.15f && rel[i] < hmax[c] - 0.15f)
+        band_lo[c] = std::min(band_lo[c], rel[i]), band_hi[c] = std::max(band_hi[c], rel[i]);
+    }
   std::vector<double> tops;
   for (std::size_t c = 0; c < cells; ++c)
     if (hmax[c] > -1e29f)
