@@ -199,20 +199,20 @@ chooseStyle(const Cloud& map, const Poses& trajectory, int up)
   for (const auto& t : trajectory)
     traj.push_back(view(t));
   const TrajectoryIndex index(traj, 1.0, 0.25);
-  std::vector<char> ceiling(trajectory.size(), 0);
+  std::vector<int> ceiling(trajectory.size(), 0);
   for (const auto& p : map) {
     const int k = index.nearest(view(p.data));
     if (k < 0)
       continue;
     const double above = p.data[up] - trajectory[k](up, 3);
     if (above > 0.3 && above < 6.0)
-      ceiling[k] = 1;
+      ++ceiling[k];
   }
   // Count over the thinned positions (those nearest() can return).
   std::size_t seen = 0, all = 0;
   for (std::size_t i = 0; i < traj.size(); ++i)
     if (index.nearest(traj[i]) == static_cast<int>(i))
-      ++all, seen += ceiling[i] ? 1 : 0;
+      ++all, seen += ceiling[i] >= 20 ? 1 : 0; // a patch of surface, not a stray point
   return all > 0 && 2 * seen > all ? "floorplan" : "height";
 }
 

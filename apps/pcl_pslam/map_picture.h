@@ -55,8 +55,8 @@ writeMapPicture(const std::string& path,
                 const Poses& trajectory,
                 const PictureOptions& options);
 
-/** "floorplan" when most poses see a ceiling (map points 0.3-6 m above them within
- *  1 m horizontally), else "height". */
+/** "floorplan" when most poses see a ceiling (at least 20 map points 0.3-6 m above them
+ *  within 1 m horizontally: a patch of surface, not a stray return), else "height". */
 std::string
 chooseStyle(const Cloud& map, const Poses& trajectory, int up);
 
