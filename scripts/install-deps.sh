@@ -11,7 +11,9 @@
 #                                    --no-install-recommends)
 #   libflann-dev libeigen3-dev libboost-dev   PCL's public dependencies, named explicitly
 #   libgtest-dev                     the test suite
-#   libboost-program-options-dev nlohmann-json3-dev   pcl_pslam's options and JSON output
+#   libboost-program-options-dev     pcl_pslam's command line (subcommands, 3DTK option names)
+#   libcairo2-dev                    pcl_pslam's map.png: antialiased lines, text, scale bar
+#   nlohmann-json3-dev               pcl_pslam's report.json (a JSON library, not printf)
 #   clang-14 libomp-14-dev libclang-rt-14-dev the ThreadSanitizer stage of scripts/test.sh:
 #                                    clang, LLVM's OpenMP runtime with the Archer tool
 #                                    (libarcher.so), and clang's sanitizer runtimes
@@ -21,7 +23,7 @@ packages=(
   build-essential cmake
   libpcl-dev libflann-dev libeigen3-dev libboost-dev
   libgtest-dev
-  libboost-program-options-dev nlohmann-json3-dev
+  libboost-program-options-dev libcairo2-dev nlohmann-json3-dev
   clang-14 libomp-14-dev libclang-rt-14-dev
 )
 

@@ -1,0 +1,259 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "input.h"
+
+#include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/io/uos.h>
+#include <pcl_parallel/sim/simulated_scans.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace pcl_pslam {
+
+namespace {
+
+std::string
+lowerCase(std::string s)
+{
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
+  return s;
+}
+
+/** The library's readers say "pcl_parallel::io: FILE:LINE: problem"; the app's one line
+ *  starts with "pcl_pslam: " already. */
+std::string
+withoutPrefix(const std::string& what)
+{
+  const std::string prefix = "pcl_parallel::io: ";
+  return what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what;
+}
+
+/** The number at the end of a file's stem (scan012 -> 12, 000042 -> 42), -1 if none. */
+long
+trailingNumber(const fs::path& file)
+{
+  const std::string stem = file.stem().string();
+  std::size_t k = stem.size();
+  while (k > 0 && std::isdigit(static_cast<unsigned char>(stem[k - 1])))
+    --k;
+  if (k == stem.size() || stem.size() - k > 9)
+    return -1;
+  return std::stol(stem.substr(k));
+}
+
+/** One timestamp (seconds) per non-blank line. */
+std::vector<double>
+readTimes(const std::string& path)
+{
+  std::ifstream in(path);
+  if (!in)
+    throw DataError(path + ": cannot open file for reading");
+  std::vector<double> t;
+  std::string line;
+  for (std::size_t no = 1; std::getline(in, line); ++no) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos)
+      continue;
+    std::istringstream ss(line);
+    double v;
+    std::string extra;
+    if (!(ss >> v) || !std::isfinite(v) || (ss >> extra))
+      throw DataError(path + ":" + std::to_string(no) + ": expected one timestamp, got \"" +
+                      line + "\"");
+    t.push_back(v);
+  }
+  return t;
+}
+
+} // namespace
+
+Input
+loadDirectory(const Options& o, const ReadProgress& progress)
+{
+  if (!fs::is_directory(o.dir))
+    throw UsageError(o.dir + ": " +
+                     (fs::exists(o.dir) ? "not a directory" : "no such directory"));
+  for (const std::string& f : {o.poses_file, o.times_file})
+    if (!f.empty() && !fs::is_regular_file(f))
+      throw UsageError(f + ": no such file");
+
+  // One format per directory: -f, else the most common scan extension (.txt only when
+  // asked for: it also names notes and pose lists).
+  std::map<std::string, std::vector<fs::path>> by_ext;
+  for (const auto& e : fs::directory_iterator(o.dir))
+    if (e.is_regular_file() && pcl_parallel::io::isScanFile(e.path().string()))
+      by_ext[lowerCase(e.path().extension().string().substr(1))].push_back(e.path());
+  std::string format = o.format;
+  if (format.empty()) {
+    std::size_t best = 0;
+    for (const auto& [ext, list] : by_ext) {
+      if (ext == "txt")
+        continue;
+      if (list.size() > best)
+        best = list.size(), format = ext;
+      else if (list.size() == best && best > 0)
+        throw UsageError(o.dir + ": holds " + std::to_string(best) + " ." + format + " and " +
+                         std::to_string(best) + " ." + ext + " files; choose one with -f");
+    }
+  }
+  std::vector<fs::path> files = by_ext[format];
+  std::sort(files.begin(), files.end());
+  if (files.empty())
+    throw DataError(o.dir + ": no scan files" + (format.empty() ? "" : " (." + format + ")"));
+
+  Input in;
+  in.format = format;
+  const bool uos = format == "3d";
+  in.scale = o.scale ? *o.scale : uos ? 0.01 : 1.0;
+  in.up = o.up >= 0 ? o.up : uos ? 1 : 2;
+  in.frames_3dtk = uos;
+
+  // Scan numbers for -s/-e: the numbers in the names when every file has a distinct one
+  // (3DTK's scanNNN), else the positions.
+  std::vector<long> numbers;
+  for (const auto& f : files)
+    numbers.push_back(trailingNumber(f));
+  {
+    std::vector<long> sorted = numbers;
+    std::sort(sorted.begin(), sorted.end());
+    if (sorted.front() < 0 || std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+      for (std::size_t i = 0; i < numbers.size(); ++i)
+        numbers[i] = static_cast<long>(i);
+  }
+
+  // Poses and times: one line per scan file in the directory (before -s/-e).
+  Poses all_poses;
+  if (!o.poses_file.empty()) {
+    try {
+      all_poses = pcl_parallel::io::loadKittiPoses(o.poses_file);
+    }
+    catch (const std::runtime_error& e) {
+      throw DataError(withoutPrefix(e.what()));
+    }
+    if (all_poses.size() != files.size())
+      throw DataError(o.poses_file + ": " + std::to_string(all_poses.size()) + " poses for " +
+                      std::to_string(files.size()) + " ." + format + " scans in " + o.dir);
+  }
+  std::string times_file = o.times_file;
+  if (times_file.empty()) // KITTI's layout: sequences/NN/times.txt beside velodyne/
+    for (const fs::path& d : {fs::path(o.dir), fs::absolute(o.dir).parent_path()})
+      if (fs::is_regular_file(d / "times.txt")) {
+        times_file = (d / "times.txt").string();
+        break;
+      }
+  std::vector<double> all_times;
+  if (!times_file.empty()) {
+    all_times = readTimes(times_file);
+    if (all_times.size() != files.size()) {
+      if (!o.times_file.empty())
+        throw DataError(times_file + ": " + std::to_string(all_times.size()) +
+                        " timestamps for " + std::to_string(files.size()) + " scans in " +
+                        o.dir);
+      all_times.clear(); // a times.txt found by itself that does not fit: not ours
+    }
+  }
+
+  std::vector<std::size_t> selected;
+  for (std::size_t i = 0; i < files.size(); ++i)
+    if (numbers[i] >= o.first && (o.last < 0 || numbers[i] <= o.last))
+      selected.push_back(i);
+  if (files.size() < 2)
+    throw DataError(o.dir + ": 1 ." + format + " scan file; pcl_pslam needs at least 2");
+  if (selected.size() < 2) // the scans are there: -s/-e chose too few
+    throw UsageError(o.dir + ": " + std::to_string(selected.size()) + " of its " +
+                     std::to_string(files.size()) + " ." + format +
+                     " scans lie in the range -s " + std::to_string(o.first) +
+                     (o.last >= 0 ? " -e " + std::to_string(o.last) : "") +
+                     "; pcl_pslam needs at least 2");
+
+  const float s = static_cast<float>(in.scale);
+  bool have_uos_poses = uos && all_poses.empty();
+  for (std::size_t k = 0; k < selected.size(); ++k) {
+    const std::size_t i = selected[k];
+    const std::string file = files[i].string();
+    Cloud::Ptr cloud;
+    try {
+      cloud = pcl_parallel::io::loadScan(file, o.min_range, o.max_range);
+    }
+    catch (const std::exception& e) {
+      throw DataError(withoutPrefix(e.what()));
+    }
+    if (cloud->empty())
+      throw DataError(file + ": no finite points" +
+                      (o.min_range > 0 || std::isfinite(o.max_range)
+                           ? " within the range limits (-M/-m)"
+                           : ""));
+    in.points_read.push_back(cloud->size());
+    for (auto& p : *cloud)
+      p.getVector3fMap() *= s;
+    in.scans.push_back(cloud);
+    in.files.push_back(file);
+    in.numbers.push_back(static_cast<int>(numbers[i]));
+    in.stamps.push_back(all_times.empty() ? static_cast<double>(numbers[i]) : all_times[i]);
+    if (have_uos_poses) {
+      fs::path pose = files[i];
+      pose.replace_extension(".pose");
+      if (fs::exists(pose)) {
+        Eigen::Matrix4d m;
+        try {
+          m = pcl_parallel::io::loadUosPose(pose.string());
+        }
+        catch (const std::runtime_error& e) {
+          throw DataError(withoutPrefix(e.what()));
+        }
+        m.topRightCorner<3, 1>() *= in.scale;
+        in.initial.push_back(m);
+      }
+      else if (!in.initial.empty())
+        throw DataError(pose.string() + ": missing (the scans before it have .pose files)");
+      else
+        have_uos_poses = false;
+    }
+    else if (!all_poses.empty()) {
+      Eigen::Matrix4d m = all_poses[i];
+      m.topRightCorner<3, 1>() *= in.scale;
+      in.initial.push_back(m);
+    }
+    if (progress)
+      progress(static_cast<int>(k + 1), static_cast<int>(selected.size()));
+  }
+  in.has_stamps = !all_times.empty();
+  if (in.initial.empty()) { // no odometry: constant-velocity guesses
+    in.initial.assign(in.scans.size(), Eigen::Matrix4d::Identity());
+    in.odometry = false;
+  }
+  return in;
+}
+
+Input
+simulateDemo(const Options& o)
+{
+  pcl_parallel::sim::SimulationParameters sp;
+  const auto set = pcl_parallel::sim::simulateScanSet(sp, o.threads);
+  Input in;
+  in.scans = set.scans;
+  in.initial = set.odometry;
+  in.truth = set.truth;
+  in.format = "sim";
+  in.up = o.up >= 0 ? o.up : 2;
+  for (std::size_t i = 0; i < in.scans.size(); ++i) {
+    in.files.emplace_back();
+    in.numbers.push_back(static_cast<int>(i));
+    in.stamps.push_back(static_cast<double>(i));
+    in.points_read.push_back(in.scans[i]->size());
+  }
+  return in;
+}
+
+} // namespace pcl_pslam

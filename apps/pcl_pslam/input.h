@@ -1,0 +1,50 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * pcl_pslam's input: a directory of scans (with odometry, poses and timestamps) or the
+ * built-in simulated set, checked so that every problem is one line naming the file.
+ */
+#pragma once
+
+#include "options.h"
+#include "slam_pipeline.h"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pcl_pslam {
+
+struct Input {
+  std::vector<Cloud::Ptr> scans; ///< in metres (coordinates times `scale`)
+  Poses initial;                 ///< odometry, or identities when `odometry` is false
+  bool odometry = true;
+  Poses truth;                    ///< the simulation's truth (demo), else empty
+  std::vector<std::string> files; ///< per scan: its file ("" for simulated scans)
+  std::vector<int> numbers;       ///< per scan: its number (-s/-e count in these)
+  std::vector<double> stamps;     ///< per scan: time (s), or the number when none given
+  bool has_stamps = false;
+  std::vector<std::size_t> points_read; ///< per scan: points read (after range limits)
+  std::string format;                   ///< "3d", "bin", ... ("sim" for the demo)
+  double scale = 1.0;                   ///< file coordinates times scale = metres
+  int up = 2;                           ///< vertical axis
+  bool frames_3dtk = false;             ///< data in 3DTK's frame and units: .frames in those
+};
+
+/** Called after each scan is read (done, total); may throw to stop. */
+using ReadProgress = std::function<void(int done, int total)>;
+
+/** The scans of o.dir selected by -s/-e, their initial poses and timestamps.
+ *  Throws UsageError for a directory that does not exist, a poses/times file that does
+ *  not exist or -s/-e that select fewer than 2 scans, DataError naming the file (and line) for
+ * bad data: no scans, a scan that cannot be parsed or has no finite points within the range
+ * limits, a poses or times file whose line count differs from the number of scan files. */
+Input
+loadDirectory(const Options& o, const ReadProgress& progress = ReadProgress());
+
+/** The demo's simulated scan set (metres, z up, odometry and truth). */
+Input
+simulateDemo(const Options& o);
+
+} // namespace pcl_pslam

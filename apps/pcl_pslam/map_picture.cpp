@@ -1,0 +1,483 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "map_picture.h"
+
+#include <algorithm>
+#include <array>
+#include <cairo.h>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace pcl_pslam {
+
+namespace {
+
+/** Trajectory positions thinned to one per `thin` metre cell, in a hash grid of cell
+ *  `radius`: the nearest one to a point within `radius` in a 3x3 cell look-up. A scanner
+ *  turned in place (hundreds of poses in one spot) costs one position. */
+class TrajectoryIndex {
+public:
+  TrajectoryIndex(const std::vector<Eigen::Vector2d>& trajectory, double radius, double thin)
+      : radius_(radius)
+  {
+    std::unordered_map<std::int64_t, int> taken;
+    for (std::size_t i = 0; i < trajectory.size(); ++i) {
+      const Eigen::Vector2d& t = trajectory[i];
+      if (!t.allFinite())
+        continue;
+      if (!taken.emplace(key(t, thin), static_cast<int>(i)).second)
+        continue;
+      grid_[key(t, radius_)].push_back(static_cast<int>(kept_.size()));
+      kept_.push_back(t);
+      pose_.push_back(static_cast<int>(i));
+    }
+  }
+
+  /** The trajectory index of the nearest kept position within radius, -1 if none. */
+  int
+  nearest(const Eigen::Vector2d& p, double* distance = nullptr) const
+  {
+    const auto cx = static_cast<std::int64_t>(std::floor(p.x() / radius_));
+    const auto cy = static_cast<std::int64_t>(std::floor(p.y() / radius_));
+    double best = radius_ * radius_;
+    int found = -1;
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+        const auto it = grid_.find(pack(cx + dx, cy + dy));
+        if (it == grid_.end())
+          continue;
+        for (int k : it->second) {
+          const double d = (kept_[k] - p).squaredNorm();
+          if (d <= best)
+            best = d, found = k;
+        }
+      }
+    if (distance)
+      *distance = std::sqrt(best);
+    return found < 0 ? -1 : pose_[found];
+  }
+
+private:
+  static std::int64_t
+  pack(std::int64_t x, std::int64_t y)
+  {
+    return (x << 32) ^ (y & 0xffffffff);
+  }
+  static std::int64_t
+  key(const Eigen::Vector2d& p, double cell)
+  {
+    return pack(static_cast<std::int64_t>(std::floor(p.x() / cell)),
+                static_cast<std::int64_t>(std::floor(p.y() / cell)));
+  }
+
+  double radius_;
+  std::vector<Eigen::Vector2d> kept_;
+  std::vector<int> pose_;
+  std::unordered_map<std::int64_t, std::vector<int>> grid_;
+};
+
+/** The q-quantile of v (nth_element; v is reordered). */
+double
+quantile(std::vector<double>& v, double q)
+{
+  const auto k = static_cast<std::size_t>(std::clamp(q, 0.0, 1.0) * (v.size() - 1) + 0.5);
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+/** Light (low) to dark red (high): the ground stays light, what stands on it shows. */
+std::array<double, 3>
+heightColour(double t)
+{
+  static const double stops[][4] = {{0.0, 0.86, 0.88, 0.92},
+                                    {0.3, 0.47, 0.75, 0.47},
+                                    {0.65, 0.94, 0.67, 0.24},
+                                    {1.0, 0.59, 0.12, 0.12}};
+  t = std::clamp(t, 0.0, 1.0);
+  int k = 0;
+  while (k < 2 && t > stops[k + 1][0])
+    ++k;
+  const double f = (t - stops[k][0]) / (stops[k + 1][0] - stops[k][0]);
+  return {stops[k][1] + f * (stops[k + 1][1] - stops[k][1]),
+          stops[k][2] + f * (stops[k + 1][2] - stops[k][2]),
+          stops[k][3] + f * (stops[k + 1][3] - stops[k][3])};
+}
+
+/** A "nice" length (1, 2 or 5 times a power of ten) not above x. */
+double
+niceLength(double x)
+{
+  const double p = std::pow(10.0, std::floor(std::log10(x)));
+  for (double m : {5.0, 2.0, 1.0})
+    if (m * p <= x)
+      return m * p;
+  return p;
+}
+
+std::string
+formatLength(double m)
+{
+  char s[32];
+  if (m >= 1000.0)
+    std::snprintf(s, sizeof s, "%g km", m / 1000.0);
+  else if (m >= 1.0)
+    std::snprintf(s, sizeof s, "%g m", m);
+  else
+    std::snprintf(s, sizeof s, "%g cm", m * 100.0);
+  return s;
+}
+
+/** The plane of the top view: image right = axis u, image up = axis v (negated for a
+ *  left-handed frame such as 3DTK's, so the picture is not mirrored). */
+struct View {
+  int up, u, v;
+  double flip;
+  Eigen::Vector2d
+  operator()(const float* p) const
+  {
+    return {p[u], flip * p[v]};
+  }
+  Eigen::Vector2d
+  operator()(const Eigen::Matrix4d& m) const
+  {
+    return {m(u, 3), flip * m(v, 3)};
+  }
+};
+
+View
+makeView(int up)
+{
+  // 3DTK's frame (y up) is left-handed: x right, z forward seen from above is x = -v.
+  if (up == 1)
+    return View{1, 2, 0, -1.0};
+  return View{up, (up + 1) % 3, (up + 2) % 3, 1.0};
+}
+
+} // namespace
+
+Extent
+robustExtent(const std::vector<Eigen::Vector2d>& points,
+             const std::vector<Eigen::Vector2d>& trajectory,
+             double radius,
+             double q,
+             double margin)
+{
+  if (trajectory.empty())
+    throw std::invalid_argument("robustExtent: empty trajectory");
+  Extent e{Eigen::Vector2d::Constant(1e300), Eigen::Vector2d::Constant(-1e300)};
+  for (const auto& t : trajectory)
+    if (t.allFinite())
+      e.lo = e.lo.cwiseMin(t), e.hi = e.hi.cwiseMax(t);
+  const TrajectoryIndex index(trajectory, radius, radius / 20.0);
+  std::vector<double> xs, ys;
+  for (const auto& p : points)
+    if (p.allFinite() && index.nearest(p) >= 0)
+      xs.push_back(p.x()), ys.push_back(p.y());
+  if (!xs.empty()) {
+    e.lo = e.lo.cwiseMin(Eigen::Vector2d(quantile(xs, q), quantile(ys, q)));
+    e.hi = e.hi.cwiseMax(Eigen::Vector2d(quantile(xs, 1.0 - q), quantile(ys, 1.0 - q)));
+  }
+  // At least a metre across, then the margin on every side.
+  const Eigen::Vector2d centre = 0.5 * (e.lo + e.hi);
+  const Eigen::Vector2d half = (0.5 * (e.hi - e.lo)).cwiseMax(Eigen::Vector2d(0.5, 0.5));
+  const double grow = margin * 2.0 * half.maxCoeff();
+  e.lo = centre - half - Eigen::Vector2d::Constant(grow);
+  e.hi = centre + half + Eigen::Vector2d::Constant(grow);
+  return e;
+}
+
+std::string
+chooseStyle(const Cloud& map, const Poses& trajectory, int up)
+{
+  const View view = makeView(up);
+  std::vector<Eigen::Vector2d> traj;
+  for (const auto& t : trajectory)
+    traj.push_back(view(t));
+  const TrajectoryIndex index(traj, 1.0, 0.25);
+  std::vector<int> ceiling(trajectory.size(), 0);
+  for (const auto& p : map) {
+    const int k = index.nearest(view(p.data));
+    if (k < 0)
+      continue;
+    const double above = p.data[up] - trajectory[k](up, 3);
+    if (above > 0.3 && above < 6.0)
+      ++ceiling[k];
+  }
+  // Count over the thinned positions (those nearest() can return).
+  std::size_t seen = 0, all = 0;
+  for (std::size_t i = 0; i < traj.size(); ++i)
+    if (index.nearest(traj[i]) == static_cast<int>(i))
+      ++all, seen += ceiling[i] >= 20 ? 1 : 0; // a patch of surface, not a stray point
+  return all > 0 && 2 * seen > all ? "floorplan" : "height";
+}
+
+std::string
+cairoVersion()
+{
+  return cairo_version_string();
+}
+
+std::string
+writeMapPicture(const std::string& path,
+                const Cloud& map,
+                const Poses& trajectory,
+                const PictureOptions& opt)
+{
+  if (trajectory.empty())
+    throw std::invalid_argument("writeMapPicture: empty trajectory");
+  const View view = makeView(opt.up);
+  std::vector<Eigen::Vector2d> traj;
+  for (const auto& t : trajectory)
+    traj.push_back(view(t));
+
+  // The extent from (at most ~400k) evenly strided points: quantiles need no more.
+  std::vector<Eigen::Vector2d> sample;
+  const std::size_t stride = std::max<std::size_t>(1, map.size() / 400000);
+  for (std::size_t i = 0; i < map.size(); i += stride)
+    sample.push_back(view(map[i].data));
+  const Extent e = robustExtent(sample, traj, opt.radius);
+  const Eigen::Vector2d span = e.hi - e.lo;
+  const double scale = opt.size / span.maxCoeff(); // pixels per metre
+  const int w = std::max(1, static_cast<int>(std::ceil(span.x() * scale)));
+  const int h = std::max(1, static_cast<int>(std::ceil(span.y() * scale)));
+  auto px = [&](const Eigen::Vector2d& p) {
+    return Eigen::Vector2d((p.x() - e.lo.x()) * scale, (e.hi.y() - p.y()) * scale);
+  };
+
+  // Per pixel: points, and the lowest and highest point above the nearest trajectory
+  // position (heights relative to the trajectory, so the ground along a slope or ramp
+  // keeps one colour).
+  const std::string style =
+      opt.style == "auto" ? chooseStyle(map, trajectory, opt.up) : opt.style;
+  const TrajectoryIndex index(traj, opt.radius, opt.radius / 20.0);
+  // Cells of the map's voxel size (at least a pixel), so a sparse reduced map reads as
+  // surfaces rather than dots.
+  const double cell_px = std::max(1.0, opt.cell * scale);
+  const int gw = static_cast<int>(std::ceil(w / cell_px)),
+            gh = static_cast<int>(std::ceil(h / cell_px));
+  const std::size_t cells = static_cast<std::size_t>(gw) * gh;
+  std::vector<float> hmax(cells, -1e30f);
+  std::vector<float> band_lo(cells, 1e30f), band_hi(cells, -1e30f);
+  std::vector<float> rel(map.size());
+  std::vector<std::int64_t> cell_of(map.size(), -1);
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    const Eigen::Vector2d q = view(map[i].data);
+    const Eigen::Vector2d xy = px(q) / cell_px;
+    if (!(xy.x() >= 0 && xy.y() >= 0 && xy.x() < gw && xy.y() < gh))
+      continue;
+    const int k = index.nearest(q);
+    rel[i] =
+        static_cast<float>(map[i].data[opt.up] - (k >= 0 ? trajectory[k](opt.up, 3) : 0.0));
+    cell_of[i] = static_cast<std::int64_t>(xy.y()) * gw + static_cast<std::int64_t>(xy.x());
+  }
+  // Floor plan, per cell: the lowest and highest points are floor and ceiling (or a table
+  // top); points between them, over 25 cm of height, are a wall or an object. Per cell,
+  // so a world frame that is not level (a handheld scanner's first pose) does not turn a
+  // tilted floor into walls.
+  std::vector<float> hmin(cells, 1e30f);
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    if (cell_of[i] < 0)
+      continue;
+    const auto c = static_cast<std::size_t>(cell_of[i]);
+    hmax[c] = std::max(hmax[c], rel[i]);
+    hmin[c] = std::min(hmin[c], rel[i]);
+  }
+  if (style == "floorplan")
+    for (std::size_t i = 0; i < map.size(); ++i) {
+      if (cell_of[i] < 0)
+        continue;
+      const auto c = static_cast<std::size_t>(cell_of[i]);
+      if (rel[i] > hmin[c] + 0.15f && rel[i] < hmax[c] - 0.15f)
+        band_lo[c] = std::min(band_lo[c], rel[i]), band_hi[c] = std::max(band_hi[c], rel[i]);
+    }
+  std::vector<double> tops;
+  for (std::size_t c = 0; c < cells; ++c)
+    if (hmax[c] > -1e29f)
+      tops.push_back(hmax[c]);
+  double lo = -2.0, hi = 4.0;
+  if (tops.size() > 10) {
+    lo = quantile(tops, 0.02);
+    hi = quantile(tops, 0.98);
+    if (hi - lo < 0.5)
+      hi = lo + 0.5;
+  }
+
+  // Canvas: the map, then a band for the caption and legend.
+  const int pad = 20, line_h = 20;
+  const int band = 30 + line_h * static_cast<int>(opt.caption.size() + 1);
+  const int W = std::max(w + 2 * pad, 700), H = h + 2 * pad + band;
+  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
+      cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
+  if (cairo_surface_status(surface.get()) != CAIRO_STATUS_SUCCESS)
+    throw std::runtime_error(path + ": cannot allocate a " + std::to_string(W) + " x " +
+                             std::to_string(H) + " picture");
+  cairo_surface_flush(surface.get());
+  unsigned char* data = cairo_image_surface_get_data(surface.get());
+  const int stride_bytes = cairo_image_surface_get_stride(surface.get());
+  auto put = [&](int x, int y, double r, double g, double b) {
+    auto* row =
+        reinterpret_cast<std::uint32_t*>(data + static_cast<std::size_t>(y) * stride_bytes);
+    row[x] = (static_cast<std::uint32_t>(r * 255) << 16) |
+             (static_cast<std::uint32_t>(g * 255) << 8) | static_cast<std::uint32_t>(b * 255);
+  };
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      put(x, y, 1, 1, 1);
+  for (int gy = 0; gy < gh; ++gy)
+    for (int gx = 0; gx < gw; ++gx) {
+      const std::size_t c = static_cast<std::size_t>(gy) * gw + gx;
+      if (hmax[c] < -1e29f)
+        continue;
+      std::array<double, 3> col;
+      if (style == "floorplan") {
+        // A wall or an object stands between floor and ceiling, over some height; a
+        // sloping or noisy floor does not.
+        const double g = band_hi[c] - band_lo[c] >= 0.25 ? 0.25 : 0.84;
+        col = {g, g, g};
+      }
+      else
+        col = heightColour((hmax[c] - lo) / (hi - lo));
+      const int x0 = static_cast<int>(gx * cell_px),
+                x1 = std::min(w, static_cast<int>((gx + 1) * cell_px));
+      const int y0 = static_cast<int>(gy * cell_px),
+                y1 = std::min(h, static_cast<int>((gy + 1) * cell_px));
+      for (int y = y0; y < std::max(y1, y0 + 1); ++y)
+        for (int x = x0; x < std::max(x1, x0 + 1); ++x)
+          put(x + pad, y + pad, col[0], col[1], col[2]);
+    }
+  cairo_surface_mark_dirty(surface.get());
+
+  std::unique_ptr<cairo_t, decltype(&cairo_destroy)> cr_owner(cairo_create(surface.get()),
+                                                              cairo_destroy);
+  cairo_t* cr = cr_owner.get();
+  auto at = [&](const Eigen::Vector2d& p) {
+    const Eigen::Vector2d q = px(p);
+    return Eigen::Vector2d(q.x() + pad, q.y() + pad);
+  };
+  cairo_rectangle(cr, pad, pad, w, h); // nothing outside the map area
+  cairo_clip(cr);
+  // Loop-closure links: thin blue dashes between the linked poses.
+  const double dash[] = {6.0, 4.0};
+  cairo_set_dash(cr, dash, 2, 0);
+  cairo_set_line_width(cr, 1.2);
+  // Many links (a scanner turned in one room) fade, so the trajectory stays visible.
+  const double alpha = std::clamp(40.0 / std::max<double>(1.0, opt.loops.size()), 0.1, 0.8);
+  cairo_set_source_rgba(cr, 0.0, 0.35, 1.0, alpha);
+  for (const auto& [a, b] : opt.loops) {
+    if (a >= traj.size() || b >= traj.size())
+      continue;
+    const auto p = at(traj[a]), q = at(traj[b]);
+    cairo_move_to(cr, p.x(), p.y());
+    cairo_line_to(cr, q.x(), q.y());
+  }
+  cairo_stroke(cr);
+  cairo_set_dash(cr, nullptr, 0, 0);
+  // The trajectory: a white halo under a dark line, visible on any colour.
+  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (std::size_t i = 0; i < traj.size(); ++i) {
+      const auto p = at(traj[i]);
+      i == 0 ? cairo_move_to(cr, p.x(), p.y()) : cairo_line_to(cr, p.x(), p.y());
+    }
+    if (pass == 0)
+      cairo_set_source_rgb(cr, 1, 1, 1), cairo_set_line_width(cr, 4.5);
+    else if (style == "floorplan")
+      cairo_set_source_rgb(cr, 0.85, 0.0, 0.0), cairo_set_line_width(cr, 2.0);
+    else
+      cairo_set_source_rgb(cr, 0.1, 0.1, 0.1), cairo_set_line_width(cr, 2.0);
+    cairo_stroke(cr);
+  }
+  // Start: green disc; end: black ring.
+  const auto s = at(traj.front()), f = at(traj.back());
+  cairo_arc(cr, s.x(), s.y(), 6, 0, 2 * M_PI);
+  cairo_set_source_rgb(cr, 0.0, 0.65, 0.2);
+  cairo_fill_preserve(cr);
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_set_line_width(cr, 1.5);
+  cairo_stroke(cr);
+  cairo_arc(cr, f.x(), f.y(), 7, 0, 2 * M_PI);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  cairo_set_line_width(cr, 2.0);
+  cairo_stroke(cr);
+  cairo_reset_clip(cr);
+  cairo_rectangle(cr, pad - 0.5, pad - 0.5, w + 1, h + 1);
+  cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);
+  cairo_set_line_width(cr, 1.0);
+  cairo_stroke(cr);
+
+  // Scale bar, bottom left of the map on a white box.
+  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(cr, 14);
+  const double bar_m = niceLength(0.25 * span.x());
+  const double bar_px = bar_m * scale;
+  const double bx = pad + 12, by = pad + h - 14;
+  cairo_set_source_rgba(cr, 1, 1, 1, 0.85);
+  cairo_rectangle(cr, bx - 6, by - 24, bar_px + 70, 34);
+  cairo_fill(cr);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  cairo_set_line_width(cr, 3.0);
+  cairo_move_to(cr, bx, by);
+  cairo_line_to(cr, bx + bar_px, by);
+  cairo_stroke(cr);
+  cairo_set_line_width(cr, 1.5);
+  for (double x : {bx, bx + bar_px}) {
+    cairo_move_to(cr, x, by - 6);
+    cairo_line_to(cr, x, by + 4);
+  }
+  cairo_stroke(cr);
+  cairo_move_to(cr, bx + bar_px + 8, by + 5);
+  cairo_show_text(cr, formatLength(bar_m).c_str());
+
+  // Caption and legend.
+  double y = pad + h + 28;
+  const char* axes[] = {"x", "y", "z"};
+  std::string view_line =
+      "top view along " + std::string(axes[opt.up]) + "; right: " + axes[view.u] +
+      ", up: " + (view.flip < 0 ? "-" : "") + axes[view.v] +
+      "; trajectory from the green disc to the black ring; blue dashes: loop links";
+  std::vector<std::string> lines = opt.caption;
+  lines.push_back(view_line);
+  for (const auto& l : lines) {
+    cairo_move_to(cr, pad, y);
+    cairo_show_text(cr, l.c_str());
+    y += line_h;
+  }
+  if (style != "floorplan") { // colour bar of the height above the trajectory
+    const double lw = 160, lx = W - pad - lw, ly = pad + h + 10;
+    for (int i = 0; i < static_cast<int>(lw); ++i) {
+      const auto c = heightColour(i / (lw - 1));
+      cairo_set_source_rgb(cr, c[0], c[1], c[2]);
+      cairo_rectangle(cr, lx + i, ly, 1, 10);
+      cairo_fill(cr);
+    }
+    char label[96];
+    cairo_set_source_rgb(cr, 0, 0, 0);
+    cairo_set_font_size(cr, 12);
+    std::snprintf(label, sizeof label, "%.1f", lo);
+    cairo_move_to(cr, lx, ly + 24);
+    cairo_show_text(cr, label);
+    std::snprintf(label, sizeof label, "%.1f m", hi);
+    cairo_text_extents_t ext;
+    cairo_text_extents(cr, label, &ext);
+    cairo_move_to(cr, lx + lw - ext.width, ly + 24);
+    cairo_show_text(cr, label);
+    cairo_move_to(cr, lx - 150, ly + 9);
+    cairo_show_text(cr, "height above trajectory");
+  }
+  else {
+    cairo_set_font_size(cr, 12);
+    cairo_move_to(cr, W - pad - 300, pad + h + 20);
+    cairo_show_text(cr, "dark: walls and objects, grey: floor/ceiling");
+  }
+  cairo_surface_flush(surface.get());
+  if (cairo_surface_write_to_png(surface.get(), path.c_str()) != CAIRO_STATUS_SUCCESS)
+    throw std::runtime_error(path + ": cannot write the picture");
+  return style;
+}
+
+} // namespace pcl_pslam

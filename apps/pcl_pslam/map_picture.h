@@ -1,0 +1,67 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * map.png: a top view of the map a person can judge at a glance, drawn with Cairo
+ * (antialiased lines, text): the extent from where the points around the trajectory
+ * really are, points coloured by height above the trajectory (or floor-plan style), the
+ * trajectory, loop-closure links, a scale bar and a caption.
+ */
+#pragma once
+
+#include "slam_pipeline.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pcl_pslam {
+
+struct Extent {
+  Eigen::Vector2d lo, hi;
+};
+
+/** The part of the plane a picture shows: the box of the trajectory united with the
+ *  [quantile, 1 - quantile] range (per axis) of the points within `radius` of a
+ *  trajectory position, grown by `margin` of its size on each side. Points farther than
+ *  `radius` from every position never count, and the quantiles drop the rest of the
+ *  stray returns, so a few far points cannot set the extent (min/max would). Non-finite
+ *  points are ignored. Needs a non-empty trajectory. */
+Extent
+robustExtent(const std::vector<Eigen::Vector2d>& points,
+             const std::vector<Eigen::Vector2d>& trajectory,
+             double radius = 30.0,
+             double quantile = 0.005,
+             double margin = 0.04);
+
+struct PictureOptions {
+  int up = 2;                 ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
+  std::string style = "auto"; ///< height, floorplan, auto
+  int size = 1400;            ///< pixels on the long side of the map area
+  double radius = 30.0;       ///< metres, for robustExtent
+  double cell = 0.1;          ///< metres: points fill cells of this size (the map's voxel)
+  std::vector<std::string> caption;                           ///< lines under the map
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops; ///< drawn as links
+};
+
+/** Writes the PNG (map and trajectory in metres). Returns the style used ("height" or
+ *  "floorplan"). Throws std::runtime_error naming the file when it cannot be written. */
+std::string
+writeMapPicture(const std::string& path,
+                const Cloud& map,
+                const Poses& trajectory,
+                const PictureOptions& options);
+
+/** "floorplan" when most poses see a ceiling (at least 20 map points 0.3-6 m above them
+ *  within 1 m horizontally: a patch of surface, not a stray return), else "height". */
+std::string
+chooseStyle(const Cloud& map, const Poses& trajectory, int up);
+
+/** Cairo's version, for report.json. */
+std::string
+cairoVersion();
+
+} // namespace pcl_pslam

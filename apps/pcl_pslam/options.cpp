@@ -1,0 +1,339 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "options.h"
+
+#include <pcl_parallel/io/scan_io.h>
+
+#include <boost/program_options.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <sstream>
+
+namespace po = boost::program_options;
+
+namespace pcl_pslam {
+
+namespace {
+
+std::string
+lowerCase(std::string s)
+{
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
+  return s;
+}
+
+/** The option groups; `o` receives the values (notify). Texts give unit and default;
+ *  3DTK slam6D's names (src/slam6d/slam6D.cc usage()) where the meaning is the same. */
+struct Descriptions {
+  po::options_description input{"Input (run)"};
+  po::options_description pipeline{"Matching and loop closing (lengths in the files' units; "
+                                   "defaults in metres)"};
+  po::options_description output{"Output"};
+  po::options_description general{"General"};
+  po::options_description hidden;
+
+  explicit Descriptions(Options& o)
+  {
+    const Parameters d;
+    auto text = [](const std::string& s) { return s; };
+    // clang-format off
+    input.add_options()
+      ("format,f", po::value<std::string>(&o.format)->value_name("F"),
+       "scan format: uos (3DTK .3d, cm, with .pose odometry), pcd, ply, xyz, txt, bin "
+       "(KITTI/velodyne). Default: the most common scan extension in DIR")
+      ("start,s", po::value<int>(&o.first)->value_name("NR"),
+       "start at scan NR (3DTK: counting starts with 0; the number in the file name when "
+       "every file has one, else the position in name order) [default 0]")
+      ("end,e", po::value<int>(&o.last)->value_name("NR"),
+       "end after scan NR (inclusive; past the last scan: the last) [default: all]")
+      ("max,max-range,m", po::value<double>(&o.max_range)->value_name("NR"),
+       "drop points farther than NR from the scanner, files' units (also --max-range) [default: none]")
+      ("min,min-range,M", po::value<double>(&o.min_range)->value_name("NR"),
+       "drop points closer than NR to the scanner, files' units (also --min-range) [default 0]")
+      ("poses", po::value<std::string>(&o.poses_file)->value_name("FILE"),
+       "initial poses, KITTI format (12 numbers a line), one line per scan file in DIR, "
+       "files' units. Default: .pose files beside .3d scans, else none (constant velocity)")
+      ("times", po::value<std::string>(&o.times_file)->value_name("FILE"),
+       "one timestamp (s) per scan file in DIR, for poses_tum.txt [default: times.txt in DIR "
+       "or its parent, else the scan index]")
+      ("scale", po::value<double>()->value_name("S"),
+       "coordinates times S are metres [default 1; uos: 0.01]")
+      ("up", po::value<std::string>()->value_name("x|y|z"),
+       "the vertical axis [default z; uos: y]");
+    pipeline.add_options()
+      ("reduce,voxel,r", po::value<double>()->value_name("NR"),
+       "voxel size of the reduction (one centroid per voxel) before matching (also "
+       "--voxel) [default: auto, the scans' median range / 20]")
+      ("iter,icp-iterations,i", po::value<int>(&o.icp_iterations)->value_name("NR"),
+       text("maximal number of ICP iterations (also --icp-iterations) [default " +
+            std::to_string(d.icp_iterations) + "]").c_str())
+      ("dist,icp-distance,d", po::value<double>()->value_name("NR"),
+       "maximal point-to-point distance for matching with ICP (also --icp-distance) "
+       "[default: auto, 10 voxels]")
+      ("iterSLAM,lum-iterations,I", po::value<int>(&o.lum_iterations)->value_name("NR"),
+       text("maximal number of pLUM (SLAM) iterations per relaxation, >= 1 (also "
+            "--lum-iterations) [default " + std::to_string(d.lum_iterations) +
+            "; 3DTK's default 0 skips SLAM: here --no-loops]").c_str())
+      ("distSLAM,lum-distance,D", po::value<double>()->value_name("NR"),
+       "maximal point-to-point distance for matching with pLUM, first iteration (also "
+       "--lum-distance) [default: auto, 10 voxels]")
+      ("lum-final", po::value<double>()->value_name("NR"),
+       "pLUM's distance shrinks by x0.7 per iteration down to NR [default 0.2 m]")
+      ("cldist,loop-distance,c", po::value<double>()->value_name("NR"),
+       "maximal distance of two scan poses for a closed loop (also --loop-distance) "
+       "[default: auto, the scans' median range]")
+      ("loopsize,loop-size,l", po::value<int>(&o.loop_size)->value_name("NR"),
+       text("a loop must exceed NR scans (also --loop-size) [default " +
+            std::to_string(d.loop_size) + "]").c_str())
+      ("epsICP", po::value<double>()->value_name("NR"),
+       "stop ICP iteration if the difference is smaller than NR (accepted, not yet "
+       "passed on: the pipeline stops at a squared transform change of 1e-8)")
+      ("epsSLAM", po::value<double>()->value_name("NR"),
+       "stop SLAM iteration if the average difference is smaller than NR (accepted, not "
+       "yet passed on: the pipeline stops at a mean pose update of 1e-4)")
+      ("metascan", po::bool_switch(&o.metascan),
+       "match each scan against a map of the previous scans (the default here: a local "
+       "map of the recent scans)")
+      ("scan-to-scan", po::bool_switch(&o.scan_to_scan),
+       "match each scan against its predecessor only (the paper's and slam6D's default)")
+      ("deskew", po::bool_switch(&o.deskew),
+       "deskew scans taken while moving (spinning LiDAR) by the predicted motion")
+      ("no-loops", po::bool_switch(&o.no_loops), "no loop closing (front end only)");
+    output.add_options()
+      ("out,o", po::value<std::string>(&o.out)->value_name("DIR"),
+       "where outputs go, created and checked before any work [default pcl_pslam_out]")
+      ("ply", po::bool_switch(&o.ply), "also write the map as map.ply")
+      ("map-voxel", po::value<double>()->value_name("NR"),
+       "voxel size of map.pcd/map.ply [default: -r when given, else 0.1 m]")
+      ("no-picture", "do not write map.png")
+      ("style", po::value<std::string>(&o.style)->value_name("S"),
+       "map.png: height (colour = height above the trajectory), floorplan (walls dark, "
+       "for indoor scans), auto (floorplan when most poses see a ceiling) [default auto]");
+    general.add_options()
+      ("threads,t", po::value<unsigned>(&o.threads)->value_name("N"),
+       "threads, 0 = all cores [default 0]")
+      ("quiet,q", po::bool_switch(&o.quiet), "no progress, only errors and the summary")
+      ("help,h", po::bool_switch(&o.help), "this help");
+    hidden.add_options()
+      ("dir", po::value<std::string>(&o.dir), "scan directory");
+    // clang-format on
+  }
+};
+
+double
+positive(const po::variables_map& vm, const char* name, bool zero_ok = false)
+{
+  const double v = vm[name].as<double>();
+  if (!std::isfinite(v) || v < 0.0 || (!zero_ok && v == 0.0))
+    throw UsageError(std::string("--") + name + " must be " +
+                     (zero_ok ? "zero or positive" : "positive") + ", got " +
+                     std::to_string(v));
+  return v;
+}
+
+} // namespace
+
+std::string
+canonicalFormat(const std::string& name)
+{
+  const std::string n = lowerCase(name);
+  if (n == "uos" || n == "3d")
+    return "3d";
+  if (n == "velodyne" || n == "kitti" || n == "bin")
+    return "bin";
+  if (n == "pcl")
+    return "pcd";
+  if (pcl_parallel::io::isScanFile("x." + n))
+    return n;
+  return "";
+}
+
+std::string
+helpText(const std::string& command)
+{
+  std::ostringstream s;
+  if (command != "run" && command != "demo") {
+    s << "usage: pcl_pslam demo [options]        map the built-in simulated scan set\n"
+         "       pcl_pslam run [options] DIR      map the scans in DIR (file-name order)\n"
+         "       pcl_pslam simulate ...           simulated scan sets (presets)\n"
+         "       pcl_pslam evaluate ...           ATE / RPE of pose files\n"
+         "       pcl_pslam COMMAND --help         the options of COMMAND\n"
+         "\n"
+         "Exit status: 0 done, 1 bad data (a scan, a poses file; the message names the\n"
+         "file and line), 2 bad usage (unknown option or format, a path on the command\n"
+         "line that does not exist, an --out that cannot be written), 130/143 interrupted\n"
+         "(SIGINT/SIGTERM: every output is complete or absent).\n";
+    return s.str();
+  }
+  Options o;
+  Descriptions d(o);
+  if (command == "run")
+    s << "usage: pcl_pslam run [options] DIR\n\n"
+         "DIR holds one file per scan; the scans are matched in file-name order. 3DTK\n"
+         "slam6D's option names work with their meaning, so a slam6D command line such as\n"
+         "  pcl_pslam run -s 0 -e 65 -r 10 -i 100 -d 75 -D 250 -I 50 --cldist 750 -f uos dat\n"
+         "runs unchanged: lengths on the command line are in the files' units (uos: cm)\n"
+         "and scaled with the data; the defaults are given in metres.\n\n"
+      << d.input << "\n";
+  else
+    s << "usage: pcl_pslam demo [options]\n\n"
+         "Simulates the built-in scan set (a ring corridor, drifting odometry), maps it and\n"
+         "prints the pose errors against the simulation's truth. Lengths in metres.\n\n";
+  s << d.pipeline << "\n"
+    << d.output << "\n"
+    << d.general << "\n"
+    << "Outputs (in --out; each written to a temporary name and renamed): scanNNN.frames\n"
+       "(3DTK, per scan: initial, ICP and final pose, 4x4 column-major + type code; uos\n"
+       "data in 3DTK's units), poses.txt / poses_icp.txt (KITTI), poses_tum.txt /\n"
+       "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), map.pcd (binary), map.ply (--ply),\n"
+       "map.png (top view), report.json (parameters, per-scan numbers, stage times).\n";
+  return s.str();
+}
+
+Options
+parseCommandLine(int argc, const char* const* argv)
+{
+  Options o;
+  if (argc < 2)
+    throw UsageError("no command (demo, run, simulate, evaluate; --help for the options)");
+  o.command = argv[1];
+  if (o.command == "--help" || o.command == "-h" || o.command == "help") {
+    o.command.clear();
+    o.help = true;
+    return o;
+  }
+  if (o.command == "simulate" || o.command == "evaluate") { // their parsers take the rest
+    o.rest.assign(argv + 2, argv + argc);
+    return o;
+  }
+  if (o.command != "run" && o.command != "demo")
+    throw UsageError("unknown command '" + o.command +
+                     "' (demo, run, simulate, evaluate; --help for the options)");
+
+  Descriptions d(o);
+  po::options_description all;
+  all.add(d.pipeline).add(d.output).add(d.general);
+  if (o.command == "run")
+    all.add(d.input).add(d.hidden);
+  po::positional_options_description positional;
+  positional.add("dir", 1);
+  po::variables_map vm;
+  try {
+    const std::vector<std::string> args(argv + 2, argv + argc);
+    po::store(
+        po::command_line_parser(args)
+            .options(all)
+            .positional(positional)
+            .style(po::command_line_style::unix_style ^ po::command_line_style::allow_guessing)
+            .run(),
+        vm);
+    po::notify(vm);
+  }
+  catch (const po::error& e) {
+    std::string what = e.what();
+    if (what.find("too many positional") != std::string::npos)
+      what = o.command == "run" ? "run takes one directory" : "demo takes no directory";
+    throw UsageError(o.command + ": " + what);
+  }
+  if (o.help)
+    return o;
+
+  if (o.command == "run" && o.dir.empty())
+    throw UsageError("run: no scan directory given");
+  if (vm.count("format")) {
+    const std::string f = canonicalFormat(o.format);
+    if (f.empty())
+      throw UsageError("--format: unknown scan format '" + o.format +
+                       "' (uos, pcd, ply, xyz, txt, bin)");
+    o.format = f;
+  }
+  if (vm.count("start") && o.first < 0)
+    throw UsageError("-s/--start must be >= 0");
+  if (vm.count("end") && (o.last < 0 || o.last < o.first))
+    throw UsageError("-e/--end must be >= -s/--start (" + std::to_string(o.first) + ")");
+  if (vm.count("max"))
+    positive(vm, "max");
+  if (vm.count("min"))
+    positive(vm, "min", true);
+  if (o.min_range >= o.max_range)
+    throw UsageError("-M/--min must be smaller than -m/--max");
+  if (vm.count("scale"))
+    o.scale = positive(vm, "scale");
+  if (vm.count("up")) {
+    const std::string axis = lowerCase(vm["up"].as<std::string>());
+    if (axis != "x" && axis != "y" && axis != "z")
+      throw UsageError("--up needs x, y or z, got '" + axis + "'");
+    o.up = axis[0] - 'x';
+  }
+  if (vm.count("reduce"))
+    o.voxel = positive(vm, "reduce", true);
+  if (vm.count("dist"))
+    o.icp_distance = positive(vm, "dist");
+  if (vm.count("distSLAM"))
+    o.lum_distance = positive(vm, "distSLAM");
+  if (vm.count("lum-final"))
+    o.lum_final = positive(vm, "lum-final");
+  if (vm.count("cldist"))
+    o.loop_distance = positive(vm, "cldist", true);
+  if (o.metascan && o.scan_to_scan)
+    throw UsageError("--metascan and --scan-to-scan exclude each other");
+  if (vm.count("map-voxel"))
+    o.map_voxel = positive(vm, "map-voxel", true);
+  if (vm.count("epsICP"))
+    o.eps_icp = positive(vm, "epsICP");
+  if (vm.count("epsSLAM"))
+    o.eps_slam = positive(vm, "epsSLAM");
+  if (o.icp_iterations < 1)
+    throw UsageError("-i/--iter must be >= 1");
+  if (o.lum_iterations < 1)
+    throw UsageError("-I/--iterSLAM must be >= 1 (this pipeline always runs pLUM)");
+  if (o.loop_size < 1)
+    throw UsageError("-l/--loopsize must be >= 1");
+  if (o.threads > 4096)
+    throw UsageError("--threads: " + std::to_string(o.threads) + " is not a thread count");
+  o.picture = vm.count("no-picture") == 0;
+  o.style = lowerCase(o.style);
+  if (o.style != "auto" && o.style != "height" && o.style != "floorplan")
+    throw UsageError("--style needs auto, height or floorplan, got '" + o.style + "'");
+  if (o.out.empty())
+    throw UsageError("--out: empty directory name");
+  return o;
+}
+
+Parameters
+toParameters(const Options& o, double scale)
+{
+  Parameters p;
+  auto length = [scale](const std::optional<double>& v, double fallback) {
+    return v ? *v * scale : fallback;
+  };
+  p.voxel_size = length(o.voxel, p.voxel_size);
+  p.icp_distance = length(o.icp_distance, p.icp_distance);
+  p.icp_iterations = o.icp_iterations;
+  p.loop_distance = length(o.loop_distance, p.loop_distance);
+  p.loop_size = o.loop_size;
+  p.lum_distance = length(o.lum_distance, p.lum_distance);
+  p.lum_final_distance = length(o.lum_final, p.lum_final_distance);
+  p.lum_iterations = o.lum_iterations;
+  p.num_threads = o.threads;
+  p.scan_to_scan = o.scan_to_scan;
+  p.deskew = o.deskew;
+  p.close_loops = !o.no_loops;
+  return p;
+}
+
+double
+mapVoxel(const Options& o, double scale)
+{
+  if (o.map_voxel)
+    return *o.map_voxel * scale;
+  return o.voxel ? *o.voxel * scale : 0.1; // the automatic voxel is the pipeline's own
+}
+
+} // namespace pcl_pslam

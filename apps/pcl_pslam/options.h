@@ -1,0 +1,91 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * pcl_pslam's command line (Boost.Program_options): subcommands, and within `run` 3DTK
+ * slam6D's option names wherever the meaning is the same.
+ */
+#pragma once
+
+#include "slam_pipeline.h"
+
+#include <limits>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace pcl_pslam {
+
+/** A command line pcl_pslam cannot run: the caller prints one line and exits with 2. */
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/** Bad data (a scan, a poses file, ...): one line naming the file, exit 1. */
+struct DataError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/** What the command line asks for. Lengths the user gives are in the files' units
+ *  (3DTK: the units of the scan data, e.g. cm for uos) and are scaled with the data
+ *  (toParameters); unset lengths take the defaults, which are in metres. */
+struct Options {
+  std::string command; ///< demo, run, simulate, evaluate
+  bool help = false;   ///< --help: print helpText(command), exit 0
+  /** simulate / evaluate: their arguments after the command, for their own parsers. */
+  std::vector<std::string> rest;
+
+  std::string dir; ///< run: the scan directory
+  std::string out = "pcl_pslam_out";
+  std::string poses_file; ///< KITTI poses, one line per scan file in dir
+  std::string times_file; ///< one timestamp per scan file (default: times.txt)
+  std::string format;     ///< scan file extension (3d, pcd, ply, xyz, txt, bin)
+  int first = 0;          ///< -s: first scan number (3DTK: counting from 0)
+  int last = -1;          ///< -e: last scan number, inclusive (-1: all)
+  double min_range = 0.0; ///< -M, files' units
+  double max_range = std::numeric_limits<double>::infinity(); ///< -m, files' units
+  std::optional<double> scale; ///< coordinates times this are metres (uos: 0.01)
+  int up = -1;                 ///< vertical axis of the picture (-1: per format)
+
+  std::optional<double> voxel, icp_distance, loop_distance, lum_distance, lum_final;
+  int icp_iterations = Parameters().icp_iterations;
+  int loop_size = Parameters().loop_size;
+  int lum_iterations = Parameters().lum_iterations;
+  std::optional<double> eps_icp, eps_slam; ///< accepted; not yet passed to the pipeline
+  bool metascan = false;     ///< against a map of previous scans (the pipeline's default)
+  bool scan_to_scan = false; ///< against the previous scan only (the paper's default)
+  bool deskew = false;
+  bool no_loops = false;
+  unsigned threads = 0;
+  bool quiet = false;
+  bool ply = false;                ///< also write map.ply
+  bool picture = true;             ///< write map.png
+  std::string style = "auto";      ///< map.png: auto, height, floorplan
+  std::optional<double> map_voxel; ///< map.pcd's voxel (files' units; default: --voxel)
+};
+
+/** Parses argv. Throws UsageError (message: one line) for anything it cannot run. */
+Options
+parseCommandLine(int argc, const char* const* argv);
+
+/** The help of a command ("" : the overview), every option with its default and unit. */
+std::string
+helpText(const std::string& command);
+
+/** The pipeline's parameters, lengths converted to metres: given lengths times `scale`
+ *  (the factor that took the files' coordinates to metres), defaults as they are. */
+Parameters
+toParameters(const Options& o, double scale);
+
+/** Map voxel size in metres (map_voxel scaled, else the reduction voxel, else 0.1 m when
+ *  the reduction voxel is automatic). */
+double
+mapVoxel(const Options& o, double scale);
+
+/** Our format name for a 3DTK -f name or an extension (uos -> 3d, velodyne/kitti -> bin);
+ *  "" when unknown. */
+std::string
+canonicalFormat(const std::string& name);
+
+} // namespace pcl_pslam

@@ -1,0 +1,381 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "map_picture.h"
+#include "outputs.h"
+
+#include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/parallel.h>
+
+#include <pcl/common/transforms.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+#include <pcl/pcl_config.h>
+
+#include <Eigen/Geometry>
+#include <boost/version.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <unistd.h>
+
+#ifndef PCL_PSLAM_VERSION
+#define PCL_PSLAM_VERSION "unknown"
+#endif
+
+namespace fs = std::filesystem;
+
+namespace pcl_pslam {
+
+namespace {
+
+/** Opens a text file for writing; throws naming it. */
+std::ofstream
+openText(const std::string& path)
+{
+  std::ofstream out(path);
+  if (!out)
+    throw std::runtime_error(path + ": cannot open for writing");
+  return out;
+}
+
+void
+closeText(std::ofstream& out, const std::string& path)
+{
+  out.close();
+  if (!out)
+    throw std::runtime_error(path + ": write error");
+}
+
+std::string
+join(const std::string& dir, const std::string& name)
+{
+  return (fs::path(dir) / name).string();
+}
+
+} // namespace
+
+bool
+prepareOutputDirectory(const std::string& dir)
+{
+  std::error_code ec;
+  const bool existed = fs::exists(dir, ec);
+  if (existed && !fs::is_directory(dir, ec))
+    throw UsageError(dir + ": --out exists and is not a directory");
+  if (!existed && !fs::create_directories(dir, ec))
+    throw UsageError(dir + ": cannot create the output directory (" + ec.message() + ")");
+  const std::string probe = join(dir, ".pcl_pslam_probe." + std::to_string(::getpid()));
+  {
+    std::ofstream f(probe);
+    if (!(f << "probe\n")) {
+      fs::remove(probe, ec);
+      if (!existed)
+        fs::remove(dir, ec);
+      throw UsageError(dir + ": the output directory is not writable");
+    }
+  }
+  fs::remove(probe, ec);
+  return !existed;
+}
+
+void
+writeAtomically(const std::string& path, const std::function<void(const std::string&)>& write)
+{
+  const fs::path p(path);
+  const std::string tmp =
+      (p.parent_path() / ("." + p.filename().string() + ".tmp" + std::to_string(::getpid())))
+          .string();
+  try {
+    write(tmp);
+    fs::rename(tmp, path); // atomic within one file system (POSIX rename)
+  }
+  catch (...) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw;
+  }
+}
+
+std::string
+framesLine(const Eigen::Matrix4d& pose, double scale, int type_code)
+{
+  Eigen::Matrix4d m = pose;
+  m.topRightCorner<3, 1>() /= scale;
+  std::ostringstream s;
+  s << std::setprecision(12);
+  for (int i = 0; i < 16; ++i)
+    s << m(i % 4, i / 4) << ' '; // column-major, as OpenGL and 3DTK
+  s << type_code;
+  return s.str();
+}
+
+void
+writeFrames(const std::string& path,
+            const Eigen::Matrix4d& initial,
+            const Eigen::Matrix4d& icp,
+            const Eigen::Matrix4d& final_pose,
+            bool fixed,
+            double scale)
+{
+  writeAtomically(path, [&](const std::string& tmp) {
+    std::ofstream out = openText(tmp);
+    out << framesLine(initial, scale, kFramesInvalid) << '\n'
+        << framesLine(icp, scale, fixed ? kFramesIcpInactive : kFramesIcp) << '\n'
+        << framesLine(final_pose, scale, fixed ? kFramesIcpInactive : kFramesLum) << '\n';
+    closeText(out, tmp);
+  });
+}
+
+void
+writeTumPoses(const std::string& path, const Poses& poses, const std::vector<double>& stamps)
+{
+  writeAtomically(path, [&](const std::string& tmp) {
+    std::ofstream out = openText(tmp);
+    out << std::setprecision(9) << std::fixed;
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      Eigen::Quaterniond q(Eigen::Matrix3d(poses[i].topLeftCorner<3, 3>()));
+      q.normalize();
+      const Eigen::Vector3d t = poses[i].topRightCorner<3, 1>();
+      out << stamps[i] << ' ' << t.x() << ' ' << t.y() << ' ' << t.z() << ' ' << q.x() << ' '
+          << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
+    }
+    closeText(out, tmp);
+  });
+}
+
+void
+writeKittiPoses(const std::string& path, const Poses& poses)
+{
+  writeAtomically(path, [&](const std::string& tmp) { writePoses(tmp, poses); });
+}
+
+Cloud::Ptr
+buildMap(const std::vector<Cloud::Ptr>& scans,
+         const Poses& poses,
+         double voxel_size,
+         unsigned num_threads)
+{
+  Cloud map;
+  std::size_t n = 0;
+  for (const auto& s : scans)
+    n += s->size();
+  map.reserve(n);
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    Cloud moved;
+    pcl::transformPointCloud(*scans[i], moved, poses[i]);
+    map += moved;
+  }
+  return pcl_parallel::filters::voxelCentroid(map, voxel_size, num_threads);
+}
+
+double
+positionRmse(const Poses& poses, const Poses& truth)
+{
+  double sum = 0.0;
+  const std::size_t n = std::min(poses.size(), truth.size());
+  for (std::size_t i = 0; i < n; ++i)
+    sum += (poses[i].topRightCorner<3, 1>() - truth[i].topRightCorner<3, 1>()).squaredNorm();
+  return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
+}
+
+std::vector<std::string>
+writeOutputs(const Options& o,
+             const Input& in,
+             const Result& r,
+             ProgressReporter& progress,
+             const std::string& command_line)
+{
+  std::vector<std::string> written;
+  const std::size_t n = in.scans.size();
+  // 3DTK's units for data that came in them (uos: cm), metres otherwise.
+  const double frames_scale = in.frames_3dtk ? in.scale : 1.0;
+  const Parameters params = toParameters(o, in.scale);
+  const unsigned threads = pcl_parallel::resolveNumberOfThreads(o.threads);
+
+  std::vector<std::uint32_t> loop_count(n, 0);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
+  for (const auto& [i, j] : r.links)
+    if ((i > j ? i - j : j - i) > 1)
+      loops.emplace_back(i, j);
+
+  progress.update("write", 0, 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "scan%03d.frames", in.numbers[i]);
+    writeFrames(join(o.out, name), in.initial[i], r.icp[i], r.final[i], i == 0, frames_scale);
+    progress.update("write", 0, 1); // a signal stops between two complete files
+  }
+  written.push_back("scanNNN.frames");
+  writeKittiPoses(join(o.out, "poses.txt"), r.final);
+  writeKittiPoses(join(o.out, "poses_icp.txt"), r.icp);
+  writeTumPoses(join(o.out, "poses_tum.txt"), r.final, in.stamps);
+  writeTumPoses(join(o.out, "poses_icp_tum.txt"), r.icp, in.stamps);
+  written.insert(written.end(),
+                 {"poses.txt", "poses_icp.txt", "poses_tum.txt", "poses_icp_tum.txt"});
+  progress.update("write", 1, 1);
+
+  progress.update("map", 0, 1);
+  const double map_voxel = mapVoxel(o, in.scale);
+  const Cloud::Ptr map = buildMap(in.scans, r.final, map_voxel, o.threads);
+  progress.update("map", 1, 1);
+  progress.update("save", 0, 1);
+  writeAtomically(join(o.out, "map.pcd"), [&](const std::string& tmp) {
+    if (pcl::io::savePCDFileBinary(tmp, *map) < 0)
+      throw std::runtime_error(tmp + ": cannot write the map");
+  });
+  written.push_back("map.pcd");
+  if (o.ply) {
+    progress.update("save", 0, 1);
+    writeAtomically(join(o.out, "map.ply"), [&](const std::string& tmp) {
+      if (pcl::io::savePLYFileBinary(tmp, *map) < 0)
+        throw std::runtime_error(tmp + ": cannot write the map");
+    });
+    written.push_back("map.ply");
+  }
+  progress.update("save", 1, 1);
+
+  std::string style;
+  double rmse = -1.0;
+  if (!in.truth.empty())
+    rmse = positionRmse(r.final, in.truth);
+  if (o.picture) {
+    progress.update("picture", 0, 1);
+    PictureOptions po;
+    po.up = in.up;
+    po.style = o.style;
+    po.cell = map_voxel > 0.0 ? map_voxel : 0.05;
+    po.loops = loops;
+    char line[256];
+    std::snprintf(line,
+                  sizeof line,
+                  "%zu scans, %zu map points (%.2f m voxels), %zu loop links, pLUM %d "
+                  "iterations",
+                  n,
+                  map->size(),
+                  map_voxel,
+                  loops.size(),
+                  r.lum_iterations);
+    po.caption.push_back(line);
+    if (rmse >= 0.0) {
+      std::snprintf(line,
+                    sizeof line,
+                    "position RMSE against the truth: odometry %.3f m, pICP %.3f m, final "
+                    "%.3f m",
+                    positionRmse(in.initial, in.truth),
+                    positionRmse(r.icp, in.truth),
+                    rmse);
+      po.caption.push_back(line);
+    }
+    po.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
+    writeAtomically(join(o.out, "map.png"), [&](const std::string& tmp) {
+      style = writeMapPicture(tmp, *map, r.final, po);
+    });
+    written.push_back("map.png");
+    progress.update("picture", 1, 1);
+  }
+  progress.finish();
+
+  // report.json: what was run, with what, and what each stage did and took.
+  nlohmann::json j;
+  j["program"] = "pcl_pslam";
+  j["command_line"] = command_line;
+  j["versions"] = {{"pcl_pslam", PCL_PSLAM_VERSION},
+                   {"pcl", PCL_VERSION_PRETTY},
+                   {"eigen",
+                    std::to_string(EIGEN_WORLD_VERSION) + "." +
+                        std::to_string(EIGEN_MAJOR_VERSION) + "." +
+                        std::to_string(EIGEN_MINOR_VERSION)},
+                   {"boost", BOOST_LIB_VERSION},
+                   {"cairo", cairoVersion()},
+                   {"nlohmann_json",
+                    std::to_string(NLOHMANN_JSON_VERSION_MAJOR) + "." +
+                        std::to_string(NLOHMANN_JSON_VERSION_MINOR) + "." +
+                        std::to_string(NLOHMANN_JSON_VERSION_PATCH)},
+                   {"compiler", __VERSION__}};
+  j["threads"] = threads;
+  j["input"] = {
+      {"command", o.command},
+      {"directory", o.dir},
+      {"format", in.format},
+      {"scans", n},
+      {"scale_to_metres", in.scale},
+      {"odometry", in.odometry},
+      {"poses_file", o.poses_file},
+      {"timestamps", in.has_stamps},
+      {"first", o.first},
+      {"last", o.last},
+      {"min_range", o.min_range},
+      {"max_range",
+       std::isfinite(o.max_range) ? nlohmann::json(o.max_range) : nlohmann::json(nullptr)}};
+  j["parameters"] = {{"voxel_size_m", params.voxel_size},
+                     {"icp_distance_m", params.icp_distance},
+                     {"icp_iterations", params.icp_iterations},
+                     {"loop_distance_m", params.loop_distance},
+                     {"loop_size", params.loop_size},
+                     {"lum_distance_m", params.lum_distance},
+                     {"lum_final_distance_m", params.lum_final_distance},
+                     {"lum_iterations", params.lum_iterations},
+                     {"lum_link_iterations", params.lum_link_iterations},
+                     {"lum_point_to_plane", params.lum_point_to_plane},
+                     {"map_voxel_m", map_voxel},
+                     {"scan_to_scan", params.scan_to_scan},
+                     {"deskew", params.deskew},
+                     {"close_loops", params.close_loops},
+                     {"epsICP", o.eps_icp ? nlohmann::json(*o.eps_icp) : nullptr},
+                     {"epsSLAM", o.eps_slam ? nlohmann::json(*o.eps_slam) : nullptr}};
+  const ProgressReporter::Stage* icp_stage = nullptr;
+  nlohmann::json stages = nlohmann::json::array();
+  for (const auto& s : progress.stages()) {
+    stages.push_back({{"name", s.name}, {"seconds", s.seconds}, {"steps", s.steps}});
+    if (s.name == "icp")
+      icp_stage = &s;
+  }
+  j["stages"] = stages;
+  j["total_seconds"] = progress.elapsed();
+  nlohmann::json scans = nlohmann::json::array();
+  for (std::size_t i = 0; i < n; ++i) {
+    nlohmann::json s = {{"index", i},
+                        {"number", in.numbers[i]},
+                        {"stamp", in.stamps[i]},
+                        {"points", in.points_read[i]},
+                        {"points_reduced", r.reduced[i]->size()}};
+    if (!in.files[i].empty())
+      s["file"] = in.files[i];
+    // The pipeline reports each scan's end through its progress callback only: the time
+    // is known (all its stages for this scan), its iterations and residual are not.
+    if (icp_stage && icp_stage->step_seconds.size() == n)
+      s["seconds"] = icp_stage->step_seconds[i];
+    scans.push_back(s);
+  }
+  j["scans"] = scans;
+  j["icp"] = {{"matches", n - 1}, {"not_converged", r.icp_failures}};
+  nlohmann::json loop_list = nlohmann::json::array();
+  for (const auto& [a, b] : loops)
+    loop_list.push_back({a, b});
+  j["loops"] = loop_list;
+  j["links"] = r.links.size();
+  j["lum"] = {{"iterations", r.lum_iterations}, {"iteration_cap", params.lum_iterations}};
+  j["map"] = {{"points", map->size()}, {"voxel_m", map_voxel}};
+  if (!style.empty())
+    j["picture_style"] = style;
+  if (rmse >= 0.0)
+    j["position_rmse_m"] = {{"odometry", positionRmse(in.initial, in.truth)},
+                            {"icp", positionRmse(r.icp, in.truth)},
+                            {"final", rmse}};
+  j["outputs"] = written;
+  writeAtomically(join(o.out, "report.json"), [&](const std::string& tmp) {
+    std::ofstream out = openText(tmp);
+    out << j.dump(2) << '\n';
+    closeText(out, tmp);
+  });
+  written.push_back("report.json");
+  return written;
+}
+
+} // namespace pcl_pslam

@@ -1,0 +1,83 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * pcl_pslam's outputs: 3DTK .frames, KITTI and TUM poses, the map (PCD, PLY), map.png and
+ * report.json. Every file is written to a temporary name in its directory and renamed, so
+ * it is either complete or absent, whatever stops the run.
+ */
+#pragma once
+
+#include "input.h"
+#include "options.h"
+#include "progress.h"
+#include "slam_pipeline.h"
+
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace pcl_pslam {
+
+/** Creates `dir` (with parents) and checks that a file can be created in it, before any
+ *  work. Throws UsageError naming the directory otherwise. Returns true when it created
+ *  the directory (so a run stopped before writing can remove it again). */
+bool
+prepareOutputDirectory(const std::string& dir);
+
+/** Calls write(tmp) with a temporary path beside `path`, then renames it to `path`; on any
+ *  exception the temporary file is removed and the exception passed on. */
+void
+writeAtomically(const std::string& path, const std::function<void(const std::string&)>& write);
+
+/** A pose as 3DTK stores it in .frames: the 4x4 column-major (OpenGL order), translation
+ *  divided by `scale` (file units = metres / scale). Inverse of io::loadFramesFinalPose
+ *  followed by multiplying the translation by `scale`. */
+std::string
+framesLine(const Eigen::Matrix4d& pose, double scale, int type_code);
+
+/** 3DTK's frame type codes (slam6D: 0 INVALID, 1 ICP, 2 ICPINACTIVE, 3 LUM). */
+enum FramesType { kFramesInvalid = 0, kFramesIcp = 1, kFramesIcpInactive = 2, kFramesLum = 3 };
+
+/** scanNNN.frames: the initial pose (INVALID, as slam6D's first line), after ICP (ICP),
+ *  final (LUM); the first scan, held fixed, ICPINACTIVE. Last line final. */
+void
+writeFrames(const std::string& path,
+            const Eigen::Matrix4d& initial,
+            const Eigen::Matrix4d& icp,
+            const Eigen::Matrix4d& final_pose,
+            bool fixed,
+            double scale);
+
+/** TUM trajectory format: "timestamp tx ty tz qx qy qz qw" per pose (as evo reads it). */
+void
+writeTumPoses(const std::string& path, const Poses& poses, const std::vector<double>& stamps);
+
+/** KITTI poses (pcl_pslam::writePoses), atomically. */
+void
+writeKittiPoses(const std::string& path, const Poses& poses);
+
+/** The merged map: every scan moved by its pose, one centroid per voxel of voxel_size
+ *  (pcl_parallel::filters::voxelCentroid: no int32 voxel-index overflow on large maps). */
+Cloud::Ptr
+buildMap(const std::vector<Cloud::Ptr>& scans,
+         const Poses& poses,
+         double voxel_size,
+         unsigned num_threads);
+
+/** Everything a run writes into o.out, in order, with a progress update (and so a check
+ *  for SIGINT/SIGTERM) between files. Returns the names written. `pipeline_result`
+ *  scans are the input's; `command_line` goes into report.json. */
+std::vector<std::string>
+writeOutputs(const Options& o,
+             const Input& in,
+             const Result& r,
+             ProgressReporter& progress,
+             const std::string& command_line);
+
+/** Position RMSE (m) of `poses` against `truth` (no alignment: both start at the same
+ *  first pose, which the pipeline holds fixed). */
+double
+positionRmse(const Poses& poses, const Poses& truth);
+
+} // namespace pcl_pslam

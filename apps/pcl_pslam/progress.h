@@ -1,0 +1,102 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * pcl_pslam's progress on stderr (a live line with ETA on a terminal, one line per stage
+ * otherwise), the time of every stage and step, and SIGINT/SIGTERM: before the outputs
+ * are written the run ends at once (there is nothing to leave half-written); while they
+ * are written the handler only sets a flag, every progress update checks it and throws
+ * Interrupted, so the run stops between two complete files.
+ */
+#pragma once
+
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace pcl_pslam {
+
+struct Interrupted : std::runtime_error {
+  explicit Interrupted(int signal);
+  int signal; ///< SIGINT or SIGTERM; exit status 128 + signal
+};
+
+/** Routes SIGINT and SIGTERM to the flag checkInterrupt() reads. */
+void
+installSignalHandlers();
+
+/** While true, a signal stops the run at the next progress update instead of at once. */
+void
+setWritingOutputs(bool writing);
+
+/** A directory the run created: a signal before the outputs removes it if empty. */
+void
+removeIfEmptyOnSignal(const std::string& dir);
+
+/** Throws Interrupted once a signal arrived. */
+void
+checkInterrupt();
+
+class ProgressReporter {
+public:
+  using Clock = std::chrono::steady_clock;
+
+  /** quiet: print nothing; live: one updating line with ETA (stderr is a terminal).
+   *  capture: what PCL (and our library through PCL's console) prints on stderr during
+   *  the run is collected and, at the end of each stage, shown condensed: one line per
+   *  kind of message with its count and first instance (LUM alone can warn hundreds of
+   *  times). */
+  ProgressReporter(bool quiet, bool live, bool capture = false);
+  ~ProgressReporter();
+  ProgressReporter(const ProgressReporter&) = delete;
+  ProgressReporter&
+  operator=(const ProgressReporter&) = delete;
+
+  /** `done` of `total` steps of `stage` are done. A new stage name ends the previous
+   *  stage; its clock started at the previous update. Checks for a signal first. */
+  void
+  update(const std::string& stage, int done, int total);
+
+  /** Ends the current stage (prints its line). */
+  void
+  finish();
+
+  struct Stage {
+    std::string name;
+    double seconds = 0.0;
+    int steps = 0;
+    std::vector<double> step_seconds; ///< time of each update since the one before
+  };
+  const std::vector<Stage>&
+  stages() const
+  {
+    return stages_;
+  }
+  /** Seconds since construction. */
+  double
+  elapsed() const;
+
+  /** A line for the user (on the real stderr), unless quiet and not even_if_quiet. */
+  void
+  note(const std::string& text, bool even_if_quiet = false);
+
+  /** Prints the captured messages so far, condensed (also done by finish()). */
+  void
+  drainWarnings();
+
+private:
+  bool quiet_, live_;
+  int saved_stderr_ = -1;   ///< the real stderr while fd 2 goes to capture_
+  std::FILE* out_ = stderr; ///< where progress goes (the real stderr)
+  std::FILE* capture_ = nullptr;
+  long read_ = 0; ///< bytes of capture_ already shown
+  Clock::time_point start_, stage_start_, last_;
+  bool open_ = false;
+  int total_ = 0;
+  std::vector<Stage> stages_;
+};
+
+} // namespace pcl_pslam
