@@ -23,6 +23,7 @@
 #include <limits>
 #include <locale>
 #include <random>
+#include <unistd.h>
 
 using namespace pcl_parallel::io;
 
@@ -611,4 +612,35 @@ TEST_F(TempFiles, StanfordConfRejectsGarbledAndEmptyFiles)
         messageOf<std::runtime_error>([&] { pcl_parallel::io::loadStanfordConf(path); }), path))
         << bad;
   }
+}
+
+TEST_F(TempFiles, EmptyXyzIsAnError)
+{
+  for (const char* content : {"", "# only a comment\n\n"}) {
+    const auto path = write("empty.xyz", content);
+    EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(path); }), "no points"))
+        << quoted(content);
+  }
+}
+
+// A path through a file (ENOTDIR) and, unless running as root (which reads anything), a
+// file and a directory without read permission: errors naming the path, no crash.
+TEST_F(TempFiles, UnreadablePathsAreErrors)
+{
+  const auto file = write("plain.txt", "1 2 3\n");
+  const std::string through = file + "/scan.3d";
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(through); }), through));
+  EXPECT_THROW(loadUosPose(file + "/scan.pose"), std::runtime_error);
+  if (::geteuid() == 0)
+    GTEST_SKIP() << "running as root: permission bits do not stop reads";
+  const auto locked = write("locked.xyz", "1 2 3\n");
+  std::filesystem::permissions(locked, std::filesystem::perms::none);
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(locked); }), locked));
+  const auto dir = dir_ / "locked_dir";
+  std::filesystem::create_directories(dir);
+  const auto inside = (dir / "scan.3d").string();
+  std::ofstream(inside) << "1 2 3\n";
+  std::filesystem::permissions(dir, std::filesystem::perms::none);
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(inside); }), inside));
+  std::filesystem::permissions(dir, std::filesystem::perms::owner_all); // for TearDown
 }

@@ -121,6 +121,9 @@ runIcp(const Options& opt);
 /** The pcl_pslam pipeline on the simulated scan set, stage by stage. */
 int
 runPslam(const Options& opt);
+/** Memory: the k-d tree's bytes per point, ICP's peak on 1, 5, 20 million points. */
+int
+runMemory(const Options& opt);
 
 } // namespace bench
 } // namespace pcl_parallel

@@ -294,9 +294,11 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadXyzScan(const std::string& path, double min_range, double max_range)
 {
   detail::RangeFilteredCloud cloud(path, min_range, max_range);
+  std::size_t points = 0;
   detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
     if (line[line.find_first_not_of(detail::kSpace)] == '#')
       return;
+    ++points;
     Fields fields(line);
     double v[3];
     for (int k = 0; k < 3; ++k) {
@@ -310,6 +312,8 @@ loadXyzScan(const std::string& path, double min_range, double max_range)
     }
     cloud.add(v[0], v[1], v[2], line_no);
   });
+  if (points == 0)
+    fail(path, 0, "no points (an empty or comment-only file)");
   return cloud.finish();
 }
 

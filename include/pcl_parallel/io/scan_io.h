@@ -28,7 +28,8 @@ namespace io {
  *  comma). Throws std::runtime_error naming the file and line when it cannot be read, or
  *  when a line has fewer than three fields or a first-three field that is not a number.
  *  Unlike loadUosScan there is no header to skip: a line of text is an error, so a file
- *  in another format is not read as an empty scan. */
+ *  in another format is not read as an empty scan; a file without any point line (empty,
+ *  or comments only) is an error too, as for loadUosScan. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadXyzScan(const std::string& path,
             double min_range = 0.0,
