@@ -10,13 +10,17 @@
 #                         whole test suite, leaks checked, any UBSan finding fails
 #   tsan     build-tsan/  ThreadSanitizer (clang-14, LLVM libomp + Archer, -O1 -g), only
 #                         the tests labelled "tsan" in test/CMakeLists.txt
+#   fuzz     build-fuzz/  libFuzzer + ASan/UBSan (clang-14) on every file reader
+#                         (test/fuzz), FUZZ_SECONDS (default 25) each, nproc at a time,
+#                         from seeds written by test/fuzz/write_fuzz_seeds; a finding
+#                         fails the stage and leaves its input in build-fuzz/crashes/
 # Prints the time of each stage at the end. Dependencies: scripts/install-deps.sh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 jobs=$(nproc)
 stages=("$@")
-((${#stages[@]})) || stages=(release asan tsan)
+((${#stages[@]})) || stages=(release asan tsan fuzz)
 
 timings=()
 stage() { # stage NAME COMMAND...: runs and times one step
@@ -65,12 +69,63 @@ tsan() {
   unset TSAN_OPTIONS CC CXX
 }
 
+fuzz() {
+  local dir=build-fuzz bin=build-fuzz/test/fuzz secs=${FUZZ_SECONDS:-25}
+  local targets=(uos_scan uos_pose frames xyz kitti_scan kitti_poses stanford_conf pcd ply)
+  export CC=clang-14 CXX=clang++-14
+  fuzz_build() {
+    mkdir -p "$dir"
+    cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Debug -DPCL_PARALLEL_BUILD_FUZZERS=ON \
+      -DPCL_PARALLEL_BUILD_TESTS=OFF -DPCL_PARALLEL_BUILD_APPS=OFF >"$dir/configure.log" 2>&1 || {
+      cat "$dir/configure.log"
+      return 1
+    }
+    cmake --build "$dir" -j"$jobs" --target fuzzers
+  }
+  # -malloc_limit_mb: a reader must reject a header's point count before allocating it.
+  fuzz_one() {
+    local t=$1
+    mkdir -p "$dir/corpus/$t" "$dir/crashes"
+    ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=1 \
+      LSAN_OPTIONS=suppressions=$PWD/test/sanitizers/lsan.supp:print_suppressions=0 \
+      "$bin/fuzz_$t" -max_total_time="$secs" -timeout=10 -rss_limit_mb=2048 \
+      -malloc_limit_mb=1024 -artifact_prefix="$dir/crashes/$t-" -print_final_stats=1 \
+      "$dir/corpus/$t" "$dir/seeds/$t" >"$dir/logs/$t.log" 2>&1
+  }
+  fuzz_run() {
+    rm -rf "$dir/seeds" "$dir/logs" "$dir/crashes"
+    mkdir -p "$dir/logs"
+    "$bin/write_fuzz_seeds" "$dir/seeds"
+    local pids=() names=() failed=0 i
+    for t in "${targets[@]}"; do
+      fuzz_one "$t" &
+      pids+=($!)
+      names+=("$t")
+      if ((${#pids[@]} >= jobs)); then
+        wait "${pids[0]}" || { failed=1; echo "fuzz_${names[0]}: FAILED"; tail -40 "$dir/logs/${names[0]}.log"; }
+        pids=("${pids[@]:1}")
+        names=("${names[@]:1}")
+      fi
+    done
+    for i in "${!pids[@]}"; do
+      wait "${pids[$i]}" || { failed=1; echo "fuzz_${names[$i]}: FAILED"; tail -40 "$dir/logs/${names[$i]}.log"; }
+    done
+    for t in "${targets[@]}"; do
+      printf 'fuzz_%-14s %s\n' "$t" "$(grep -m1 -o 'stat::number_of_executed_units: *[0-9]*' "$dir/logs/$t.log" | grep -o '[0-9]*$') runs"
+    done
+    return $failed
+  }
+  stage fuzz-build fuzz_build
+  stage fuzz-run fuzz_run
+  unset CC CXX
+}
+
 total=$SECONDS
 for s in "${stages[@]}"; do
   case "$s" in
-  release | asan | tsan) "$s" ;;
+  release | asan | tsan | fuzz) "$s" ;;
   *)
-    echo "scripts/test.sh: unknown stage '$s' (release, asan, tsan)" >&2
+    echo "scripts/test.sh: unknown stage '$s' (release, asan, tsan, fuzz)" >&2
     exit 2
     ;;
   esac

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace pcl_parallel {
@@ -17,8 +18,11 @@ namespace pcl_parallel {
 namespace {
 
 /** A far cell is searched while (lower bound * kBoundSlack) can beat the best match.
- *  The incremental bound is summed in float, so it may round a few ulp above the true
- *  distance; the slack keeps the search exact at a negligible loss of pruning. */
+ *  The bound is sqrNorm of per-axis offsets fl(q - plane), each no longer than the
+ *  rounded fl(q - p) of any point p beyond that plane (rounding is monotone), summed in
+ *  sqrDist's order: so it never exceeds any of the cell's computed distances (proof in
+ *  docs/design.md). The slack only covers a compiler that contracts one of the two sums
+ *  into FMAs and not the other (<= 2 roundings each, 4 ulp in all). */
 constexpr float kBoundSlack = 1.0f - 8.0f * std::numeric_limits<float>::epsilon();
 
 /** Below this many points a subtree is built by the task that reached it. */
@@ -31,6 +35,13 @@ sqrDist(const float* a, const float* b)
   const float dy = a[1] - b[1];
   const float dz = a[2] - b[2];
   return dx * dx + dy * dy + dz * dz;
+}
+
+/** |o|², summed exactly as sqrDist sums (same operations, same order). */
+inline float
+sqrNorm(const float* o)
+{
+  return o[0] * o[0] + o[1] * o[1] + o[2] * o[2];
 }
 
 inline bool
@@ -219,6 +230,23 @@ struct KdTreeIndex::Builder {
 };
 
 void
+KdTreeIndex::checkCapacity(std::size_t n, unsigned bucket_size)
+{
+  if (bucket_size == 0)
+    throw std::invalid_argument("pcl_parallel::KdTreeIndex: bucket size must be at least 1");
+  // Point positions and node indices are uint32 with kInvalid reserved.
+  if (n >= kInvalid)
+    throw std::invalid_argument("pcl_parallel::KdTreeIndex: " + std::to_string(n) +
+                                " points, more than uint32 indices hold (4294967294)");
+  const std::size_t slots = slotsFor(n, bucket_size);
+  if (slots >= kInvalid)
+    throw std::invalid_argument("pcl_parallel::KdTreeIndex: " + std::to_string(n) +
+                                " points in buckets of " + std::to_string(bucket_size) +
+                                " need " + std::to_string(slots) +
+                                " nodes, more than uint32 indices hold; use larger buckets");
+}
+
+void
 KdTreeIndex::build(const float* xyz,
                    std::size_t n,
                    std::size_t stride,
@@ -230,8 +258,7 @@ KdTreeIndex::build(const float* xyz,
     throw std::invalid_argument("pcl_parallel::KdTreeIndex: bucket size must be at least 1");
   if (n > 0 && (xyz == nullptr || stride < 3))
     throw std::invalid_argument("pcl_parallel::KdTreeIndex: need 3 floats per point");
-  if (n >= kInvalid)
-    throw std::invalid_argument("pcl_parallel::KdTreeIndex: too many points");
+  checkCapacity(n, bucket_size);
 
   bucket_size_ = bucket_size;
   const unsigned threads = resolveNumberOfThreads(num_threads);
@@ -261,6 +288,7 @@ KdTreeIndex::build(const float* xyz,
       bbox_max_[a] = std::max(bbox_max_[a], q.p[a]);
     }
 
+  checkCapacity(m, bucket_size_);
   nodes_.resize(slotsFor(m, bucket_size_));
   // Spawn tasks down to ~8 subtrees per thread (and never below kMinTaskPoints points):
   // enough to balance, few enough that task overhead stays negligible.
@@ -306,14 +334,11 @@ KdTreeIndex::compactNodes(std::uint32_t node, std::vector<Node>& out) const
 float
 KdTreeIndex::rootDistance(const float* q, float* off) const
 {
-  float d2 = 0.0f;
-  for (int a = 0; a < 3; ++a) {
+  for (int a = 0; a < 3; ++a)
     off[a] = q[a] < bbox_min_[a]   ? bbox_min_[a] - q[a]
              : q[a] > bbox_max_[a] ? q[a] - bbox_max_[a]
                                    : 0.0f;
-    d2 += off[a] * off[a];
-  }
-  return d2;
+  return sqrNorm(off);
 }
 
 template <typename Result>
@@ -350,14 +375,14 @@ KdTreeIndex::search(
   }
   search(near_child, q, min_sqr_dist, off, result);
 
-  // Incremental distance to the far cell: replace this axis' offset by the cut.
+  // Distance to the far cell: this axis' offset replaced by the cut, summed from scratch
+  // (Arya and Mount's incremental old² - cut² update can cancel and overshoot).
   const float old = off[axis];
-  const float far_sqr_dist = min_sqr_dist - old * old + cut * cut;
-  if (result.canImprove(far_sqr_dist)) {
-    off[axis] = cut;
+  off[axis] = cut;
+  const float far_sqr_dist = sqrNorm(off);
+  if (result.canImprove(far_sqr_dist))
     search(far_child, q, far_sqr_dist, off, result);
-    off[axis] = old;
-  }
+  off[axis] = old;
 }
 
 template <typename Slot>

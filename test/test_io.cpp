@@ -5,6 +5,7 @@
 #include "test_data.h"
 
 #include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
 
 #include <pcl/io/pcd_io.h>
@@ -20,6 +21,9 @@
 #include <gtest/gtest.h>
 #include <initializer_list>
 #include <limits>
+#include <locale>
+#include <random>
+#include <unistd.h>
 
 using namespace pcl_parallel::io;
 
@@ -96,6 +100,12 @@ expectPoint(const pcl::PointXYZ& p, float x, float y, float z)
 }
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+std::string
+quoted(const char* s)
+{
+  return "\"" + std::string(s) + "\"";
+}
 
 } // namespace
 
@@ -405,4 +415,232 @@ TEST(UosData, LoadScanEqualsLoadUosScan)
   ASSERT_EQ(dispatched->size(), direct->size());
   for (std::size_t i = 0; i < direct->size(); ++i)
     ASSERT_EQ((*dispatched)[i].getVector3fMap(), (*direct)[i].getVector3fMap()) << i;
+}
+
+// ---------------------------------------------------------------------------------------
+// Issue 11: what the readers did wrong, each with the test that would have caught it.
+
+/** A decimal comma for the C++ global locale: iostreams (the old uos parser) read "1.5" as
+ *  1 under it; from_chars does not look at any locale. */
+struct CommaDecimal : std::numpunct<char> {
+  char
+  do_decimal_point() const override
+  {
+    return ',';
+  }
+};
+
+TEST_F(TempFiles, TextFormatsIgnoreTheGlobalLocale)
+{
+  const std::locale saved = std::locale::global(std::locale(std::locale(), new CommaDecimal));
+  const auto uos = loadUosScan(write("l.3d", "1.5 2.25 -3.5\n"));
+  const auto pose = loadUosPose(write("l.pose", "1.5 2.5 3.5\n0.0 0.0 0.0\n"));
+  const auto frames =
+      loadFramesFinalPose(write("l.frames", "1 0 0 0 0 1 0 0 0 0 1 0 1.5 2.5 3.5 1 2\n"));
+  const auto xyz = loadXyzScan(write("l.xyz", "1.5 2.25 -3.5\n"));
+  const auto kitti = loadKittiPoses(write("l.txt", "1 0 0 1.5 0 1 0 2.5 0 0 1 3.5\n"));
+  const auto conf =
+      pcl_parallel::io::loadStanfordConf(write("l.conf", "bmesh a.ply 1.5 2.5 3.5 0 0 0 1\n"));
+  std::locale::global(saved);
+  ASSERT_EQ(uos->size(), 1u);
+  expectPoint((*uos)[0], 1.5f, 2.25f, -3.5f);
+  expectPoint((*xyz)[0], 1.5f, 2.25f, -3.5f);
+  const Eigen::Vector3d t(1.5, 2.5, 3.5);
+  EXPECT_EQ(Eigen::Vector3d(pose.topRightCorner<3, 1>()), t);
+  EXPECT_EQ(Eigen::Vector3d(frames.topRightCorner<3, 1>()), t);
+  EXPECT_EQ(Eigen::Vector3d(kitti.at(0).topRightCorner<3, 1>()), t);
+  EXPECT_EQ(Eigen::Vector3d(conf.at(0).pose.topRightCorner<3, 1>()), t);
+}
+
+TEST_F(TempFiles, UosEmptyHeaderOnlyAndGarbledLinesAreErrors)
+{
+  for (const char* content : {"", "\n  \n", "360 x 225\n"}) {
+    const auto path = write("empty.3d", content);
+    EXPECT_TRUE(
+        mentions(messageOf<std::runtime_error>([&] { loadUosScan(path); }), "no points"))
+        << quoted(content);
+  }
+  // Only 3DTK's "W x H" grid header is skipped, and only as the first line: garbled
+  // lines before the data are errors with their line number, not a silent "header".
+  const auto garbled = write("garbled.3d", "1 2 x3\n4 5 6\n");
+  EXPECT_TRUE(
+      mentions(messageOf<std::runtime_error>([&] { loadUosScan(garbled); }), "garbled.3d:1:"));
+  const auto second = write("second.3d", "360 x 225\n\nabc\n4 5 6\n");
+  EXPECT_TRUE(
+      mentions(messageOf<std::runtime_error>([&] { loadUosScan(second); }), "second.3d:3:"));
+  const auto late = write("late.3d", "4 5 6\n360 x 225\n");
+  EXPECT_TRUE(
+      mentions(messageOf<std::runtime_error>([&] { loadUosScan(late); }), "late.3d:2:"));
+  // A scan whose points are all out of range is an empty cloud, not an error.
+  EXPECT_TRUE(loadUosScan(write("far.3d", "3276.7 0 0\n"), 0.0, 3000.0)->empty());
+  // Other 3DTK files: every line is checked, empty files are errors.
+  EXPECT_THROW(loadFramesFinalPose(write("e.frames", "")), std::runtime_error);
+  const auto mid = write("mid.frames",
+                         "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\ngarbage\n"
+                         "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n");
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadFramesFinalPose(mid); }),
+                       "mid.frames:2:"));
+  EXPECT_THROW(loadUosPose(write("long.pose", "1 2 3\n4 5 6 7\n")), std::runtime_error);
+  EXPECT_THROW(loadUosPose(write("nan.pose", "1 2 3\n4 5 nan\n")), std::runtime_error);
+}
+
+TEST_F(TempFiles, CoordinatesBeyondFloatAreErrorsNotInf)
+{
+  // 1e39 is finite as a double and inf as a float: it must not enter a "dense" cloud.
+  for (const char* name : {"big.3d", "big.xyz"}) {
+    const auto path = write(name, "1 2 3\n1e39 0 0\n");
+    const std::string msg = messageOf<std::runtime_error>([&] { loadScan(path); });
+    EXPECT_TRUE(mentions(msg, std::string(name) + ":2:")) << msg;
+    EXPECT_TRUE(mentions(msg, "float")) << msg;
+    // Outside the range filter it is dropped like any far point, before narrowing.
+    const auto near = loadScan(path, 0.0, 100.0);
+    ASSERT_EQ(near->size(), 1u);
+    EXPECT_TRUE(near->getMatrixXfMap(3, 4, 0).allFinite());
+  }
+}
+
+TEST_F(TempFiles, BinaryGarbageGivesAShortMessage)
+{
+  std::string garbage(100000, '\0');
+  std::mt19937 rng(11);
+  for (char& c : garbage) {
+    c = static_cast<char>(rng() & 0xff);
+    if (c == '\n')
+      c = 'n';
+  }
+  for (const char* name : {"g.xyz", "g.3d", "g.pose", "g.frames", "g.conf"}) {
+    const auto path = write(name, garbage);
+    std::string msg;
+    try {
+      if (mentions(name, ".pose"))
+        loadUosPose(path);
+      else if (mentions(name, ".frames"))
+        loadFramesFinalPose(path);
+      else if (mentions(name, ".conf"))
+        pcl_parallel::io::loadStanfordConf(path);
+      else
+        loadScan(path);
+      ADD_FAILURE() << name << ": no exception";
+    }
+    catch (const std::runtime_error& e) {
+      msg = e.what();
+    }
+    EXPECT_TRUE(mentions(msg, path)) << msg;
+    EXPECT_LT(msg.size(), path.size() + 320) << msg; // 40 bytes, escaped
+    for (char c : msg)                               // printable: the bytes are escaped
+      ASSERT_TRUE(c == '\n' || (static_cast<unsigned char>(c) >= 0x20)) << name;
+  }
+}
+
+TEST_F(TempFiles, HugePointCountsAreClearErrorsBeforeAllocation)
+{
+  // Headers that claim 4e9 points in a file of a few hundred bytes: PCL would allocate
+  // for them (std::bad_alloc, or the OOM killer on an overcommitting system).
+  for (const char* data : {"ascii", "binary", "binary_compressed"}) {
+    const auto pcd = write(std::string("huge_") + data + ".pcd",
+                           std::string("VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\n"
+                                       "COUNT 1 1 1\nWIDTH 4000000000\nHEIGHT 1\n"
+                                       "POINTS 4000000000\nDATA ") +
+                               data + "\n1 2 3\n");
+    const std::string msg = messageOf<std::runtime_error>([&] { loadScan(pcd); });
+    EXPECT_TRUE(mentions(msg, pcd)) << msg;
+    EXPECT_TRUE(mentions(msg, "4000000000")) << msg;
+  }
+  for (const char* format : {"ascii", "binary_little_endian"}) {
+    const auto ply = write(std::string("huge_") + format + ".ply",
+                           std::string("ply\nformat ") + format +
+                               " 1.0\nelement vertex 4000000000\nproperty float x\n"
+                               "property float y\nproperty float z\nend_header\n1 2 3\n");
+    const std::string msg = messageOf<std::runtime_error>([&] { loadScan(ply); });
+    EXPECT_TRUE(mentions(msg, ply)) << msg;
+    EXPECT_TRUE(mentions(msg, "elements")) << msg;
+  }
+}
+
+TEST_F(TempFiles, KittiScanRejectsWhatIsNotFloat32Records)
+{
+  // Random bytes of a multiple of 16: values beyond 1e5 (or inf/NaN patterns) appear.
+  std::string garbage(1600, '\0');
+  std::mt19937 rng(12);
+  for (char& c : garbage)
+    c = static_cast<char>(rng() & 0xff);
+  EXPECT_TRUE(
+      mentions(messageOf<std::runtime_error>([&] { loadKittiScan(write("r.bin", garbage)); }),
+               "plausible"));
+  // Text: its bytes are tiny floats.
+  std::string text;
+  while (text.size() < 1600)
+    text += "12.5 -3.25 0.5 1\n";
+  text.resize(1600);
+  EXPECT_TRUE(mentions(
+      messageOf<std::runtime_error>([&] { loadKittiScan(write("t.bin", text)); }), "1 mm"));
+  // A PCD or PLY renamed to .bin.
+  std::string pcd = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\n";
+  pcd.resize(64, ' ');
+  EXPECT_THROW(loadKittiScan(write("p.bin", pcd)), std::runtime_error);
+  std::string ply = "ply\nformat binary_little_endian 1.0\n";
+  ply.resize(64, ' ');
+  EXPECT_THROW(loadKittiScan(write("y.bin", ply)), std::runtime_error);
+  EXPECT_THROW(loadKittiScan(write("inf.bin", kittiBytes({1, 2, 3, 0, 1, 2, INFINITY, 0}))),
+               std::runtime_error);
+  // Real-looking records, including a point at the origin and one close by, still read.
+  EXPECT_EQ(loadKittiScan(
+                write("ok.bin",
+                      kittiBytes({0, 0, 0, 0, 0.0005f, 0.0005f, 0.0005f, 0.1f, 90, -40, 2, 1})))
+                ->size(),
+            3u);
+}
+
+TEST_F(TempFiles, StanfordConfRejectsGarbledAndEmptyFiles)
+{
+  const auto ok = write("ok.conf",
+                        "camera 0 0 -1 0 0 0 1\n\nbmesh a.ply 1 2 3 0 0 0 1\n"
+                        "bmesh b.ply 0 0 0 0 0 0.7071068 0.7071068\n");
+  const auto entries = pcl_parallel::io::loadStanfordConf(ok);
+  ASSERT_EQ(entries.size(), 2u);
+  EXPECT_EQ(entries[1].file, "b.ply");
+  EXPECT_NEAR(entries[1].pose(1, 0), -1.0, 1e-6);                // R(q)^T of 90 deg about z
+  for (const char* bad : {"bmesh a.ply 1 2 3 0 0 0\n",           // 6 numbers
+                          "bmesh a.ply 1 2 3 0 0 0 1 9\n",       // 8
+                          "bmesh a.ply 1 2 3 0 0 0 0\n",         // zero quaternion
+                          "bmesh a.ply 1 2 nan 0 0 0 1\n",       // not finite
+                          "bmesh a.ply 1 2 3 0 0 0 1\nbmsh b\n", // unknown keyword
+                          "",
+                          "camera 0 0 0 0 0 0 1\n"}) { // no bmesh line
+    const auto path = write("bad.conf", bad);
+    EXPECT_TRUE(mentions(
+        messageOf<std::runtime_error>([&] { pcl_parallel::io::loadStanfordConf(path); }), path))
+        << bad;
+  }
+}
+
+TEST_F(TempFiles, EmptyXyzIsAnError)
+{
+  for (const char* content : {"", "# only a comment\n\n"}) {
+    const auto path = write("empty.xyz", content);
+    EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(path); }), "no points"))
+        << quoted(content);
+  }
+}
+
+// A path through a file (ENOTDIR) and, unless running as root (which reads anything), a
+// file and a directory without read permission: errors naming the path, no crash.
+TEST_F(TempFiles, UnreadablePathsAreErrors)
+{
+  const auto file = write("plain.txt", "1 2 3\n");
+  const std::string through = file + "/scan.3d";
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(through); }), through));
+  EXPECT_THROW(loadUosPose(file + "/scan.pose"), std::runtime_error);
+  if (::geteuid() == 0)
+    GTEST_SKIP() << "running as root: permission bits do not stop reads";
+  const auto locked = write("locked.xyz", "1 2 3\n");
+  std::filesystem::permissions(locked, std::filesystem::perms::none);
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(locked); }), locked));
+  const auto dir = dir_ / "locked_dir";
+  std::filesystem::create_directories(dir);
+  const auto inside = (dir / "scan.3d").string();
+  std::ofstream(inside) << "1 2 3\n";
+  std::filesystem::permissions(dir, std::filesystem::perms::none);
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(inside); }), inside));
+  std::filesystem::permissions(dir, std::filesystem::perms::owner_all); // for TearDown
 }

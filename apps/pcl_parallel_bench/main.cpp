@@ -62,6 +62,7 @@ usage()
       "  what: kdtree | icp | lum (= lum-bunny + lum-scaling) | all\n        pslam (every preset, minutes) | pslam-office | pslam-hannover | pslam-riegl | pslam-kitti | pslam-kitti-cv\n"
       "        sim (every preset, minutes) | sim-office | sim-hannover | sim-riegl | "
       "sim-kitti\n"
+      "        memory (not in all: ICP on 20 million points, a few GB)\n"
       "  --data     reference data directory (default: the build's PCL_PARALLEL_DATA_DIR)\n"
       "  --repeats  timed repeats per cell, median reported (default 5)\n"
       "  --threads  thread counts to compare (default: 1 and all cores)\n");
@@ -122,11 +123,12 @@ main(int argc, char** argv)
       {"sim-office", [](const Options& o) { return runSimPreset(o, "office"); }},
       {"sim-hannover", [](const Options& o) { return runSimPreset(o, "hannover"); }},
       {"sim-riegl", [](const Options& o) { return runSimPreset(o, "riegl"); }},
-      {"sim-kitti", [](const Options& o) { return runSimPreset(o, "kitti"); }}};
+      {"sim-kitti", [](const Options& o) { return runSimPreset(o, "kitti"); }},
+      {"memory", runMemory}};
   if (what == "all") {
     int rc = 0;
     for (const auto& b : benches)
-      if (b.first.find('-') == std::string::npos) // parts run within their group
+      if (b.first.find('-') == std::string::npos && b.first != "memory") // parts: in groups
         rc |= b.second(opt);
     return rc;
   }

@@ -70,8 +70,8 @@ public:
   /** Builds the tree. \a xyz holds \a n points with \a stride floats between consecutive
    *  points (x, y, z first); \a ids (may be null: ids are then 0..n-1) are what id()
    *  reports back. Non-finite points are left out. \a num_threads as in
-   *  resolveNumberOfThreads(). Throws std::invalid_argument for bucket_size == 0 or more
-   *  than 2^32-2 points. */
+   *  resolveNumberOfThreads(). Throws std::invalid_argument for bucket_size == 0 or when
+   *  checkCapacity() fails. */
   void
   build(const float* xyz,
         std::size_t n,
@@ -79,6 +79,12 @@ public:
         const std::uint32_t* ids = nullptr,
         unsigned num_threads = 0,
         unsigned bucket_size = kDefaultBucketSize);
+
+  /** Throws std::invalid_argument unless a tree of n points and this bucket size fits the
+   *  uint32 indices: n <= 2^32-2 points and fewer than 2^32-1 node slots (~2n/bucket_size,
+   *  so a bucket size of 1 caps n near 2^31). build() checks the finite points' count. */
+  static void
+  checkCapacity(std::size_t n, unsigned bucket_size);
 
   /** Number of (finite) points in the tree. */
   std::size_t
@@ -95,6 +101,14 @@ public:
   numNodes() const
   {
     return nodes_.size();
+  }
+  /** Heap bytes the tree holds (nodes, its copy of the points, ids): ~16 + 16·2/bucket
+   *  bytes a point (docs/benchmarks.md, "Memory"). */
+  std::size_t
+  memoryBytes() const
+  {
+    return nodes_.capacity() * sizeof(Node) + points_.capacity() * sizeof(float) +
+           ids_.capacity() * sizeof(std::uint32_t);
   }
   unsigned
   bucketSize() const

@@ -10,13 +10,20 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
+#include <limits>
+#include <new>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <system_error>
 
 namespace pcl_parallel {
 namespace io {
@@ -47,6 +54,126 @@ openOrThrow(const std::string& path, std::ios::openmode mode = std::ios::in)
 /** White space in the text formats (a '\r' is what is left of a Windows line end). */
 constexpr const char* kSpace = " \t\r\v\f";
 
+/** A piece of a file for an error message: in quotes, at most 40 bytes (then "..." and the
+ *  length), bytes outside printable ASCII as \xNN, so a binary file read as text gives a
+ *  short, printable message instead of the whole "line". */
+inline std::string
+quoted(std::string_view s)
+{
+  constexpr std::size_t kMax = 40;
+  std::string out = "\"";
+  for (std::size_t i = 0; i < s.size() && i < kMax; ++i) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x20 && c < 0x7f && c != '"' && c != '\\')
+      out += static_cast<char>(c);
+    else {
+      char hex[5];
+      std::snprintf(hex, sizeof hex, "\\x%02x", c);
+      out += hex;
+    }
+  }
+  out += "\"";
+  if (s.size() > kMax)
+    out += "... (" + std::to_string(s.size()) + " bytes)";
+  return out;
+}
+
+/** The one number parser of every text format: a whole field as a double with
+ *  std::from_chars, independent of the C and C++ locales (unlike strtod and iostreams
+ *  under a locale with a decimal comma); it reads "nan" and "inf". A leading '+' is
+ *  accepted as printf("%+f") writes it. A value out of double's range is not a number. */
+inline bool
+parseNumber(std::string_view field, double& value)
+{
+  const char* begin = field.data();
+  const char* end = begin + field.size();
+  if (begin != end && *begin == '+') {
+    ++begin;
+    if (begin != end && *begin == '-')
+      return false;
+  }
+  const auto [ptr, ec] = std::from_chars(begin, end, value);
+  return begin != end && ec == std::errc() && ptr == end;
+}
+
+/** The fields of a text line: separated by white space, by a comma, or by a comma with
+ *  white space around it. Two commas in a row delimit an empty field (which is not a
+ *  number), so a missing CSV value is reported rather than the next column read in its
+ *  place. */
+class Fields {
+public:
+  explicit Fields(std::string_view line)
+      : pos_(line.data())
+      , end_(line.data() + line.size())
+  {}
+
+  /** The next field; false at the end of the line. */
+  bool
+  next(std::string_view& field)
+  {
+    skipSpace();
+    if (!first_ && pos_ != end_ && *pos_ == ',') {
+      ++pos_;
+      skipSpace();
+    }
+    first_ = false;
+    if (pos_ == end_)
+      return false;
+    const char* begin = pos_;
+    while (pos_ != end_ && *pos_ != ',' && !isSpace(*pos_))
+      ++pos_;
+    field = std::string_view(begin, static_cast<std::size_t>(pos_ - begin));
+    return true;
+  }
+
+private:
+  static bool
+  isSpace(char c)
+  {
+    return c != '\0' && std::strchr(kSpace, c) != nullptr;
+  }
+  void
+  skipSpace()
+  {
+    while (pos_ != end_ && isSpace(*pos_))
+      ++pos_;
+  }
+
+  const char* pos_;
+  const char* end_;
+  bool first_ = true;
+};
+
+/** Reads up to n fields of a line as numbers; returns how many leading fields were numbers
+ *  (stops at the first that is not, or at the end of the line). */
+inline std::size_t
+parseNumbers(std::string_view line, double* out, std::size_t n)
+{
+  Fields fields(line);
+  std::string_view field;
+  std::size_t k = 0;
+  while (k < n && fields.next(field) && parseNumber(field, out[k]))
+    ++k;
+  return k;
+}
+
+/** Runs f() and turns an allocation failure into our error naming the file: a header that
+ *  claims more points than memory holds must not escape as a bare std::bad_alloc. */
+template <typename F>
+auto
+guardAllocation(const std::string& path, F&& f) -> decltype(f())
+{
+  try {
+    return f();
+  }
+  catch (const std::bad_alloc&) {
+    fail(path, 0, "out of memory while reading it (a corrupt point count?)");
+  }
+  catch (const std::length_error&) {
+    fail(path, 0, "point count too large to hold in memory (a corrupt header?)");
+  }
+}
+
 /** Calls f(line, line_no) for every line of a text file that holds more than white space,
  *  with the line number as an editor shows it (from 1, blank lines counted), so a reader's
  *  errors point at the right line. Throws when the file cannot be opened or read. */
@@ -69,12 +196,15 @@ forEachLine(const std::string& path, F&& f)
 /** Appends scan points that pass the one range filter of every reader: finite coordinates
  *  and a range sqrt(x²+y²+z²) from the scanner origin within [min_range, max_range].
  *  The range is computed in double before the point is narrowed to float, so a reader of
- *  double text and a reader of float binaries cut at the same place. finish() sets the
- *  header fields of an unorganised, dense cloud. */
+ *  double text and a reader of float binaries cut at the same place. A kept point with a
+ *  coordinate beyond float's range (finite in double, inf as float) is an error naming the
+ *  file and line, never an inf in a cloud marked dense. finish() sets the header fields of
+ *  an unorganised, dense cloud. */
 class RangeFilteredCloud {
 public:
-  RangeFilteredCloud(double min_range, double max_range)
+  RangeFilteredCloud(const std::string& path, double min_range, double max_range)
       : cloud_(new pcl::PointCloud<pcl::PointXYZ>)
+      , path_(path)
       , min_range_(min_range)
       , max_range_(max_range)
   {}
@@ -85,14 +215,18 @@ public:
     cloud_->reserve(n);
   }
 
+  /** line: the line (text formats) or point (binary formats, from 1) for the error. */
   void
-  add(double x, double y, double z)
+  add(double x, double y, double z, std::size_t line)
   {
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
       return;
-    const double r = std::sqrt(x * x + y * y + z * z);
+    const double r = std::sqrt(x * x + y * y + z * z); // inf beyond 1e154: dropped or failed
     if (r < min_range_ || r > max_range_)
       return;
+    constexpr double kFloatMax = std::numeric_limits<float>::max();
+    if (std::abs(x) > kFloatMax || std::abs(y) > kFloatMax || std::abs(z) > kFloatMax)
+      fail(path_, line, "coordinate beyond float's range (3.4e38)");
     cloud_->push_back(
         pcl::PointXYZ(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
   }
@@ -108,6 +242,7 @@ public:
 
 private:
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud_;
+  std::string path_;
   double min_range_, max_range_;
 };
 

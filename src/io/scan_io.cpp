@@ -19,6 +19,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -36,76 +37,13 @@ namespace {
 using detail::fail;
 using detail::openOrThrow;
 
-/** The fields of a text line: separated by white space, by a comma, or by a comma with
- *  white space around it. Two commas in a row delimit an empty field (which is not a
- *  number), so a missing CSV value is reported rather than the next column read in its
- *  place. */
-class Fields {
-public:
-  explicit Fields(const std::string& line)
-      : pos_(line.data())
-      , end_(line.data() + line.size())
-  {}
-
-  /** The next field; false at the end of the line. */
-  bool
-  next(std::string_view& field)
-  {
-    skipSpace();
-    if (!first_ && pos_ != end_ && *pos_ == ',') {
-      ++pos_;
-      skipSpace();
-    }
-    first_ = false;
-    if (pos_ == end_)
-      return false;
-    const char* begin = pos_;
-    while (pos_ != end_ && *pos_ != ',' && !isSpace(*pos_))
-      ++pos_;
-    field = std::string_view(begin, static_cast<std::size_t>(pos_ - begin));
-    return true;
-  }
-
-private:
-  static bool
-  isSpace(char c)
-  {
-    return c != '\0' && std::strchr(detail::kSpace, c) != nullptr;
-  }
-  void
-  skipSpace()
-  {
-    while (pos_ != end_ && isSpace(*pos_))
-      ++pos_;
-  }
-
-  const char* pos_;
-  const char* end_;
-  bool first_ = true;
-};
-
-/** Parses a whole field as a double with std::from_chars: independent of the locale
- *  (unlike strtod and iostreams under a global locale with a decimal comma), and it reads
- *  "nan" and "inf". A leading '+' is accepted as printf("%+f") writes it. A value out of
- *  double's range is not a number. */
-bool
-parseNumber(std::string_view field, double& value)
-{
-  const char* begin = field.data();
-  const char* end = begin + field.size();
-  if (begin != end && *begin == '+') {
-    ++begin;
-    if (begin != end && *begin == '-')
-      return false;
-  }
-  const auto [ptr, ec] = std::from_chars(begin, end, value);
-  return begin != end && ec == std::errc() && ptr == end;
-}
+using detail::Fields;
+using detail::parseNumber;
 
 std::string
 inQuotes(std::string_view s)
 {
-  return "\"" + std::string(s) + "\"";
+  return detail::quoted(s);
 }
 
 /** Checked before a reader opens the file: PCL's readers print their own error for a
@@ -173,11 +111,123 @@ findExtension(const std::string& path)
   return nullptr;
 }
 
+/** Bytes in the file, or fails. */
+std::uintmax_t
+fileSize(const std::string& path)
+{
+  std::error_code ec;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec)
+    fail(path, 0, "cannot determine the file size: " + ec.message());
+  return size;
+}
+
+/** A PLY header's element counts against the file size, before PCL allocates for them:
+ *  every element with properties takes at least one byte, so a count above the file size
+ *  is a corrupt header (PCL would try to allocate it: std::bad_alloc or the OOM killer). */
+void
+checkPlyHeader(const std::string& path)
+{
+  const std::uintmax_t size = fileSize(path);
+  std::ifstream in = detail::openOrThrow(path, std::ios::in | std::ios::binary);
+  std::string line;
+  double count = 0;
+  bool has_properties = false;
+  auto checkElement = [&] {
+    if (has_properties && count > static_cast<double>(size)) {
+      char claimed[32];
+      std::snprintf(claimed, sizeof claimed, "%.0f", count);
+      fail(path,
+           0,
+           std::string("PLY header claims ") + claimed + " elements, more than the file's " +
+               std::to_string(size) + " bytes");
+    }
+  };
+  for (std::size_t n = 0; std::getline(in, line) && n < 10000; ++n) {
+    Fields fields(line);
+    std::string_view word, name, value;
+    if (!fields.next(word))
+      continue;
+    if (word == "end_header")
+      break;
+    if (word == "property")
+      has_properties = true;
+    if (word != "element")
+      continue;
+    checkElement();
+    has_properties = false;
+    if (!fields.next(name) || !fields.next(value) || !parseNumber(value, count) ||
+        !(count >= 0))
+      fail(path, 0, "PLY header: malformed element line " + inQuotes(line));
+  }
+  checkElement();
+}
+
+/** A PCD header's point count against the file size (see checkPlyHeader), read by us
+ *  because PCL's readHeader already allocates for it: ASCII takes at least one byte a
+ *  point, binary the sum of SIZE x COUNT, binary_compressed at least 1/100 of that (LZF's
+ *  back-references expand 3 bytes to at most 264, 88x). Malformed headers are left to
+ *  PCL's reader, which rejects them. */
+void
+checkPcdHeader(const std::string& path)
+{
+  const std::uintmax_t size = fileSize(path);
+  std::ifstream in = detail::openOrThrow(path, std::ios::in | std::ios::binary);
+  std::string line;
+  double width = 1, height = 1, points = -1, step = 0;
+  std::vector<double> sizes, counts;
+  std::string data;
+  std::uintmax_t header_bytes = 0;
+  for (std::size_t n = 0; n < 1000 && std::getline(in, line); ++n) {
+    header_bytes += line.size() + 1;
+    Fields fields(line);
+    std::string_view key, value;
+    if (!fields.next(key))
+      continue;
+    std::vector<double> values;
+    while (fields.next(value)) {
+      double v;
+      if (key == "DATA")
+        data = std::string(value);
+      else if (parseNumber(value, v))
+        values.push_back(v);
+    }
+    if (key == "WIDTH" && !values.empty())
+      width = values[0];
+    else if (key == "HEIGHT" && !values.empty())
+      height = values[0];
+    else if (key == "POINTS" && !values.empty())
+      points = values[0];
+    else if (key == "SIZE")
+      sizes = values;
+    else if (key == "COUNT")
+      counts = values;
+    else if (key == "DATA")
+      break;
+  }
+  for (std::size_t i = 0; i < sizes.size(); ++i)
+    step += sizes[i] * (i < counts.size() ? counts[i] : 1.0);
+  const double claimed = std::max(points, width * height);
+  const double body = size > header_bytes ? static_cast<double>(size - header_bytes) : 0.0;
+  const double bytes = data == "ascii" ? claimed : claimed * std::max(step, 1.0);
+  const double limit = data == "binary_compressed" ? 100.0 * body : body;
+  if (bytes > limit) {
+    char msg[160];
+    std::snprintf(msg,
+                  sizeof msg,
+                  "PCD header claims %.0f points, more than the file's %ju bytes hold",
+                  claimed,
+                  size);
+    fail(path, 0, msg);
+  }
+}
+
 /** PCD and PLY through PCL. Its readers print and return < 0 on most errors but throw
- *  pcl::PCLException on some; both become our std::runtime_error. PCL 1.13's PCD reader
- *  dereferences the first field of a header that has none (an empty or non-PCD file:
- *  PCL issue #5854, fixed in 1.14), so the header is read first and such a file
- *  rejected. Read as a PCLPointCloud2 because pcl::fromPCLPointCloud2 only warns about a
+ *  pcl::PCLException on some; both become our std::runtime_error, as does an allocation
+ *  failure. The header is read and checked first: PCL 1.13's PCD reader dereferences the
+ *  first field of a header that has none (an empty or non-PCD file: PCL issue #5854, fixed
+ *  in 1.14), and a point count beyond the file size is rejected before PCL allocates for
+ *  it. Read as a PCLPointCloud2 because pcl::fromPCLPointCloud2 only warns about a
  *  missing or differently typed x, y or z field and leaves the coordinates at 0: every
  *  point would sit at the origin. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
@@ -189,14 +239,17 @@ loadPclScan(const std::string& path, Format format, double min_range, double max
   int rc = -1;
   try {
     if (format == Format::Pcd) {
+      checkPcdHeader(path);
       if (pcl::PCDReader().readHeader(path, blob) < 0)
         fail(path, 0, cannot + " (PCL printed the reason)");
       if (blob.fields.empty())
         fail(path, 0, cannot + ": no FIELDS in the header");
       rc = pcl::io::loadPCDFile(path, blob);
     }
-    else
+    else {
+      checkPlyHeader(path);
       rc = pcl::io::loadPLYFile(path, blob);
+    }
   }
   catch (const pcl::PCLException& e) {
     fail(path, 0, cannot + ": " + e.what());
@@ -213,11 +266,26 @@ loadPclScan(const std::string& path, Format format, double min_range, double max
   }
   pcl::PointCloud<pcl::PointXYZ> raw;
   pcl::fromPCLPointCloud2(blob, raw);
-  detail::RangeFilteredCloud cloud(min_range, max_range);
+  detail::RangeFilteredCloud cloud(path, min_range, max_range);
   cloud.reserve(raw.size());
-  for (const pcl::PointXYZ& p : raw)
-    cloud.add(p.x, p.y, p.z);
+  for (std::size_t i = 0; i < raw.size(); ++i)
+    cloud.add(raw[i].x, raw[i].y, raw[i].z, i + 1);
   return cloud.finish();
+}
+
+/** KITTI plausibility (the format has no header or magic number, so only the values can
+ *  tell): a Velodyne HDL-64E reports up to 120 m (KITTI, Geiger et al. 2013), so a
+ *  coordinate or reflectance beyond kKittiMaxValue or infinite is not a KITTI scan, and
+ *  a file where most points have all three coordinates nonzero below kKittiTiny (1 mm from
+ *  the sensor, inside its minimum range) is text read as floats: digits, spaces, signs,
+ *  points and line ends as the high byte of a float32 give 1e-19..2.4e-4. */
+constexpr float kKittiMaxValue = 1e5f;
+constexpr float kKittiTiny = 1e-3f;
+
+bool
+tinyNonZero(float v)
+{
+  return v != 0.0f && std::abs(v) < kKittiTiny;
 }
 
 } // namespace
@@ -225,10 +293,12 @@ loadPclScan(const std::string& path, Format format, double min_range, double max
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadXyzScan(const std::string& path, double min_range, double max_range)
 {
-  detail::RangeFilteredCloud cloud(min_range, max_range);
+  detail::RangeFilteredCloud cloud(path, min_range, max_range);
+  std::size_t points = 0;
   detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
     if (line[line.find_first_not_of(detail::kSpace)] == '#')
       return;
+    ++points;
     Fields fields(line);
     double v[3];
     for (int k = 0; k < 3; ++k) {
@@ -240,8 +310,10 @@ loadXyzScan(const std::string& path, double min_range, double max_range)
              line_no,
              "column " + std::to_string(k + 1) + " is not a number: " + inQuotes(field));
     }
-    cloud.add(v[0], v[1], v[2]);
+    cloud.add(v[0], v[1], v[2], line_no);
   });
+  if (points == 0)
+    fail(path, 0, "no points (an empty or comment-only file)");
   return cloud.finish();
 }
 
@@ -261,18 +333,38 @@ loadKittiScan(const std::string& path, double min_range, double max_range)
          0,
          "truncated: size " + std::to_string(size) +
              " bytes is not a multiple of 16 (float32 x, y, z, reflectance a point)");
-  std::vector<unsigned char> bytes(static_cast<std::size_t>(size));
+  std::vector<unsigned char> bytes;
+  detail::guardAllocation(path, [&] { bytes.resize(static_cast<std::size_t>(size)); });
   if (size > 0 && !in.read(reinterpret_cast<char*>(bytes.data()), size))
     fail(path, 0, "read error");
+  // Impossible as KITTI records: as float32 "ply\n" is 1e-32, "# .P" 1e10.
+  if (size >= 4 &&
+      (std::memcmp(bytes.data(), "ply\n", 4) == 0 || std::memcmp(bytes.data(), "# .P", 4) == 0))
+    fail(path, 0, "starts like a PCD or PLY header, not KITTI float32 records");
   const std::size_t n = bytes.size() / kRecordBytes;
-  detail::RangeFilteredCloud cloud(min_range, max_range);
+  detail::RangeFilteredCloud cloud(path, min_range, max_range);
   cloud.reserve(n);
+  std::size_t tiny = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const unsigned char* record = bytes.data() + i * kRecordBytes;
-    cloud.add(floatLittleEndian(record),
-              floatLittleEndian(record + 4),
-              floatLittleEndian(record + 8));
+    float v[4];
+    for (int a = 0; a < 4; ++a) {
+      v[a] = floatLittleEndian(record + 4 * a);
+      if (std::isinf(v[a]) || std::abs(v[a]) > kKittiMaxValue)
+        fail(path,
+             0,
+             "point " + std::to_string(i + 1) + ": value " + std::to_string(v[a]) +
+                 " is not a plausible KITTI coordinate or reflectance (|v| <= 1e5)");
+    }
+    tiny += tinyNonZero(v[0]) && tinyNonZero(v[1]) && tinyNonZero(v[2]);
+    cloud.add(v[0], v[1], v[2], i + 1);
   }
+  if (n > 0 && 2 * tiny > n)
+    fail(path,
+         0,
+         std::to_string(tiny) + " of " + std::to_string(n) +
+             " points have all coordinates below 1 mm: not KITTI float32 "
+             "records (text, or other bytes?)");
   return cloud.finish();
 }
 
@@ -319,18 +411,20 @@ loadScan(const std::string& path, double min_range, double max_range)
         inQuotes(lowerCaseExtension(path)) + " (supported: " + supported + ")");
   }
   requireRegularFile(path);
-  switch (ext->format) {
-  case Format::Uos:
-    return loadUosScan(path, min_range, max_range);
-  case Format::Xyz:
-    return loadXyzScan(path, min_range, max_range);
-  case Format::Kitti:
-    return loadKittiScan(path, min_range, max_range);
-  case Format::Pcd:
-  case Format::Ply:
-    return loadPclScan(path, ext->format, min_range, max_range);
-  }
-  fail(path, 0, "internal error: unhandled scan format"); // unreachable: the switch is total
+  return detail::guardAllocation(path, [&] {
+    switch (ext->format) {
+    case Format::Uos:
+      return loadUosScan(path, min_range, max_range);
+    case Format::Xyz:
+      return loadXyzScan(path, min_range, max_range);
+    case Format::Kitti:
+      return loadKittiScan(path, min_range, max_range);
+    case Format::Pcd:
+    case Format::Ply:
+      return loadPclScan(path, ext->format, min_range, max_range);
+    }
+    fail(path, 0, "internal error: unhandled scan format"); // unreachable: the switch is total
+  });
 }
 
 bool

@@ -4,6 +4,7 @@
  */
 #include "detail.h"
 
+#include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
 
 #include <pcl/io/ply_io.h>
@@ -22,28 +23,46 @@ namespace io {
 std::vector<StanfordConfEntry>
 loadStanfordConf(const std::string& path)
 {
-  std::ifstream in(path);
-  if (!in)
-    throw std::runtime_error("cannot open " + path);
+  using detail::fail;
   std::vector<StanfordConfEntry> out;
-  std::string line;
-  for (int line_no = 1; std::getline(in, line); ++line_no) {
-    std::istringstream ss(line);
-    std::string kind;
-    if (!(ss >> kind) || kind != "bmesh")
-      continue;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    // scanalyze writes "camera t q" and "bmesh FILE t q"; anything else is not a .conf line.
+    detail::Fields fields(line);
+    std::string_view kind, file, f;
+    fields.next(kind);
+    if (kind != "bmesh" && kind != "camera")
+      fail(path,
+           line_no,
+           "expected \"bmesh FILE tx ty tz qx qy qz qw\" or \"camera ...\", got " +
+               detail::quoted(line));
+    if (kind == "bmesh" && !fields.next(file))
+      fail(path, line_no, "bmesh line without a file name");
+    double v[7];
+    std::size_t k = 0;
+    while (fields.next(f)) {
+      if (k == 7 || !detail::parseNumber(f, v[k]) || !std::isfinite(v[k]))
+        fail(path,
+             line_no,
+             "expected 7 finite numbers (tx ty tz qx qy qz qw), got " + detail::quoted(line));
+      ++k;
+    }
+    if (k != 7)
+      fail(
+          path, line_no, "expected 7 numbers (tx ty tz qx qy qz qw), got " + std::to_string(k));
+    if (kind == "camera")
+      return;
+    const Eigen::Quaterniond quat(v[6], v[3], v[4], v[5]); // (w, x, y, z)
+    if (!(quat.norm() > 0.5 && quat.norm() < 2.0))
+      fail(path, line_no, "not a unit quaternion (norm " + std::to_string(quat.norm()) + ")");
     StanfordConfEntry e;
-    double t[3], q[4];
-    if (!(ss >> e.file >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3]))
-      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": malformed bmesh line");
-    const Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]); // (w, x, y, z)
-    if (!(quat.norm() > 0.5))
-      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": bad quaternion");
+    e.file = std::string(file);
     e.pose.setIdentity();
     e.pose.topLeftCorner<3, 3>() = quat.normalized().toRotationMatrix().transpose();
-    e.pose.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]);
+    e.pose.topRightCorner<3, 1>() = Eigen::Vector3d(v[0], v[1], v[2]);
     out.push_back(e);
-  }
+  });
+  if (out.empty())
+    fail(path, 0, "no bmesh lines");
   return out;
 }
 
@@ -59,16 +78,11 @@ stanfordPose(const std::vector<StanfordConfEntry>& entries, const std::string& f
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadStanfordScan(const std::string& path)
 {
-  pcl::PointCloud<pcl::PointXYZ> grid;
-  if (pcl::io::loadPLYFile(path, grid) < 0)
-    throw std::runtime_error("cannot read PLY " + path);
-  detail::RangeFilteredCloud finite(0.0, std::numeric_limits<double>::infinity());
-  finite.reserve(grid.size());
-  for (const auto& p : grid)
-    finite.add(p.x, p.y, p.z);
-  const pcl::PointCloud<pcl::PointXYZ>::Ptr out = finite.finish();
+  // The checked PLY reader of loadScan (header validated, PCL's exceptions and
+  // allocation failures turned into our error naming the file).
+  const pcl::PointCloud<pcl::PointXYZ>::Ptr out = loadScan(path);
   if (out->empty())
-    throw std::runtime_error("no finite points in " + path);
+    detail::fail(path, 0, "no finite points");
   return out;
 }
 

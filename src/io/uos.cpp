@@ -9,10 +9,8 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
-#include <vector>
+#include <string_view>
 
 namespace pcl_parallel {
 namespace io {
@@ -20,17 +18,21 @@ namespace io {
 namespace {
 
 using detail::fail;
-using detail::openOrThrow;
+using detail::quoted;
 
-/** Parses up to n numbers from the start of a line; returns how many it read. */
-std::size_t
-parseNumbers(const std::string& line, double* out, std::size_t n)
+/** 3DTK's optional uos header, "W x H" (the scan's grid size): two integers and an 'x'. */
+bool
+isGridHeader(const std::string& line)
 {
-  std::istringstream ss(line);
+  detail::Fields fields(line);
+  std::string_view f[4];
   std::size_t k = 0;
-  while (k < n && ss >> out[k])
+  while (k < 4 && fields.next(f[k]))
     ++k;
-  return k;
+  double w, h;
+  return k == 3 && (f[1] == "x" || f[1] == "X") && detail::parseNumber(f[0], w) &&
+         detail::parseNumber(f[2], h) && w >= 0 && h >= 0 && w == std::floor(w) &&
+         h == std::floor(h);
 }
 
 } // namespace
@@ -38,21 +40,24 @@ parseNumbers(const std::string& line, double* out, std::size_t n)
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadUosScan(const std::string& path, double min_range, double max_range)
 {
-  detail::RangeFilteredCloud cloud(min_range, max_range);
-  std::size_t header_lines = 0;
-  bool data_started = false;
-  constexpr std::size_t kMaxHeaderLines = 10; // as 3DTK's ScanIO_uos
+  detail::RangeFilteredCloud cloud(path, min_range, max_range);
+  bool first = true;
+  std::size_t points = 0;
   detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    const bool header = first && isGridHeader(line);
+    first = false;
+    if (header)
+      return;
     double v[3];
-    if (parseNumbers(line, v, 3) != 3 || !std::isfinite(v[0]) || !std::isfinite(v[1]) ||
-        !std::isfinite(v[2])) {
-      if (!data_started && ++header_lines <= kMaxHeaderLines)
-        return;
-      fail(path, line_no, "expected three numbers \"x y z\", got \"" + line + "\"");
-    }
-    data_started = true;
-    cloud.add(v[0], v[1], v[2]);
+    if (detail::parseNumbers(line, v, 3) != 3)
+      fail(path, line_no, "expected three numbers \"x y z\", got " + quoted(line));
+    if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
+      fail(path, line_no, "non-finite coordinate in " + quoted(line));
+    ++points;
+    cloud.add(v[0], v[1], v[2], line_no);
   });
+  if (points == 0)
+    fail(path, 0, "no points (an empty or header-only .3d file)");
   return cloud.finish();
 }
 
@@ -68,16 +73,23 @@ eulerToRotation3dtk(double rx, double ry, double rz)
 Eigen::Matrix4d
 loadUosPose(const std::string& path)
 {
-  std::ifstream in = openOrThrow(path);
   double v[6];
   std::size_t k = 0;
-  while (k < 6 && in >> v[k])
-    ++k;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    detail::Fields fields(line);
+    std::string_view field;
+    while (fields.next(field)) {
+      if (k == 6)
+        fail(path, line_no, "more than 6 numbers (x y z, then θx θy θz in degrees)");
+      if (!detail::parseNumber(field, v[k]) || !std::isfinite(v[k]))
+        fail(path, line_no, "not a finite number: " + quoted(field));
+      ++k;
+    }
+  });
   if (k != 6)
-    fail(path, 0, "expected 6 numbers (x y z, then θx θy θz in degrees)");
-  for (double x : v)
-    if (!std::isfinite(x))
-      fail(path, 0, "non-finite value in pose");
+    fail(path,
+         0,
+         "expected 6 numbers (x y z, then θx θy θz in degrees), got " + std::to_string(k));
   constexpr double kDegToRad = M_PI / 180.0;
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
   pose.topLeftCorner<3, 3>() =
@@ -89,21 +101,33 @@ loadUosPose(const std::string& path)
 Eigen::Matrix4d
 loadFramesFinalPose(const std::string& path)
 {
-  std::string last;
-  std::size_t last_no = 0;
-  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
-    last = line;
-    last_no = line_no;
-  });
-  double v[17];
-  if (last.empty() || parseNumbers(last, v, 17) < 16)
-    fail(path, last_no, "expected 16 numbers (a column-major 4x4 matrix) and a type code");
+  // Every line is checked (a garbled line in the middle is an error too); the last counts.
   Eigen::Matrix4d pose;
-  for (int i = 0; i < 16; ++i) {
-    if (!std::isfinite(v[i]))
-      fail(path, last_no, "non-finite value in frame");
-    pose(i % 4, i / 4) = v[i];
-  }
+  std::size_t frames = 0;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    double v[17];
+    std::size_t k = 0;
+    detail::Fields fields(line);
+    std::string_view field;
+    while (fields.next(field)) {
+      if (k == 17 || !detail::parseNumber(field, v[k]))
+        fail(path,
+             line_no,
+             "expected 16 numbers (a column-major 4x4 matrix) and a type code, got " +
+                 quoted(line));
+      ++k;
+    }
+    if (k < 16)
+      fail(path, line_no, "expected 16 numbers and a type code, got " + std::to_string(k));
+    for (int i = 0; i < 16; ++i) {
+      if (!std::isfinite(v[i]))
+        fail(path, line_no, "non-finite value in frame");
+      pose(i % 4, i / 4) = v[i];
+    }
+    ++frames;
+  });
+  if (frames == 0)
+    fail(path, 0, "no frames (an empty .frames file)");
   return pose;
 }
 

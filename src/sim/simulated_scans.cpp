@@ -135,7 +135,13 @@ simulateScanSet(const SimulationParameters& p, unsigned num_threads)
   const double half = 0.5 * p.corridor_width;
   const double lx = p.outer_length - p.corridor_width, ly = p.outer_width - p.corridor_width;
   const double perimeter = 2.0 * (lx + ly);
-  const int n = static_cast<int>(std::floor(p.laps * perimeter / p.step_length)) + 1;
+  // Checked before the cast to int (UB beyond INT_MAX, e.g. for a tiny step_length).
+  const double steps = std::floor(p.laps * perimeter / p.step_length);
+  constexpr double kMaxScans = 1e6;
+  if (!(steps < kMaxScans))
+    throw std::invalid_argument("[pcl_parallel::sim] laps * perimeter / step_length gives " +
+                                std::to_string(steps) + " scans, more than 1e6");
+  const int n = static_cast<int>(steps) + 1;
   for (int i = 0; i < n; ++i) {
     double s = std::fmod(i * p.step_length, perimeter);
     double x, y, heading;

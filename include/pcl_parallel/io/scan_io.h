@@ -19,7 +19,8 @@ namespace io {
 /** Reads a plain-text point list (.xyz, .txt): one point per line, "x y z" separated by
  *  spaces, tabs or commas (one comma between two fields), so both the usual xyz exports
  *  and CSV without a header read. Further columns (intensity, RGB, labels) are ignored
- *  and need not be numbers. Blank lines and lines starting with '#' are skipped.
+ *  and need not be numbers. Blank lines and lines starting with '#' are skipped. A kept
+ *  coordinate beyond float's range (finite as a double) is an error, not an inf.
  *  "nan" and "inf" are read as numbers and, like every non-finite point, dropped: exports
  *  of organised clouds write the empty cells that way. Points whose range
  *  sqrt(x²+y²+z²) lies outside [min_range, max_range] are dropped (as loadUosScan).
@@ -27,7 +28,8 @@ namespace io {
  *  comma). Throws std::runtime_error naming the file and line when it cannot be read, or
  *  when a line has fewer than three fields or a first-three field that is not a number.
  *  Unlike loadUosScan there is no header to skip: a line of text is an error, so a file
- *  in another format is not read as an empty scan. */
+ *  in another format is not read as an empty scan; a file without any point line (empty,
+ *  or comments only) is an error too, as for loadUosScan. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadXyzScan(const std::string& path,
             double min_range = 0.0,
@@ -36,10 +38,16 @@ loadXyzScan(const std::string& path,
 /** Reads a KITTI Velodyne scan (.bin): little-endian float32 records (x, y, z,
  *  reflectance), 16 bytes a point, in metres in the sensor frame; the reflectance is
  *  dropped. The file is read in one block (a KITTI scan is ~120k points, ~2 MB). Range
- *  filter and non-finite points as loadXyzScan. An empty file gives an empty cloud (a
- *  sensor that saw nothing is not an error). Throws std::runtime_error naming the file when
- *  it cannot be read or its size is not a multiple of 16 bytes (a truncated download or an
- *  interrupted copy, which would otherwise shift every later point). */
+ *  filter and non-finite points as loadXyzScan; a kept x, y or z NaN is dropped. An empty
+ *  file gives an empty cloud (a sensor that saw nothing is not an error). The format has
+ *  no header, so only the values can be validated; throws std::runtime_error naming the
+ *  file when it cannot be read, when its size is not a multiple of 16 bytes (a truncated
+ *  download), when a value is infinite or beyond 1e5 in magnitude (the HDL-64E reaches
+ *  120 m; reflectance is in [0, 1]), when more than half of the points have all three
+ *  coordinates nonzero and below 1 mm (text read as float32), or when it starts like a PCD
+ *  or PLY header. What cannot be detected: other float32 data of plausible magnitude (e.g.
+ *  a 4-float cloud in another frame or unit, or 16-byte-aligned garbage that happens to
+ *  look like coordinates). */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadKittiScan(const std::string& path,
               double min_range = 0.0,
@@ -62,7 +70,9 @@ loadKittiPoses(const std::string& path);
  *  dense cloud returned. Throws std::invalid_argument for an unsupported extension (the
  *  message lists the supported ones), std::runtime_error naming the file when it does not
  *  exist, is not a regular file, or cannot be parsed (also where PCL's readers only print
- *  and return an error, and for PCD/PLY files without x, y, z fields). */
+ *  and return an error, and for PCD/PLY files without x, y, z fields), when a PCD/PLY
+ *  header claims more points than the file size can hold, and when memory runs out (no
+ *  bare std::bad_alloc). */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadScan(const std::string& path,
          double min_range = 0.0,

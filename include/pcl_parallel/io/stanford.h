@@ -21,11 +21,12 @@ struct StanfordConfEntry {
   Eigen::Matrix4d pose; ///< p_world = R * p_scan + t
 };
 
-/** Reads the "bmesh FILE tx ty tz qx qy qz qw" lines of a .conf (other lines, e.g.
- *  "camera", are skipped). The stored quaternion rotates world into scan, so the pose is
- *  R = R(q)^T, t = (tx, ty, tz) (checked on the bunny: with it, 94% of bun045's points lie
- *  within 2 mm of bun000, median 0.3 mm). Throws std::runtime_error naming the file and
- *  line when it cannot be read or a bmesh line is malformed. */
+/** Reads the "bmesh FILE tx ty tz qx qy qz qw" lines of a .conf ("camera tx ty tz qx qy
+ *  qz qw" lines are checked and skipped; any other line is an error). The stored quaternion
+ * rotates world into scan, so the pose is R = R(q)^T, t = (tx, ty, tz) (checked on the bunny:
+ * with it, 94% of bun045's points lie within 2 mm of bun000, median 0.3 mm). Throws
+ * std::runtime_error naming the file and line when it cannot be read, a line is malformed, a
+ * quaternion is far from unit length, or there is no bmesh line. */
 std::vector<StanfordConfEntry>
 loadStanfordConf(const std::string& path);
 
@@ -36,7 +37,8 @@ stanfordPose(const std::vector<StanfordConfEntry>& entries, const std::string& f
 /** Reads the x, y, z vertices of a Stanford range scan (ASCII PLY with an extra
  *  range_grid element) and drops the empty grid cells, so the cloud is unorganised and
  *  dense. Uses pcl::io::loadPLYFile, which copes with the range_grid element by returning
- *  the 512x400 grid with NaN cells. Throws std::runtime_error when unreadable. */
+ *  the 512x400 grid with NaN cells, through loadScan's checked PLY reader. Throws
+ *  std::runtime_error naming the file when unreadable or without a finite point. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadStanfordScan(const std::string& path);
 

@@ -16,12 +16,15 @@ namespace pcl_parallel {
 namespace io {
 
 /** Reads a 3DTK "uos" scan (.3d): one point per line, "x y z" (further columns are
- *  ignored), in the scanner's frame (3DTK: centimetres, left-handed, y up). Like 3DTK's
- *  reader, up to 10 unparsable lines before the first point are skipped as a header.
- *  Points whose range sqrt(x²+y²+z²) lies outside [min_range, max_range] are dropped
- *  (3DTK data has out-of-range returns at 3276.7 cm and near-range junk).
- *  Throws std::runtime_error naming the file and line when it cannot be read, or when a
- *  line after the header is malformed. */
+ *  ignored), in the scanner's frame (3DTK: centimetres, left-handed, y up). The first
+ *  non-blank line may be 3DTK's grid header "W x H" and is then skipped; every other line
+ *  must start with three finite numbers (one locale-independent parser for all our text
+ *  formats, as loadXyzScan). Points whose range sqrt(x²+y²+z²) lies outside
+ *  [min_range, max_range] are dropped (3DTK data has out-of-range returns at 3276.7 cm and
+ *  near-range junk). Throws std::runtime_error naming the file and line when it cannot be
+ *  read, when a line is malformed, when a kept coordinate exceeds float's range, or when
+ *  the file holds no points at all (an empty scan file is a broken copy, not a scan; a scan
+ *  whose points all fall outside the range filter gives an empty cloud). */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadUosScan(const std::string& path,
             double min_range = 0.0,
@@ -29,12 +32,15 @@ loadUosScan(const std::string& path,
 
 /** Reads a 3DTK .pose file: "x y z" then "θx θy θz" in degrees. Returns the 4x4 pose
  *  with R = Rx(θx)·Ry(θy)·Rz(θz) and p_world = R·p + t (3DTK's EulerToMatrix4).
- *  Throws std::runtime_error when unreadable or malformed. */
+ *  Throws std::runtime_error naming the file when unreadable, or when it does not hold
+ *  exactly 6 finite numbers. */
 Eigen::Matrix4d
 loadUosPose(const std::string& path);
 
 /** Reads the final pose of a 3DTK .frames file (last line: 16 numbers, column-major,
- *  then a type code). Throws std::runtime_error when unreadable or malformed. */
+ *  then a type code). Every line must hold 16 or 17 numbers, the first 16 finite.
+ *  Throws std::runtime_error naming the file and line when unreadable, malformed or
+ *  empty. */
 Eigen::Matrix4d
 loadFramesFinalPose(const std::string& path);
 

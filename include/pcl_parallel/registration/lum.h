@@ -14,6 +14,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -356,7 +357,10 @@ private:
     Vertex source;
     Vertex target;
     Edge edge;
+    std::size_t duplicate; ///< earlier links with the same (source, target)
   };
+  /** A link's hints for one search direction: (source, target, duplicate, pass). */
+  using HintKey = std::tuple<Vertex, Vertex, std::size_t, int>;
 
   void
   syncPoses();
@@ -424,8 +428,9 @@ private:
   // (0 = not computed), in the scan's own frame.
   std::vector<std::vector<Eigen::Vector3f>> normals_;
   std::vector<std::size_t> normals_k_;
-  // Per-link warm-start hints (last iteration's matches), by (source, target).
-  std::map<std::pair<Vertex, Vertex>, std::vector<std::uint32_t>> hints_;
+  // Warm-start hints (last iteration's matches), one vector per link and search direction:
+  // a reversed (b -> a) or repeated link has its own, so no two threads share one.
+  std::map<HintKey, std::vector<std::uint32_t>> hints_;
 
   /** The solver with its factorisation; a copy of ParallelLUM starts with a fresh one
    *  (PCL's LUM is copyable, so ours is too; the graph is shared, as PCL's copy shares it). */

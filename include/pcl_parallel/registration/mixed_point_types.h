@@ -33,9 +33,21 @@
  * specialised reciprocal search above does not use that tree).
  */
 
+#include <pcl/pcl_config.h>
 #include <pcl/point_types.h>
 #include <pcl/registration/correspondence_estimation.h>
 #include <pcl/registration/registration.h>
+
+// The specialisations below re-implement PCL 1.13's code of these members, and
+// icp.h's FusedConvergenceCriteria / ParallelIterativeClosestPoint read protected members
+// of DefaultConvergenceCriteria and Registration (both include this header). Another PCL
+// may have fixed the mixed-type bug (1.14 did some of it) or renamed those members: stop
+// here with the reason rather than compile code that silently diverges from PCL.
+#if PCL_MAJOR_VERSION != 1 || PCL_MINOR_VERSION != 13
+#error "pcl_parallel is written against PCL 1.13: mixed_point_types.h re-implements PCL 1.13 \
+internals (CorrespondenceEstimationBase ctor, determine*Correspondences, initCompute) and \
+icp.h reads DefaultConvergenceCriteria's protected state. Port and re-test both for this PCL."
+#endif
 
 #define PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(S, T, SCALAR)                                     \
   template <>                                                                                  \

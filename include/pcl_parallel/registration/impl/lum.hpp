@@ -13,6 +13,7 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -334,11 +335,14 @@ ParallelLUM<PointT>::collectLinks() const
   std::vector<LinkRef> links;
   typename SLAMGraph::edge_iterator e, e_end;
   for (std::tie(e, e_end) = edges(*slam_graph_); e != e_end; ++e)
-    links.push_back({source(*e, *slam_graph_), target(*e, *slam_graph_), *e});
+    links.push_back({source(*e, *slam_graph_), target(*e, *slam_graph_), *e, 0});
   // Fixed order independent of the graph's edge lists: the assembly order.
-  std::sort(links.begin(), links.end(), [](const LinkRef& a, const LinkRef& b) {
+  std::stable_sort(links.begin(), links.end(), [](const LinkRef& a, const LinkRef& b) {
     return std::make_pair(a.source, a.target) < std::make_pair(b.source, b.target);
   });
+  for (std::size_t i = 1; i < links.size(); ++i)
+    if (links[i].source == links[i - 1].source && links[i].target == links[i - 1].target)
+      links[i].duplicate = links[i - 1].duplicate + 1;
   return links;
 }
 
@@ -456,7 +460,8 @@ ParallelLUM<PointT>::computeLinkPairs(const LinkRef& link,
     const std::vector<Eigen::Vector3f>* normals = point_to_plane_ ? &normals_[to] : nullptr;
     // Query points into the other scan's own frame, where its tree was built.
     const Eigen::Matrix4f rel = (t_to.inverse() * t_from).template cast<float>();
-    std::vector<std::uint32_t>& hints = hints_.at({from, to});
+    std::vector<std::uint32_t>& hints =
+        hints_.at(HintKey(link.source, link.target, link.duplicate, pass));
     if (hints.size() != cloud.size())
       hints.assign(cloud.size(), KdTreeIndex::kInvalid);
     for (std::size_t k = 0; k < cloud.size(); k += query_step_) {
@@ -565,10 +570,9 @@ ParallelLUM<PointT>::compute()
   const unsigned threads = resolveNumberOfThreads(num_threads_);
   if (plum) {
     buildTrees();
-    for (const LinkRef& l : links) { // create before the parallel loop
-      hints_[{l.source, l.target}];
-      hints_[{l.target, l.source}];
-    }
+    for (const LinkRef& l : links) // create before the parallel loop: no insertion races
+      for (int pass = 0; pass < 2; ++pass)
+        hints_[HintKey(l.source, l.target, l.duplicate, pass)];
   }
 
   std::vector<lum::LinkBlock, Eigen::aligned_allocator<lum::LinkBlock>> blocks(links.size());

@@ -1,0 +1,110 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ *
+ * Writes the seed corpora of the fuzz harnesses: write_fuzz_seeds DIR creates DIR/<target>/
+ * with small valid (and a few borderline) inputs of each format, generated here (PCD and
+ * PLY by PCL's own writers), never copied from data sets.
+ */
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <initializer_list>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path root;
+
+void
+seed(const std::string& target, const std::string& name, const std::string& bytes)
+{
+  fs::create_directories(root / target);
+  std::ofstream(root / target / name, std::ios::binary) << bytes;
+}
+
+std::string
+floats(std::initializer_list<float> values) // little-endian float32, as KITTI
+{
+  std::string bytes;
+  for (float v : values) {
+    std::uint32_t u;
+    std::memcpy(&u, &v, sizeof u);
+    for (int i = 0; i < 4; ++i)
+      bytes.push_back(static_cast<char>((u >> (8 * i)) & 0xffu));
+  }
+  return bytes;
+}
+
+std::string
+slurp(const fs::path& p)
+{
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+} // namespace
+
+int
+main(int argc, char** argv)
+{
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: write_fuzz_seeds DIR\n");
+    return 2;
+  }
+  root = argv[1];
+
+  seed("uos_scan", "plain", "10.1 0 0\n10.0996 -0.0662149 0.0581712\n-1e3 2e-2 +3.5 17\n");
+  seed("uos_scan", "header", "360 x 225\n1 2 3\n\n4 5 6 7 8\r\n3276.7 0 0\n");
+  seed("uos_pose", "pose", "1.5 -2 3e2\n90 0 -45.5\n");
+  seed("frames",
+       "frames",
+       "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n"
+       "0.99 0.01 0 0 -0.01 0.99 0 0 0 0 1 0 12.5 -3 337.79 1 1\n");
+  seed("xyz", "xyz", "# x y z i\n1 2 3 0.5\n4\t5\t6\n7,8,9,255,0,0\n-1.5 , +2.5,3e1 l\n");
+  seed("xyz", "nan", "nan nan nan 0\n1 inf 0\n1e39 0 0\n");
+  seed("kitti_scan", "scan", floats({1.25f, -2.5f, 0.125f, 0.75f, 10, 0, -0.5f, 0.25f}));
+  seed("kitti_scan",
+       "nan",
+       floats({std::numeric_limits<float>::quiet_NaN(), 1, 1, 0.5f, 0.01f, 0.02f, 0.03f, 1}));
+  seed("kitti_poses",
+       "poses",
+       "1 0 0 1.5 0 1 0 -2 0 0 1 3\n\n0 -1 0 10 1 0 0 20 0 0 1 3.000000e+01\n");
+  seed("stanford_conf",
+       "conf",
+       "camera -0.0172 -0.0936 -0.734  -0.0461723 0.970603 -0.235889 0.0124573\n"
+       "bmesh a.ply 0 0 0 0 0 0 1\n"
+       "bmesh b.ply -0.052 -0.00038 -0.0109 0.0054 -0.2946 -0.0038 0.9555\n");
+
+  pcl::PointCloud<pcl::PointXYZ> cloud;
+  for (int i = 0; i < 5; ++i)
+    cloud.push_back(pcl::PointXYZ(0.5f * i, -1.25f + i, 2.0f));
+  cloud.push_back(pcl::PointXYZ(std::numeric_limits<float>::quiet_NaN(), 0, 0));
+  cloud.is_dense = false;
+  const fs::path tmp = fs::temp_directory_path() / "pcl_parallel_fuzz_seed";
+  const std::string pcd = tmp.string() + ".pcd", ply = tmp.string() + ".ply";
+  pcl::io::savePCDFileASCII(pcd, cloud);
+  seed("pcd", "ascii", slurp(pcd));
+  pcl::io::savePCDFileBinary(pcd, cloud);
+  seed("pcd", "binary", slurp(pcd));
+  pcl::io::savePCDFileBinaryCompressed(pcd, cloud);
+  seed("pcd", "binary_compressed", slurp(pcd));
+  pcl::io::savePLYFileASCII(ply, cloud);
+  seed("ply", "ascii", slurp(ply));
+  pcl::io::savePLYFileBinary(ply, cloud);
+  seed("ply", "binary", slurp(ply));
+  fs::remove(pcd);
+  fs::remove(ply);
+  return 0;
+}
