@@ -713,7 +713,7 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   for (int i = 0; i < n; ++i) {
     const double s = spec.start + i * spec.step;
     set.truth.push_back(moving ? route.pose(s) : route.poseAtWaypointArc(s));
-    set.timestamps.push_back(i * spec.period);
+    set.timestamps.push_back(i / (1.0 / spec.period)); // 0.3, not 3 * 0.1 = 0.30000000000000004
   }
   // Odometry: the true step, disturbed in the plane of the vehicle, accumulated.
   Rng rng(0x6f646f6dull ^ (static_cast<std::uint64_t>(o.seed) << 20));
