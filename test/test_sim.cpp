@@ -623,15 +623,27 @@ tempDir(const std::string& name)
 // Same seed: identical data and files, for 1 and 2 threads; another seed: other data.
 TEST(Presets, DeterministicForSeedAndThreadCount)
 {
-  for (const std::string name : {"office", "kitti"}) {
+  // office, kitti: the rays of a scan in parallel; hannover with 10 scans: a scan per
+  // thread (simulatePreset's other path).
+  for (const auto& [name, scans] : std::vector<std::pair<std::string, int>>{
+           {"office", 2}, {"kitti", 2}, {"hannover", 10}}) {
     PresetOptions o;
-    o.max_scans = 2;
+    o.max_scans = scans;
     o.num_threads = 1;
     const SimulatedScanSet a = simulatePreset(name, o);
     o.num_threads = 2;
+    int calls = 0, last = 0;
+    o.progress = [&](int done, int total) {
+      ++calls, last = done;
+      EXPECT_EQ(total, scans);
+    };
     const SimulatedScanSet b = simulatePreset(name, o);
-    ASSERT_EQ(a.scans.size(), 2u);
-    for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_GE(calls, 1);
+    EXPECT_EQ(last, scans);
+    const auto n = static_cast<std::size_t>(scans);
+    ASSERT_EQ(a.scans.size(), n);
+    ASSERT_EQ(b.scans.size(), n);
+    for (std::size_t i = 0; i < n; ++i) {
       ASSERT_EQ(a.scans[i]->size(), b.scans[i]->size()) << name;
       for (std::size_t k = 0; k < a.scans[i]->size(); ++k)
         ASSERT_EQ((*a.scans[i])[k].getVector3fMap(), (*b.scans[i])[k].getVector3fMap());
@@ -647,7 +659,8 @@ TEST(Presets, DeterministicForSeedAndThreadCount)
       EXPECT_EQ(fileBytes(e.path()), fileBytes(db / e.path().filename())) << e.path();
       ++files;
     }
-    EXPECT_EQ(files, name == "office" ? 5u : 5u); // 2 x (.3d + .pose) + truth; 2 .bin + 3
+    // uos: .3d + .pose a scan, ground_truth.txt; KITTI: .bin a scan, odometry, times, truth.
+    EXPECT_EQ(files, name == "kitti" ? n + 3 : 2 * n + 1) << name;
     fs::remove_all(da), fs::remove_all(db);
 
     o.seed = 2;

@@ -6,6 +6,7 @@
  * grid of corridors, a street around a block with a square), closed routes over them,
  * scanner models and drifting odometry. docs/design.md ("Simulator") has the layouts.
  */
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/sim/presets.h>
 
 #include <Eigen/Geometry>
@@ -673,9 +674,7 @@ presetNames()
 std::string
 presetDescription(const std::string& name)
 {
-  if (std::find(names().begin(), names().end(), name) == names().end())
-    makeSpec(name, 1); // throws with the list
-  return makeSpec(name, 1).description;
+  return makeSpec(name, 1).description; // throws on an unknown name, listing the known
 }
 
 SimulatedScanSet
@@ -712,7 +711,7 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   for (int i = 0; i < n; ++i) {
     const double s = spec.start + i * spec.step;
     set.truth.push_back(moving ? route.pose(s) : route.poseAtWaypointArc(s));
-    set.timestamps.push_back(i * spec.period);
+    set.timestamps.push_back(i / (1.0 / spec.period)); // 0.3, not 3 * 0.1 = 0.30000000000000004
   }
   // Odometry: the true step, disturbed in the plane of the vehicle, accumulated.
   Rng rng(0x6f646f6dull ^ (static_cast<std::uint64_t>(o.seed) << 20));
@@ -741,7 +740,7 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   set.scans.resize(static_cast<std::size_t>(n));
   if (moving)
     set.point_times.resize(static_cast<std::size_t>(n));
-  for (int i = 0; i < n; ++i) {
+  const auto scan = [&](int i, unsigned threads) {
     const auto k = static_cast<std::size_t>(i);
     const std::uint64_t key = scanKey(o.seed, k);
     if (moving) {
@@ -750,13 +749,24 @@ simulatePreset(const std::string& name, const PresetOptions& o)
       const auto pose = [&](int c) {
         return route.pose(s0 + speed * ((c + 0.5) / cols - 0.5) * spec.scanner.sweep_period);
       };
-      set.scans[k] =
-          castScan(caster, spec.scanner, pose, key, o.num_threads, &set.point_times[k]);
+      set.scans[k] = castScan(caster, spec.scanner, pose, key, threads, &set.point_times[k]);
     }
     else
-      set.scans[k] = castScan(caster, spec.scanner, set.truth[k], key, o.num_threads);
+      set.scans[k] = castScan(caster, spec.scanner, set.truth[k], key, threads);
+  };
+  // Many scans: one per thread (a parallel region per scan costs a barrier each, which
+  // hurts on a loaded machine); few: the rays of each scan in parallel. Either way a
+  // scan depends on its key alone. Batches keep the progress calls on this thread.
+  const unsigned threads = resolveNumberOfThreads(o.num_threads);
+  const bool per_scan = threads > 1 && n >= 4 * static_cast<int>(threads);
+  const int batch = per_scan ? 8 * static_cast<int>(threads) : 1;
+  for (int first = 0; first < n; first += batch) {
+    const int last = std::min(n, first + batch);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (per_scan)
+    for (int i = first; i < last; ++i)
+      scan(i, per_scan ? 1u : threads);
     if (o.progress)
-      o.progress(i + 1, n);
+      o.progress(last, n);
   }
   set.world = std::move(spec.world);
   return set;
