@@ -266,15 +266,22 @@ TEST(LoopCloser, DistributeLoopErrorClosesTheLoop)
 TEST(LocalMap, VoxelCapCropAndCorrection)
 {
   slam::LocalMap map(1.0, 10.0, 3);
-  Cloud c;
+  slam::MapCloud c;
+  auto point = [](float x, float y, float z) {
+    slam::MapPoint p;
+    p.x = x, p.y = y, p.z = z;
+    p.normal_x = 0, p.normal_y = 0, p.normal_z = 1;
+    return p;
+  };
   for (int k = 0; k < 10; ++k)
-    c.push_back(pcl::PointXYZ(0.1f * k, 0.5f, 0.5f)); // one voxel
-  c.push_back(pcl::PointXYZ(20.5f, 0.5f, 0.5f));      // beyond 10 of the origin
+    c.push_back(point(0.1f * k, 0.5f, 0.5f)); // one voxel
+  c.push_back(point(20.5f, 0.5f, 0.5f));      // beyond 10 of the origin
   map.update(c, Eigen::Vector3d::Zero());
   ASSERT_EQ(map.cloud()->size(), 3u); // capped at 3, the first three kept
   EXPECT_FLOAT_EQ((*map.cloud())[2].x, 0.2f);
-  map.transform(makePose(0, 1.0, 0));
-  EXPECT_FLOAT_EQ((*map.cloud())[0].x, 1.0f);
+  map.transform(makePose(90 * kDeg, 1.0, 0));
+  EXPECT_NEAR((*map.cloud())[0].x, 0.5f, 1e-6); // (0, .5) turned by 90 deg, moved by 1
+  EXPECT_NEAR((*map.cloud())[0].normal_z, 1.0f, 1e-6);
 }
 
 // Deskewing a scan taken while moving, with the true motion, gives the scan a standing

@@ -6,9 +6,12 @@
 
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/uos.h>
+#include <pcl_parallel/sim/presets.h>
+#include <pcl_parallel/sim/scan_set_writer.h>
 #include <pcl_parallel/sim/simulated_scans.h>
 
 #include <algorithm>
+#include <unistd.h>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
@@ -236,24 +239,30 @@ loadDirectory(const Options& o, const ReadProgress& progress)
   return in;
 }
 
-Input
-simulateDemo(const Options& o)
+std::string
+simulateDemo(Options& o)
 {
-  pcl_parallel::sim::SimulationParameters sp;
-  const auto set = pcl_parallel::sim::simulateScanSet(sp, o.threads);
-  Input in;
-  in.scans = set.scans;
-  in.initial = set.odometry;
-  in.truth = set.truth;
-  in.format = "sim";
-  in.up = o.up >= 0 ? o.up : 2;
-  for (std::size_t i = 0; i < in.scans.size(); ++i) {
-    in.files.emplace_back();
-    in.numbers.push_back(static_cast<int>(i));
-    in.stamps.push_back(static_cast<double>(i));
-    in.points_read.push_back(in.scans[i]->size());
+  const auto names = pcl_parallel::sim::presetNames();
+  if (std::find(names.begin(), names.end(), o.preset) == names.end())
+    throw UsageError("--preset: unknown preset '" + o.preset + "' (pcl_pslam simulate --list)");
+  std::string dir = o.keep;
+  if (dir.empty()) {
+    std::error_code ec;
+    for (int k = 0; dir.empty() || fs::exists(dir, ec); ++k)
+      dir = (fs::temp_directory_path() /
+             ("pcl_pslam_demo_" + std::to_string(::getpid()) + "_" + std::to_string(k)))
+                .string();
   }
-  return in;
+  pcl_parallel::sim::PresetOptions options;
+  options.num_threads = o.threads;
+  const auto set = pcl_parallel::sim::simulatePreset(o.preset, options);
+  pcl_parallel::sim::writeScanSet(set, dir);
+  o.dir = dir;
+  if (!set.point_times.empty()) { // KITTI-like: odometry.txt beside, raw sweeps
+    o.poses_file = (fs::path(dir) / "odometry.txt").string();
+    o.deskew = true;
+  }
+  return dir;
 }
 
 } // namespace pcl_pslam

@@ -44,7 +44,10 @@ Input
 loadDirectory(const Options& o, const ReadProgress& progress = ReadProgress());
 
 /** The demo's simulated scan set (metres, z up, odometry and truth). */
-Input
-simulateDemo(const Options& o);
+/** `demo`: simulates o.preset and writes it to o.keep (or a new temporary folder) in the
+ *  app's formats; points o.dir (and, for a sweep taken while moving, o.poses_file and
+ *  o.deskew) at it, so the scans are read as `run` reads them. Returns the folder. */
+std::string
+simulateDemo(Options& o);
 
 } // namespace pcl_pslam

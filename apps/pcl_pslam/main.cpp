@@ -7,6 +7,7 @@
  * Exit status: 0 done, 1 bad data, 2 bad usage, 128 + signal when interrupted.
  */
 #include "evaluate_command.h"
+#include "simulate_command.h"
 #include "input.h"
 #include "options.h"
 #include "outputs.h"
@@ -16,11 +17,26 @@
 #include <pcl/console/print.h>
 
 #include <cstdio>
+#include <pcl_parallel/io/scan_io.h>
+#include <iostream>
 #include <filesystem>
 #include <iostream>
 #include <unistd.h>
 
 namespace {
+
+namespace fs = std::filesystem;
+
+/** Removes a directory tree when it goes out of scope (the demo's temporary scans). */
+struct RemoveDirectory {
+  std::string dir;
+  ~RemoveDirectory()
+  {
+    std::error_code ec;
+    if (!dir.empty())
+      fs::remove_all(dir, ec);
+  }
+};
 
 int
 fail(int status, const std::string& what)
@@ -56,8 +72,8 @@ main(int argc, char** argv)
   }
   if (o.command == "evaluate")
     return pcl_pslam::evaluateCommand(o.rest, std::cout, std::cerr);
-  if (o.command == "simulate") // dispatch point: issue 8
-    return fail(2, o.command + ": not in this build yet");
+  if (o.command == "simulate")
+    return pcl_pslam::simulateCommand(o.rest, std::cout, std::cerr);
 
   // PCL's own warnings stay visible (e.g. a reader's complaint), on stderr.
   pcl::console::setVerbosityLevel(pcl::console::L_WARN);
@@ -71,15 +87,24 @@ main(int argc, char** argv)
     if (created_out)
       pcl_pslam::removeIfEmptyOnSignal(o.out);
     pcl_pslam::ProgressReporter progress(o.quiet, ::isatty(2) != 0, true);
-    pcl_pslam::Input in;
-    if (o.command == "demo") {
+    pcl_parallel::slam::Poses truth;
+    std::string demo_dir;
+    RemoveDirectory cleanup;
+    if (o.command == "demo") { // a preset, written and read back as `run` reads a directory
       progress.update("simulate", 0, 1);
-      in = pcl_pslam::simulateDemo(o);
+      demo_dir = pcl_pslam::simulateDemo(o);
       progress.update("simulate", 1, 1);
+      truth = pcl_parallel::io::loadKittiPoses(demo_dir + "/ground_truth.txt");
     }
-    else
-      in = pcl_pslam::loadDirectory(
-          o, [&](int done, int total) { progress.update("read", done, total); });
+    else if (o.poses_file.empty() && fs::exists(fs::path(o.dir) / "odometry.txt")) {
+      o.poses_file = (fs::path(o.dir) / "odometry.txt").string(); // as `simulate` writes it
+      progress.note("odometry from " + o.poses_file);
+    }
+    pcl_pslam::Input in = pcl_pslam::loadDirectory(
+        o, [&](int done, int total) { progress.update("read", done, total); });
+    in.truth = truth;
+    if (o.keep.empty())
+      cleanup.dir = demo_dir; // the temporary scans go when main returns
     std::size_t points = 0;
     for (const auto& s : in.scans)
       points += s->size();
@@ -87,11 +112,6 @@ main(int argc, char** argv)
     progress.note(std::to_string(in.scans.size()) + " scans, " + std::to_string(points) +
                   " points" +
                   (in.odometry ? "" : "; no initial poses: constant-velocity guesses"));
-    if (o.eps_icp || o.eps_slam)
-      progress.note("pcl_pslam: warning: --epsICP and --epsSLAM are accepted but not yet "
-                    "passed to the pipeline",
-                    true);
-
     pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);
     params.odometry = in.odometry;
     const pcl_pslam::Result r = pcl_pslam::run(
@@ -106,12 +126,15 @@ main(int argc, char** argv)
                   r.icp_failures,
                   in.scans.size() - 1);
     std::printf("pLUM: %zu links, %d iterations\n", r.links.size(), r.lum_iterations);
+    if (!o.quiet) {
+      const auto& t = r.times;
+      std::printf("stage times: front end %.2f s, loop detection %.2f s, loop closing %.2f s "
+                  "(%d pLUM runs); %.1f ms per scan; %zu bytes kept per scan\n",
+                  t.preprocess + t.front_end, t.loop_detection, t.loop_closing, r.relaxations,
+                  1e3 * t.total() / static_cast<double>(in.scans.size()), r.bytes_per_scan);
+    }
     if (!in.truth.empty())
-      std::printf("position RMSE against the simulation's truth: odometry %.3f m, pICP "
-                  "%.3f m, pLUM %.3f m\n",
-                  pcl_pslam::positionRmse(in.initial, in.truth),
-                  pcl_pslam::positionRmse(r.icp, in.truth),
-                  pcl_pslam::positionRmse(r.final, in.truth));
+      pcl_pslam::printTruthErrors(std::cout, in, r);
     std::string names;
     for (const auto& w : written)
       names += (names.empty() ? "" : ", ") + w;

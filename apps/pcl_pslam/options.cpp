@@ -84,7 +84,7 @@ struct Descriptions {
        "maximal point-to-point distance for matching with pLUM, first iteration (also "
        "--lum-distance) [default: auto, 10 voxels]")
       ("lum-final", po::value<double>()->value_name("NR"),
-       "pLUM's distance shrinks by x0.7 per iteration down to NR [default 0.2 m]")
+       "pLUM's distance shrinks by x0.7 per iteration down to NR [default: auto, 2 voxels]")
       ("cldist,loop-distance,c", po::value<double>()->value_name("NR"),
        "maximal distance of two scan poses for a closed loop (also --loop-distance) "
        "[default: auto, the scans' median range]")
@@ -92,11 +92,10 @@ struct Descriptions {
        text("a loop must exceed NR scans (also --loop-size) [default " +
             std::to_string(d.loop_size) + "]").c_str())
       ("epsICP", po::value<double>()->value_name("NR"),
-       "stop ICP iteration if the difference is smaller than NR (accepted, not yet "
-       "passed on: the pipeline stops at a squared transform change of 1e-8)")
+       "stop pICP when the transform changes by less than NR (squared: PCL's "
+       "transformation epsilon) [default 1e-8]")
       ("epsSLAM", po::value<double>()->value_name("NR"),
-       "stop SLAM iteration if the average difference is smaller than NR (accepted, not "
-       "yet passed on: the pipeline stops at a mean pose update of 1e-4)")
+       "stop pLUM when the mean pose update (m, rad) is below NR [default 1e-4]")
       ("metascan", po::bool_switch(&o.metascan),
        "match each scan against a map of the previous scans (the default here: a local "
        "map of the recent scans)")
@@ -116,6 +115,10 @@ struct Descriptions {
        "map.png: height (colour = height above the trajectory), floorplan (walls dark, "
        "for indoor scans), auto (floorplan when most poses see a ceiling) [default auto]");
     general.add_options()
+      ("preset", po::value<std::string>(&o.preset)->value_name("NAME"),
+       "demo: the simulated preset to map (office, hannover, riegl, kitti) [default office]")
+      ("keep", po::value<std::string>(&o.keep)->value_name("DIR"),
+       "demo: write the simulated scans to DIR and keep them [default: a temporary folder]")
       ("threads,t", po::value<unsigned>(&o.threads)->value_name("N"),
        "threads, 0 = all cores [default 0]")
       ("quiet,q", po::bool_switch(&o.quiet), "no progress, only errors and the summary")
@@ -321,8 +324,13 @@ toParameters(const Options& o, double scale)
   p.lum_distance = length(o.lum_distance, p.lum_distance);
   p.lum_final_distance = length(o.lum_final, p.lum_final_distance);
   p.lum_iterations = o.lum_iterations;
+  if (o.eps_icp)
+    p.icp_epsilon = *o.eps_icp;
+  if (o.eps_slam)
+    p.lum_epsilon = *o.eps_slam;
   p.num_threads = o.threads;
-  p.scan_to_scan = o.scan_to_scan;
+  p.match_target = o.scan_to_scan ? pcl_parallel::slam::MatchTarget::kPreviousScan
+                                  : pcl_parallel::slam::MatchTarget::kLocalMap;
   p.deskew = o.deskew;
   p.close_loops = !o.no_loops;
   return p;

@@ -5,6 +5,8 @@
 #include "map_picture.h"
 #include "outputs.h"
 
+#include <pcl_parallel/evaluation/trajectory_error.h>
+
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/parallel.h>
 
@@ -184,6 +186,31 @@ positionRmse(const Poses& poses, const Poses& truth)
   return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
 }
 
+void
+printTruthErrors(std::ostream& out, const Input& in, const Result& r)
+{
+  namespace ev = pcl_parallel::evaluation;
+  char line[200];
+  out << "errors against the simulation's truth (ATE after SE(3) alignment; RPE as the KITTI "
+         "devkit, over "
+      << ev::kittiLengthsFor(in.truth).front() << ".." << ev::kittiLengthsFor(in.truth).back()
+      << " m):\n";
+  std::snprintf(line, sizeof line, "  %-10s %10s %10s %9s %10s %12s\n", "", "ATE [m]",
+                "ATE [deg]", "RPE [%]", "RPE [deg/m]", "frame RPE [m]");
+  out << line;
+  auto row = [&](const char* what, const Poses& poses) {
+    const auto e = ev::evaluateTrajectory(poses, in.truth);
+    std::snprintf(line, sizeof line, "  %-10s %10.4f %10.3f %9.3f %10.5f %12.4f\n", what,
+                  e.ate.translation.rmse, e.ate.rotation_deg.rmse, e.kitti.translation_percent,
+                  e.kitti.rotation_deg_per_m, e.rpe.translation.rmse);
+    out << line;
+  };
+  if (in.odometry)
+    row("odometry", in.initial);
+  row("front end", r.icp);
+  row("final", r.final);
+}
+
 std::vector<std::string>
 writeOutputs(const Options& o,
              const Input& in,
@@ -313,29 +340,38 @@ writeOutputs(const Options& o,
       {"min_range", o.min_range},
       {"max_range",
        std::isfinite(o.max_range) ? nlohmann::json(o.max_range) : nlohmann::json(nullptr)}};
-  j["parameters"] = {{"voxel_size_m", params.voxel_size},
-                     {"icp_distance_m", params.icp_distance},
-                     {"icp_iterations", params.icp_iterations},
-                     {"loop_distance_m", params.loop_distance},
-                     {"loop_size", params.loop_size},
-                     {"lum_distance_m", params.lum_distance},
-                     {"lum_final_distance_m", params.lum_final_distance},
-                     {"lum_iterations", params.lum_iterations},
-                     {"lum_link_iterations", params.lum_link_iterations},
-                     {"lum_point_to_plane", params.lum_point_to_plane},
-                     {"map_voxel_m", map_voxel},
-                     {"scan_to_scan", params.scan_to_scan},
-                     {"deskew", params.deskew},
-                     {"close_loops", params.close_loops},
-                     {"epsICP", o.eps_icp ? nlohmann::json(*o.eps_icp) : nullptr},
-                     {"epsSLAM", o.eps_slam ? nlohmann::json(*o.eps_slam) : nullptr}};
-  const ProgressReporter::Stage* icp_stage = nullptr;
+  const auto& fe = r.front_end;
+  const auto& lc = r.loop_closure;
+  j["parameters"] = { // as the pipeline resolved them (automatic lengths from the data)
+      {"voxel_size_m", fe.voxel_size},
+      {"source_voxel_size_m", fe.source_voxel_size},
+      {"map_voxel_size_m", fe.map_voxel_size},
+      {"map_distance_m", fe.map_distance},
+      {"icp_distance_m", fe.max_correspondence_distance},
+      {"icp_adaptive_threshold", fe.adaptive_threshold},
+      {"icp_point_to_plane", fe.point_to_plane},
+      {"icp_iterations", fe.max_iterations},
+      {"icp_epsilon", fe.transformation_epsilon},
+      {"loop_distance_m", lc.distance},
+      {"loop_size", lc.min_separation},
+      {"loop_min_overlap", lc.min_overlap},
+      {"lum_distance_m", lc.lum_distance},
+      {"lum_final_distance_m", lc.lum_final_distance},
+      {"lum_iterations", lc.lum_iterations},
+      {"lum_epsilon", lc.lum_epsilon},
+      {"map_voxel_m", map_voxel},
+      {"scan_to_scan", fe.target == pcl_parallel::slam::MatchTarget::kPreviousScan},
+      {"deskew", fe.deskew},
+      {"close_loops", params.close_loops}};
+  j["pipeline_seconds"] = {{"preprocess", r.times.preprocess},
+                           {"front_end", r.times.front_end},
+                           {"loop_detection", r.times.loop_detection},
+                           {"loop_closing", r.times.loop_closing}};
+  j["bytes_kept_per_scan"] = r.bytes_per_scan;
+  j["relaxations"] = r.relaxations;
   nlohmann::json stages = nlohmann::json::array();
-  for (const auto& s : progress.stages()) {
+  for (const auto& s : progress.stages())
     stages.push_back({{"name", s.name}, {"seconds", s.seconds}, {"steps", s.steps}});
-    if (s.name == "icp")
-      icp_stage = &s;
-  }
   j["stages"] = stages;
   j["total_seconds"] = progress.elapsed();
   nlohmann::json scans = nlohmann::json::array();
@@ -345,12 +381,21 @@ writeOutputs(const Options& o,
                         {"stamp", in.stamps[i]},
                         {"points", in.points_read[i]},
                         {"points_reduced", r.reduced[i]->size()}};
+    if (i < r.reports.size()) {
+      const auto& rep = r.reports[i];
+      s["icp_converged"] = rep.converged;
+      s["icp_fitness"] = rep.fitness;
+      s["icp_source_points"] = rep.source_points;
+      s["seconds"] = rep.seconds;
+      s["lum_iterations"] = rep.lum_iterations;
+      nlohmann::json tried = nlohmann::json::array();
+      for (const auto& c : rep.loops)
+        tried.push_back({{"target", c.link.target}, {"overlap", c.overlap},
+                         {"error", c.error}, {"accepted", c.accepted}});
+      s["loops_tried"] = tried;
+    }
     if (!in.files[i].empty())
       s["file"] = in.files[i];
-    // The pipeline reports each scan's end through its progress callback only: the time
-    // is known (all its stages for this scan), its iterations and residual are not.
-    if (icp_stage && icp_stage->step_seconds.size() == n)
-      s["seconds"] = icp_stage->step_seconds[i];
     scans.push_back(s);
   }
   j["scans"] = scans;

@@ -14,6 +14,7 @@
 #include "slam_pipeline.h"
 
 #include <functional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -75,9 +76,9 @@ writeOutputs(const Options& o,
              ProgressReporter& progress,
              const std::string& command_line);
 
-/** Position RMSE (m) of `poses` against `truth` (no alignment: both start at the same
- *  first pose, which the pipeline holds fixed). */
-double
-positionRmse(const Poses& poses, const Poses& truth);
+/** The errors of the odometry, the front end and the final poses against the truth
+ *  (ATE after SE(3) alignment, KITTI-style RPE, per-frame RPE; evaluation/), a table. */
+void
+printTruthErrors(std::ostream& out, const Input& in, const Result& r);
 
 } // namespace pcl_pslam

@@ -52,20 +52,7 @@ run(const std::vector<Cloud::Ptr>& scans,
   if (initial.size() != scans.size())
     throw std::invalid_argument("pcl_pslam: " + std::to_string(initial.size()) +
                                 " initial poses for " + std::to_string(n) + " scans");
-  pcl_parallel::slam::Parameters p;
-  p.voxel_size = params.voxel_size;
-  p.icp_distance = params.icp_distance;
-  p.icp_iterations = params.icp_iterations;
-  p.loop_distance = params.loop_distance;
-  p.loop_size = params.loop_size;
-  p.lum_distance = params.lum_distance;
-  p.lum_iterations = params.lum_iterations;
-  p.num_threads = params.num_threads;
-  p.deskew = params.deskew;
-  p.close_loops = params.close_loops;
-  p.match_target = params.scan_to_scan ? pcl_parallel::slam::MatchTarget::kPreviousScan
-                                       : pcl_parallel::slam::MatchTarget::kLocalMap;
-  pcl_parallel::slam::Pipeline pipeline(p);
+  pcl_parallel::slam::Pipeline pipeline(params);
   for (int i = 0; i < n; ++i) {
     if (!scans[i] || scans[i]->empty())
       throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
@@ -74,15 +61,6 @@ run(const std::vector<Cloud::Ptr>& scans,
       progress("icp", i + 1, n);
   }
   pipeline.finish();
-  if (std::getenv("PSLAM_DEBUG"))
-    for (std::size_t i = 0; i < pipeline.reports().size(); ++i) {
-      const auto& r = pipeline.reports()[i];
-      std::fprintf(stderr, "scan %zu: %zu pts, %zu reduced, %zu source, conv %d fit %.4f %.3f s lum %d", i,
-                   r.points, r.reduced_points, r.source_points, int(r.converged), r.fitness, r.seconds, r.lum_iterations);
-      for (const auto& c : r.loops)
-        std::fprintf(stderr, " [%u-%u o=%.2f e=%.3f %s]", c.link.target, c.link.source, c.overlap, c.error, c.accepted ? "ok" : "no");
-      std::fprintf(stderr, "\n");
-    }
   Result result;
   result.icp = pipeline.frontEndPoses();
   result.final = pipeline.poses();
@@ -91,14 +69,16 @@ run(const std::vector<Cloud::Ptr>& scans,
       result.links.emplace_back(l.source, l.target);
   for (const auto& r : pipeline.reports())
     result.icp_failures += r.converged ? 0 : 1;
-  result.lum_iterations = pipeline.relaxations();
+  for (const auto& r : pipeline.reports())
+    result.lum_iterations += r.lum_iterations;
   for (int i = 0; i < n; ++i)
     result.reduced.push_back(std::const_pointer_cast<Cloud>(pipeline.reducedScan(i)));
-  const auto& t = pipeline.times();
-  std::printf("stage times: preprocess %.2f s, front end %.2f s, loop detection %.2f s, "
-              "loop closing %.2f s (%d relaxations), %zu bytes/scan kept\n",
-              t.preprocess, t.front_end, t.loop_detection, t.loop_closing,
-              pipeline.relaxations(), pipeline.bytesPerScan());
+  result.times = pipeline.times();
+  result.reports = pipeline.reports();
+  result.relaxations = pipeline.relaxations();
+  result.bytes_per_scan = pipeline.bytesPerScan();
+  result.front_end = pipeline.frontEndParameters();
+  result.loop_closure = pipeline.loopClosureParameters();
   return result;
 }
 

@@ -9,6 +9,8 @@
  */
 #pragma once
 
+#include <pcl_parallel/slam/pipeline.h>
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -25,26 +27,12 @@ namespace pcl_pslam {
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 using Poses = std::vector<Eigen::Matrix4d>;
 
-/** Everything the pipeline can be told; the defaults suit metre-scale indoor scans. */
-struct Parameters {
-  double voxel_size = 0.0;         ///< reduction before matching, metres (0: none)
-  double icp_distance = 0.0;       ///< pICP correspondence distance, metres
-  int icp_iterations = 100;        ///< pICP iteration cap
-  double loop_distance = 0.0;      ///< link scans closer than this (paper: cldist), metres
-  int loop_size = 20;              ///< ... at least this many scans apart (paper: loopsize)
-  double lum_distance = 0.0;       ///< pLUM gate of the first iteration, metres
-  double lum_final_distance = 0.2; ///< pLUM gate it shrinks to (x0.7 per iteration)
-  int lum_iterations = 20;         ///< pLUM iteration cap
-  int lum_link_iterations = 5;     ///< pairing steps per link and iteration
-  bool lum_point_to_plane = true;
-  unsigned num_threads = 0; ///< 0: all cores
+/** The library pipeline's parameters (slam::Parameters: lengths 0 = automatic) and how
+ *  to read the initial poses. */
+struct Parameters : pcl_parallel::slam::Parameters {
   /** true: the initial poses are odometry, each pICP starts from its step. false: they
-   *  carry no motion; each pICP starts from the previous matched step (constant
-   *  velocity), the first from the identity. */
+   *  carry no motion; the front end predicts by constant velocity from the identity. */
   bool odometry = true;
-  bool deskew = false;       ///< spinning LiDAR scans taken while moving
-  bool scan_to_scan = false; ///< the paper's sequential pICP instead of the local map
-  bool close_loops = true;
 };
 
 /** Progress: a stage name ("reduce", "icp", "lum"), steps done, steps in all. */
@@ -57,6 +45,12 @@ struct Result {
   int icp_failures = 0; ///< pICP matches that did not converge (odometry step kept)
   int lum_iterations = 0;
   std::vector<Cloud::Ptr> reduced; ///< the scans as matched
+  pcl_parallel::slam::StageTimes times;              ///< seconds per stage
+  std::vector<pcl_parallel::slam::ScanReport> reports; ///< per scan
+  int relaxations = 0;                               ///< pLUM runs
+  std::size_t bytes_per_scan = 0;                    ///< kept by the pipeline
+  pcl_parallel::slam::FrontEndParameters front_end;      ///< as resolved (lengths in m)
+  pcl_parallel::slam::LoopClosureParameters loop_closure; ///< likewise
 };
 
 /** Voxel-grid reduction (centroid per occupied voxel); a copy when voxel_size <= 0. */

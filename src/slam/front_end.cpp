@@ -3,6 +3,8 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/slam/front_end.h>
@@ -10,13 +12,51 @@
 
 #include <pcl/common/transforms.h>
 
+#include <cmath>
+#include <vector>
+
 namespace pcl_parallel {
 namespace slam {
 
 struct FrontEnd::Registration {
-  ParallelIterativeClosestPoint<PointT, PointT, double> icp;
+  // The target's normals come with it (setUseTargetNormalFields): estimated once per scan.
+  ParallelIterativeClosestPoint<PointT, MapPoint, float> icp;
   std::unique_ptr<registration::AdaptiveThreshold> threshold;
 };
+
+namespace {
+
+/** The points with their normals (PCA of the 10 nearest neighbours in the same scan);
+ *  points without a normal (too few neighbours) are left out. */
+MapCloud::Ptr
+withNormals(const Cloud& scan, unsigned num_threads)
+{
+  MapCloud::Ptr out(new MapCloud);
+  if (scan.empty())
+    return out;
+  KdTreeIndex tree;
+  tree.build(scan.front().data, scan.size(), sizeof(PointT) / sizeof(float), nullptr,
+             num_threads);
+  std::vector<float> normals;
+  estimateNormals(tree, 10, num_threads, normals);
+  std::vector<std::uint32_t> position(scan.size(), KdTreeIndex::kInvalid);
+  for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
+    position[tree.id(pos)] = pos;
+  out->reserve(scan.size());
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const std::uint32_t pos = position[i];
+    if (pos == KdTreeIndex::kInvalid || !std::isfinite(normals[3 * pos]))
+      continue;
+    MapPoint p;
+    p.getVector3fMap() = scan[i].getVector3fMap();
+    p.getNormalVector3fMap() = Eigen::Vector3f::Map(&normals[3 * pos]);
+    p.curvature = 0.0f;
+    out->push_back(p);
+  }
+  return out;
+}
+
+} // namespace
 
 FrontEnd::FrontEnd(const FrontEndParameters& params)
     : params_(params)
@@ -71,7 +111,7 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
   if (!first && has_target && !source->empty()) {
     auto& icp = icp_->icp;
     icp.setInputSource(source);
-    const Cloud::ConstPtr target = to_map ? map_.cloud() : Cloud::ConstPtr(previous_);
+    const MapCloud::ConstPtr target = to_map ? map_.cloud() : MapCloud::ConstPtr(previous_);
     if (target != target_) // the tree is rebuilt only for a new target
       icp.setInputTarget(target_ = target);
     r.gate = gate();
@@ -91,8 +131,9 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);
   pose_ = r.pose;
 
-  Cloud::Ptr world(new Cloud);
-  pcl::transformPointCloud(*r.reduced, *world, pose_);
+  // The scan's normals, once (k = 10 neighbours in the reduced scan), then into the world.
+  const MapCloud::Ptr world = withNormals(*r.reduced, params_.num_threads);
+  pcl::transformPointCloudWithNormals(*world, *world, pose_);
   if (to_map)
     map_.update(*world, pose_.topRightCorner<3, 1>());
   else
@@ -106,8 +147,8 @@ FrontEnd::applyCorrection(const Pose& correction)
   pose_ = correction * pose_;
   map_.transform(correction);
   if (previous_) { // a new object, so pICP rebuilds its target tree
-    Cloud::Ptr moved(new Cloud);
-    pcl::transformPointCloud(*previous_, *moved, correction);
+    MapCloud::Ptr moved(new MapCloud);
+    pcl::transformPointCloudWithNormals(*previous_, *moved, correction);
     previous_ = moved;
   }
 }

@@ -25,7 +25,7 @@ LocalMap::LocalMap(double voxel_size,
 }
 
 LocalMap::Key
-LocalMap::key(const PointT& p) const
+LocalMap::key(const MapPoint& p) const
 {
   return {static_cast<std::int32_t>(std::floor(p.x / voxel_size_)),
           static_cast<std::int32_t>(std::floor(p.y / voxel_size_)),
@@ -33,7 +33,7 @@ LocalMap::key(const PointT& p) const
 }
 
 void
-LocalMap::insert(const PointT& p)
+LocalMap::insert(const MapPoint& p)
 {
   const Key k = key(p);
   auto [it, created] = voxels_.try_emplace(k);
@@ -46,7 +46,7 @@ LocalMap::insert(const PointT& p)
 }
 
 void
-LocalMap::update(const Cloud& points, const Eigen::Vector3d& origin)
+LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin)
 {
   for (const auto& p : points)
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
@@ -73,11 +73,12 @@ LocalMap::transform(const Pose& correction)
 {
   const Eigen::Matrix3f r = correction.topLeftCorner<3, 3>().cast<float>();
   const Eigen::Vector3f t = correction.topRightCorner<3, 1>().cast<float>();
-  std::vector<PointT> points;
+  std::vector<MapPoint> points;
   for (const Key& k : order_)
     for (const auto& p : voxels_.at(k)) {
-      PointT q;
+      MapPoint q = p;
       q.getVector3fMap() = r * p.getVector3fMap() + t;
+      q.getNormalVector3fMap() = r * p.getNormalVector3fMap();
       points.push_back(q);
     }
   clear();
@@ -98,17 +99,17 @@ LocalMap::clear()
 void
 LocalMap::refresh()
 {
-  cloud_.reset(new Cloud);
+  cloud_.reset(new MapCloud);
   for (const Key& k : order_)
     for (const auto& p : voxels_.at(k))
       cloud_->push_back(p);
   added_ = 0;
 }
 
-Cloud::ConstPtr
+MapCloud::ConstPtr
 LocalMap::cloud() const
 {
-  return cloud_ ? cloud_ : Cloud::ConstPtr(new Cloud);
+  return cloud_ ? cloud_ : MapCloud::ConstPtr(new MapCloud);
 }
 
 } // namespace slam

@@ -81,7 +81,7 @@ loopClosureParameters(const Parameters& p, double r)
   l.overlap_distance = 2.0 * voxel;
   l.min_overlap = p.min_overlap;
   l.lum_distance = orAuto(p.lum_distance, 10.0 * voxel);
-  l.lum_final_distance = std::min(l.lum_distance, 2.0 * voxel);
+  l.lum_final_distance = std::min(l.lum_distance, orAuto(p.lum_final_distance, 2.0 * voxel));
   l.lum_iterations = p.lum_iterations;
   l.lum_epsilon = p.lum_epsilon;
   l.median_range = r;

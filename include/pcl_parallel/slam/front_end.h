@@ -88,8 +88,8 @@ private:
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;
   LocalMap map_;
-  Cloud::Ptr previous_; ///< kPreviousScan: the last scan, reduced, world frame
-  Cloud::ConstPtr target_; ///< what pICP's target tree was built from
+  MapCloud::Ptr previous_;    ///< kPreviousScan: the last scan, reduced, world frame
+  MapCloud::ConstPtr target_; ///< what pICP's target tree was built from
   std::size_t scans_ = 0;
   Pose pose_ = Pose::Identity();
   Pose velocity_ = Pose::Identity(); ///< last matched step

@@ -37,7 +37,7 @@ public:
   /** Adds points (world frame), then drops the voxels farther than max_distance from
    *  `origin` (the scanner's position). */
   void
-  update(const Cloud& points, const Eigen::Vector3d& origin);
+  update(const MapCloud& points, const Eigen::Vector3d& origin);
 
   /** Moves every point by a rigid correction (after loop closing moved the scans). */
   void
@@ -53,7 +53,7 @@ public:
   }
 
   /** The map's points as of the last refresh; the same object until the next refresh. */
-  Cloud::ConstPtr
+  MapCloud::ConstPtr
   cloud() const;
 
 private:
@@ -69,9 +69,9 @@ private:
     }
   };
   Key
-  key(const PointT& p) const;
+  key(const MapPoint& p) const;
   void
-  insert(const PointT& p);
+  insert(const MapPoint& p);
   void
   refresh();
 
@@ -80,9 +80,9 @@ private:
   std::size_t max_points_;
   double refresh_fraction_;
   std::size_t added_ = 0; ///< points added since cloud_ was built
-  std::unordered_map<Key, std::vector<PointT>, KeyHash> voxels_;
+  std::unordered_map<Key, std::vector<MapPoint>, KeyHash> voxels_;
   std::vector<Key> order_; ///< voxels in creation order: cloud() is independent of hashing
-  Cloud::Ptr cloud_;
+  MapCloud::Ptr cloud_;
 };
 
 } // namespace slam

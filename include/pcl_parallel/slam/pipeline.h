@@ -39,6 +39,7 @@ struct Parameters {
   int loop_size = 5;              ///< [--loopsize] (3DTK: 20; the path rule does the rest)
   double min_overlap = 0.3;       ///< loop links need this overlap after matching
   double lum_distance = 0.0;      ///< [-D] pLUM's first gate; auto 10 voxels
+  double lum_final_distance = 0.0; ///< pLUM's last gate (x0.7 per iteration); auto 2 voxels
   int lum_iterations = 20;        ///< [-I]
   double lum_epsilon = 1e-4;      ///< [--epsSLAM] mean pose update that ends pLUM
   bool relax_each_loop = true;    ///< pLUM when a loop is found (the paper), not only at the end

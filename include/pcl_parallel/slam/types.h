@@ -18,6 +18,9 @@ namespace slam {
 /** The mapping pipeline works on xyz points; poses are double from input to output. */
 using PointT = pcl::PointXYZ;
 using Cloud = pcl::PointCloud<PointT>;
+/** Map points carry the normal estimated once, in the scan they came from. */
+using MapPoint = pcl::PointNormal;
+using MapCloud = pcl::PointCloud<MapPoint>;
 /** A scan's pose: p_world = pose * p_scan. */
 using Pose = Eigen::Matrix4d;
 using Poses = std::vector<Pose>;
