@@ -53,11 +53,9 @@ struct Result {
   pcl_parallel::slam::LoopClosureParameters loop_closure; ///< likewise
 };
 
-/** Voxel-grid reduction (centroid per occupied voxel); a copy when voxel_size <= 0. */
-Cloud::Ptr
-reduce(const Cloud::ConstPtr& scan, double voxel_size);
-
-/** Runs the pipeline from initial poses (odometry; the first pose is kept fixed).
+/** Runs slam::Pipeline over the scans from initial poses (odometry, when
+ *  params.odometry; the first pose is kept fixed), then finish(). Progress: ("icp", scans
+ *  done, scans).
  *  Throws std::invalid_argument for fewer than 2 scans, mismatched sizes, an empty scan
  *  or non-finite initial poses. */
 Result
@@ -65,31 +63,5 @@ run(const std::vector<Cloud::Ptr>& scans,
     const Poses& initial,
     const Parameters& params,
     const Progress& progress = Progress());
-
-/** The merged map: every scan moved by its pose, reduced with voxel_size. */
-Cloud::Ptr
-mergedMap(const std::vector<Cloud::Ptr>& scans, const Poses& poses, double voxel_size);
-
-/** A top view of the map (the plane normal to `up`, 0 = x, 1 = y, 2 = z) as an RGB PNG
- *  about `size` pixels on its long side: points within 0.8 m (map units taken as metres)
- *  of the trajectory's heights dark by density, like a floor plan, the others light
- *  grey, the poses in red. Throws std::runtime_error if the file cannot be written. */
-void
-writeTopView(const std::string& path,
-             const Cloud& map,
-             const Poses& trajectory,
-             int up = 2,
-             int size = 1000);
-
-/** Poses as KITTI lines: the top three rows of each 4x4, row-major, 12 numbers. */
-void
-writePoses(const std::string& path, const Poses& poses);
-
-/** Max and mean rotation (rad) and translation errors of a against b. */
-struct Errors {
-  double max_rot = 0, mean_rot = 0, max_trans = 0, mean_trans = 0;
-};
-Errors
-poseErrors(const Poses& a, const Poses& b);
 
 } // namespace pcl_pslam
