@@ -25,15 +25,6 @@ namespace pcl_pslam {
 
 namespace {
 
-std::string
-lowerCase(std::string s)
-{
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) {
-    return static_cast<char>(std::tolower(c));
-  });
-  return s;
-}
-
 /** The library's readers say "pcl_parallel::io: FILE:LINE: problem"; the app's one line
  *  starts with "pcl_pslam: " already. */
 std::string

@@ -17,8 +17,6 @@ namespace po = boost::program_options;
 
 namespace pcl_pslam {
 
-namespace {
-
 std::string
 lowerCase(std::string s)
 {
@@ -27,6 +25,8 @@ lowerCase(std::string s)
   });
   return s;
 }
+
+namespace {
 
 /** The option groups; `o` receives the values (notify). Texts give unit and default;
  *  3DTK slam6D's names (src/slam6d/slam6D.cc usage()) where the meaning is the same. */

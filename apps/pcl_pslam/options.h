@@ -90,4 +90,8 @@ mapVoxel(const Options& o, double scale);
 std::string
 canonicalFormat(const std::string& name);
 
+/** ASCII lower case (file extensions, format names). */
+std::string
+lowerCase(std::string s);
+
 } // namespace pcl_pslam
