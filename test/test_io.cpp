@@ -318,6 +318,7 @@ TEST_F(TempFiles, LoadScanDispatchesOnTheExtension)
   expectPoint((*txt)[0], 1.5f, 2, 3);
 
   const auto uos = loadScan(write("c.3d", "360 x 225\n7 8 9\n"));
+  EXPECT_EQ(loadScan(write("c2.3d", "360x225\n7 8 9\n"))->size(), 1u);
   ASSERT_EQ(uos->size(), 1u);
   expectPoint((*uos)[0], 7, 8, 9);
 
