@@ -17,6 +17,7 @@
 #   clang-14 libomp-14-dev libclang-rt-14-dev the ThreadSanitizer stage of scripts/test.sh:
 #                                    clang, LLVM's OpenMP runtime with the Archer tool
 #                                    (libarcher.so), and clang's sanitizer runtimes
+#                                    (also libFuzzer's, for the fuzz stage)
 set -euo pipefail
 
 packages=(

@@ -318,6 +318,7 @@ TEST_F(TempFiles, LoadScanDispatchesOnTheExtension)
   expectPoint((*txt)[0], 1.5f, 2, 3);
 
   const auto uos = loadScan(write("c.3d", "360 x 225\n7 8 9\n"));
+  EXPECT_EQ(loadScan(write("c2.3d", "360x225\n7 8 9\n"))->size(), 1u);
   ASSERT_EQ(uos->size(), 1u);
   expectPoint((*uos)[0], 7, 8, 9);
 
@@ -643,4 +644,63 @@ TEST_F(TempFiles, UnreadablePathsAreErrors)
   std::filesystem::permissions(dir, std::filesystem::perms::none);
   EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] { loadScan(inside); }), inside));
   std::filesystem::permissions(dir, std::filesystem::perms::owner_all); // for TearDown
+}
+
+// Fuzz-stage findings (scripts/test.sh fuzz), each kept as a regression: damaged PCD/PLY
+// files that PCL parses into a blob with no points or fewer bytes than points, which
+// pcl::fromPCLPointCloud2 then indexed out of bounds (UBSan: reference binding to null),
+// and a compressed PCD whose size word made PCL allocate 1.8 GB.
+// The asan stage runs these under UBSan. The readers must throw or return a dense cloud.
+TEST_F(TempFiles, FuzzFindingsAreHandled)
+{
+  const std::pair<const char*, std::string> findings[] = {
+      {"pcd_crash_e591fd5f.pcd",
+       std::string(
+           "# .PCD v0\000\340\077\000\000\000@\000.7 -\340\245oint Cloud Data file format\012"
+           "VERSION 1.7\012FIELDS x y z\012SIZE 4 4 4\012TYPE F F F\012CO\376\377\377\367UNT"
+           " 1 1 1\012WIDTH 6\012\301\272IGHT 1\012VIEWPOINT 0 0 0 1 0 0 0\012POINTS 6\012DA"
+           "TA ascii\0120 -1.25 2\0120.5 -0.25 2\0121 0.75; 2\0121>5 1.75 2\0122 2.75 2\012n"
+           "an 0 0\012",
+           235)},
+      // binary_compressed with an uncompressed size word of 1.8 GB: PCL allocated it.
+      {"pcd_oom_fc3be2d1.pcd",
+       std::string(
+           "# .PCD v0.7 - Point Cloud Data file format\012VERSION 0.7\012FIELDS x y z\012SIZ"
+           "E 4 4 4\012TYPE F F F\012COUNT 1 1 1\012WIDTH 6\012HEIGHT 1\012VIEWPOINT 0 0 0 1"
+           " 0 0 0\012POINTS 6\012DATA binary_compressed\0125\000\000\000H\000\000le format\012"
+           "VERSION 0.7\012FIELDS x y z0 0 1 0 0 0\012PO\340\006\003\001\000\000",
+           236)},
+      {"ply_crash_2f3b6d30.ply",
+       std::string(
+           "ply\012format binary_little_endian 1.0\012comment PCL generated\012element verte"
+           "x 6\012property float x\012property float y\012property float z\012element face "
+           "0\012element camera 1\012property float view_px\012property float view_py\012pro"
+           "perty float view_pz\012property float x_axisx\012property float x_axisy\012prope"
+           "rty float x_axisz\012property float y_axisx\012property float y_axisy\012propert"
+           "y float y_axisz\012property float z_axisx\012property float z_axisy\012prop%rty "
+           "float z_axisz\012property float focal\012property float scalex\012property float"
+           " scaley\012property float centerx\012property float centery\012property int view"
+           "portx\012property int viewporty\012property float k1\012property float k2\012end"
+           "_header\012\000\000\000\000\000\000\240\277\000\000\000@\000\000\000\077\000\000"
+           "\200\276\000\000\000@\000\000\200\077\000\000@\077\000\000\000@\000\000\300\077\000"
+           "\000\340\077\000\000\000@\000\000\000@\000\0000@\000\000\000@\000\000\300\177\000"
+           "\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000"
+           "\000\200\077\000\000\000\000\000\000\000\000\000\000\000\000\000\000\200\077\000"
+           "\000\000\000\000\000\000\000\000\000\000\000\000\000\200\077\000\000\000\000\000"
+           "\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\006\000\000\000\001"
+           "\000\000\000\000\000\000\000\000\000\000\000",
+           794)}};
+  for (const auto& [name, bytes] : findings) {
+    const auto path = write(name, bytes);
+    try {
+      const auto cloud = loadScan(path);
+      EXPECT_TRUE(cloud->is_dense) << name;
+      EXPECT_EQ(cloud->width, cloud->size()) << name;
+      for (const auto& p : *cloud)
+        ASSERT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)) << name;
+    }
+    catch (const std::runtime_error& e) {
+      EXPECT_TRUE(mentions(e.what(), path)) << e.what();
+    }
+  }
 }

@@ -834,17 +834,23 @@ loadBunny(const std::string& conf, int step)
   return b;
 }
 
-/** The bunny graph of the issue: all scans, poses from bun.conf, links between scans that
- *  overlap by >= 30% (the smaller of the two directions' fractions of points with a
- *  neighbour within 5 mm), computed at ground truth. */
+/** The bunny graph of the issue: all scans at the start poses (bun.conf perturbed), links
+ *  between scans that overlap by >= kBunnyLinkOverlap (the smaller of the two directions'
+ *  fractions of points with a neighbour within kBunnyLinkDistance), measured at the start
+ *  poses, as a user must (issue 11: links chosen at ground truth told the test the
+ *  answer's topology). */
+constexpr double kBunnyLinkDistance = 0.01, kBunnyLinkOverlap = 0.30;
+// Start errors drawn with several seeds (2 deg / 3 mm each), so a pass is not one lucky draw.
+constexpr std::uint32_t kBunnySeeds[] = {2007, 11, 23};
+constexpr std::size_t kBunnyMinLinks = 20;
 void
-setUpBunny(const Bunny& b, ParallelLUM<pcl::PointXYZ>& lum)
+setUpBunny(const Bunny& b, ParallelLUM<pcl::PointXYZ>& lum, const Poses& start)
 {
   for (std::size_t v = 0; v < b.clouds.size(); ++v)
     lum.addPointCloud(b.clouds[v], Eigen::Matrix4f::Identity());
   for (std::size_t v = 0; v < b.clouds.size(); ++v)
-    lum.setPoseMatrix(v, b.truth[v]);
-  for (const auto& [i, j] : lum.findOverlappingPairs(0.005, 0.30))
+    lum.setPoseMatrix(v, start[v]);
+  for (const auto& [i, j] : lum.findOverlappingPairs(kBunnyLinkDistance, kBunnyLinkOverlap))
     lum.addLink(i, j);
   // Queries: every 4th point (the trees keep all), both directions per link.
   lum.setQueryStep(4);
@@ -894,32 +900,41 @@ TEST_F(QuietPcl, BunnyPlumConvergesToGroundTruth)
   const Bunny b = loadBunny(conf, 1);
   ASSERT_EQ(b.clouds.size(), 10u);
   ASSERT_EQ(b.names[0], "bun000.ply");
-
-  ParallelLUM<pcl::PointXYZ> lum;
-  setUpBunny(b, lum);
-  // bun.conf's direction (R(q)^T): at ground truth bun045 lies on bun000.
-  EXPECT_GT(lum.computeOverlap(1, 0, 0.002), 0.8);
-  EXPECT_GE(boost::num_edges(*lum.getLoopGraph()), 20u);
-
-  const Poses start = perturbAll(b.truth, 2.0 * kDeg, 0.003, 2007);
-  for (std::size_t v = 1; v < b.clouds.size(); ++v)
-    lum.setPoseMatrix(v, start[v]);
-  lum.setPointToPlane(true);
-  lum.setLinkIterations(5);
-  lum.setCorrespondenceDistanceSchedule(0.005, 0.002, 0.7);
-  lum.setMaxIterations(50);
-  lum.setConvergenceThreshold(1e-6f); // mean update 1 um / 1 urad
-  const std::vector<Errors> trace = relaxBunny(b, lum);
-  ASSERT_GE(trace.size(), 5u);
-  EXPECT_LT(lum.getNumIterationsDone(), 50) << "no convergence";
-  // The maximum error must not grow. Once converged (from iteration ~3), the fixed point
-  // still moves by 0.002 deg / 0.001 mm (measured) as the gate reaches 2 mm, so growth
-  // below 0.01 deg / 0.01 mm, 100x below the targets, is allowed.
-  for (std::size_t k = 1; k < trace.size(); ++k) {
-    EXPECT_LE(trace[k].max_rot, trace[k - 1].max_rot + 0.01 * kDeg) << "iteration " << k;
-    EXPECT_LE(trace[k].max_trans, trace[k - 1].max_trans + 1e-5) << "iteration " << k;
+  {
+    // bun.conf's direction (R(q)^T): at ground truth bun045 lies on bun000.
+    ParallelLUM<pcl::PointXYZ> lum;
+    setUpBunny(b, lum, b.truth);
+    EXPECT_GT(lum.computeOverlap(1, 0, 0.002), 0.8);
   }
-  expectBunnyTargets(trace.back(), trace.front());
+  for (std::uint32_t seed : kBunnySeeds) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const Poses start = perturbAll(b.truth, 2.0 * kDeg, 0.003, seed);
+    ParallelLUM<pcl::PointXYZ> lum;
+    setUpBunny(b, lum, start);
+    EXPECT_GE(boost::num_edges(*lum.getLoopGraph()), kBunnyMinLinks);
+    lum.setPointToPlane(true);
+    lum.setLinkIterations(5);
+    lum.setCorrespondenceDistanceSchedule(0.005, 0.002, 0.7);
+    lum.setMaxIterations(20);
+    lum.setConvergenceThreshold(1e-6f); // mean update 1 um / 1 urad
+    const std::vector<Errors> trace = relaxBunny(b, lum);
+    ASSERT_GE(trace.size(), 5u);
+    // Settled: with links chosen at the start poses, seed 23 ends in a 2-cycle of re-paired
+    // points (max error alternating 0.305/0.306 deg, 0.693 mm: measured) that never meets
+    // the 1 um threshold, so the test asserts that the error stopped moving instead.
+    for (std::size_t k = trace.size() - 3; k < trace.size(); ++k) {
+      EXPECT_NEAR(trace[k].max_rot, trace.back().max_rot, 0.005 * kDeg) << "iteration " << k;
+      EXPECT_NEAR(trace[k].max_trans, trace.back().max_trans, 5e-6) << "iteration " << k;
+    }
+    // The maximum error must not grow. Once converged (from iteration ~3), the fixed point
+    // still moves by 0.002 deg / 0.001 mm (measured) as the gate reaches 2 mm, so growth
+    // below 0.01 deg / 0.01 mm, 100x below the targets, is allowed.
+    for (std::size_t k = 1; k < trace.size(); ++k) {
+      EXPECT_LE(trace[k].max_rot, trace[k - 1].max_rot + 0.01 * kDeg) << "iteration " << k;
+      EXPECT_LE(trace[k].max_trans, trace[k - 1].max_trans + 1e-5) << "iteration " << k;
+    }
+    expectBunnyTargets(trace.back(), trace.front());
+  }
 }
 
 // The paper's pLUM (point-to-point, one pairing per link and iteration) on the same case,
@@ -933,20 +948,21 @@ TEST_F(QuietPcl, BunnyPaperPlumConvergesToGroundTruth)
 {
   PCL_PARALLEL_REQUIRE_DATA(conf, "stanford_bunny/bun.conf");
   const Bunny b = loadBunny(conf, 1);
-  ParallelLUM<pcl::PointXYZ> lum;
-  setUpBunny(b, lum);
-  const Poses start = perturbAll(b.truth, 2.0 * kDeg, 0.003, 2007);
-  for (std::size_t v = 1; v < b.clouds.size(); ++v)
-    lum.setPoseMatrix(v, start[v]);
-  lum.setCorrespondenceDistanceSchedule(0.01, 0.002, 0.9);
-  lum.setMaxIterations(50);
-  const std::vector<Errors> trace = relaxBunny(b, lum);
-  ASSERT_EQ(trace.size(), 51u);
-  for (std::size_t k = 21; k < trace.size(); ++k) {
-    EXPECT_LE(trace[k].max_rot, trace[k - 1].max_rot + 1e-5) << "iteration " << k;
-    EXPECT_LE(trace[k].max_trans, trace[k - 1].max_trans + 1e-6) << "iteration " << k;
+  for (std::uint32_t seed : kBunnySeeds) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const Poses start = perturbAll(b.truth, 2.0 * kDeg, 0.003, seed);
+    ParallelLUM<pcl::PointXYZ> lum;
+    setUpBunny(b, lum, start);
+    lum.setCorrespondenceDistanceSchedule(0.01, 0.002, 0.9);
+    lum.setMaxIterations(50);
+    const std::vector<Errors> trace = relaxBunny(b, lum);
+    ASSERT_EQ(trace.size(), 51u);
+    for (std::size_t k = 21; k < trace.size(); ++k) {
+      EXPECT_LE(trace[k].max_rot, trace[k - 1].max_rot + 1e-5) << "iteration " << k;
+      EXPECT_LE(trace[k].max_trans, trace[k - 1].max_trans + 1e-6) << "iteration " << k;
+    }
+    expectBunnyTargets(trace.back(), trace.front());
   }
-  expectBunnyTargets(trace.back(), trace.front());
 }
 
 TEST_F(QuietPcl, BunnyPlumIsIdenticalForOneAndTwoThreads)
@@ -959,9 +975,7 @@ TEST_F(QuietPcl, BunnyPlumIsIdenticalForOneAndTwoThreads)
     for (unsigned threads : {1u, 2u}) {
       ParallelLUM<pcl::PointXYZ> lum;
       lum.setNumberOfThreads(threads);
-      setUpBunny(b, lum);
-      for (std::size_t v = 1; v < b.clouds.size(); ++v)
-        lum.setPoseMatrix(v, start[v]);
+      setUpBunny(b, lum, start);
       lum.setCorrespondenceDistance(0.01);
       lum.setPointToPlane(options);
       lum.setLinkIterations(options ? 3 : 1);

@@ -220,6 +220,24 @@ checkPcdHeader(const std::string& path)
                   size);
     fail(path, 0, msg);
   }
+  if (data != "binary_compressed")
+    return;
+  // PCL allocates the uncompressed size stored in the body (found by the fuzz stage):
+  // it must be the header's points x point size, and the compressed size must fit.
+  unsigned char words[8];
+  if (!in.read(reinterpret_cast<char*>(words), sizeof words))
+    fail(path, 0, "binary_compressed PCD without its size words");
+  auto u32 = [&](int at) {
+    return static_cast<std::uint32_t>(words[at]) |
+           static_cast<std::uint32_t>(words[at + 1]) << 8 |
+           static_cast<std::uint32_t>(words[at + 2]) << 16 |
+           static_cast<std::uint32_t>(words[at + 3]) << 24;
+  };
+  if (u32(0) > body || static_cast<double>(u32(4)) != bytes)
+    fail(path,
+         0,
+         "binary_compressed sizes (" + std::to_string(u32(0)) + " compressed, " +
+             std::to_string(u32(4)) + " uncompressed) disagree with the header");
 }
 
 /** PCD and PLY through PCL. Its readers print and return < 0 on most errors but throw
@@ -264,9 +282,23 @@ loadPclScan(const std::string& path, Format format, double min_range, double max
     if (f.datatype != pcl::PCLPointField::FLOAT32 || f.count != 1)
       fail(path, 0, std::string("field \"") + name + "\" is not a single float32");
   }
+  // pcl::fromPCLPointCloud2 trusts the blob's layout; a reader that parsed a damaged file
+  // can return fewer bytes than width x height points, and for no points it takes
+  // &cloud[0] of an empty vector (UB; both found by the fuzz stage).
+  const std::size_t points = static_cast<std::size_t>(blob.width) * blob.height;
+  detail::RangeFilteredCloud cloud(path, min_range, max_range);
+  if (points == 0)
+    return cloud.finish();
+  for (const char* name : {"x", "y", "z"}) {
+    const auto& f = blob.fields[static_cast<std::size_t>(pcl::getFieldIndex(blob, name))];
+    if (std::size_t{f.offset} + 4 > blob.point_step)
+      fail(path, 0, cannot + ": field offsets beyond the point size");
+  }
+  if (std::size_t{blob.point_step} * blob.width > blob.row_step ||
+      std::size_t{blob.row_step} * blob.height > blob.data.size())
+    fail(path, 0, cannot + ": fewer data bytes than the header's points");
   pcl::PointCloud<pcl::PointXYZ> raw;
   pcl::fromPCLPointCloud2(blob, raw);
-  detail::RangeFilteredCloud cloud(path, min_range, max_range);
   cloud.reserve(raw.size());
   for (std::size_t i = 0; i < raw.size(); ++i)
     cloud.add(raw[i].x, raw[i].y, raw[i].z, i + 1);

@@ -20,7 +20,8 @@ namespace {
 using detail::fail;
 using detail::quoted;
 
-/** 3DTK's optional uos header, "W x H" (the scan's grid size): two integers and an 'x'. */
+/** 3DTK's optional uos header, "W x H" (the scan's grid size): two integers and an 'x',
+ *  with or without spaces. */
 bool
 isGridHeader(const std::string& line)
 {
@@ -29,6 +30,15 @@ isGridHeader(const std::string& line)
   std::size_t k = 0;
   while (k < 4 && fields.next(f[k]))
     ++k;
+  if (k == 1) { // "WxH" written without spaces
+    const std::size_t x = f[0].find_first_of("xX");
+    if (x == std::string_view::npos)
+      return false;
+    f[2] = f[0].substr(x + 1);
+    f[0] = f[0].substr(0, x);
+    f[1] = "x";
+    k = 3;
+  }
   double w, h;
   return k == 3 && (f[1] == "x" || f[1] == "X") && detail::parseNumber(f[0], w) &&
          detail::parseNumber(f[2], h) && w >= 0 && h >= 0 && w == std::floor(w) &&
