@@ -6,6 +6,7 @@
 #include "outputs.h"
 
 #include <pcl_parallel/evaluation/trajectory_error.h>
+#include <pcl_parallel/io/pose_files.h>
 
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/parallel.h>
@@ -137,24 +138,13 @@ writeFrames(const std::string& path,
 void
 writeTumPoses(const std::string& path, const Poses& poses, const std::vector<double>& stamps)
 {
-  writeAtomically(path, [&](const std::string& tmp) {
-    std::ofstream out = openText(tmp);
-    out << std::setprecision(9) << std::fixed;
-    for (std::size_t i = 0; i < poses.size(); ++i) {
-      Eigen::Quaterniond q(Eigen::Matrix3d(poses[i].topLeftCorner<3, 3>()));
-      q.normalize();
-      const Eigen::Vector3d t = poses[i].topRightCorner<3, 1>();
-      out << stamps[i] << ' ' << t.x() << ' ' << t.y() << ' ' << t.z() << ' ' << q.x() << ' '
-          << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
-    }
-    closeText(out, tmp);
-  });
+  pcl_parallel::io::writeTumTrajectory(path, poses, stamps); // atomic: temp name, rename
 }
 
 void
 writeKittiPoses(const std::string& path, const Poses& poses)
 {
-  writeAtomically(path, [&](const std::string& tmp) { writePoses(tmp, poses); });
+  pcl_parallel::io::writeKittiPoses(path, poses); // atomic: temp name, rename
 }
 
 Cloud::Ptr

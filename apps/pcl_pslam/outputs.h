@@ -50,11 +50,12 @@ writeFrames(const std::string& path,
             bool fixed,
             double scale);
 
-/** TUM trajectory format: "timestamp tx ty tz qx qy qz qw" per pose (as evo reads it). */
+/** TUM trajectory format: "timestamp tx ty tz qx qy qz qw" per pose (as evo reads it;
+ *  io::writeTumTrajectory), atomically. */
 void
 writeTumPoses(const std::string& path, const Poses& poses, const std::vector<double>& stamps);
 
-/** KITTI poses (pcl_pslam::writePoses), atomically. */
+/** KITTI poses (io::writeKittiPoses), atomically. */
 void
 writeKittiPoses(const std::string& path, const Poses& poses);
 
