@@ -142,7 +142,7 @@ TEST(PslamOptions, HelpNamesEveryOption)
         "--epsICP", "--epsSLAM", "--metascan", "--poses",    "--out",    "--threads",
         "--quiet",  "--ply",     "--style"})
     EXPECT_NE(h.find(name), std::string::npos) << name;
-  EXPECT_NE(h.find("[default 20]"), std::string::npos); // -l, as slam6D's
+  EXPECT_NE(h.find("[default 5]"), std::string::npos); // -l (the path rule does the rest)
   EXPECT_NE(h.find("[default: auto, 10 voxels]"), std::string::npos);
 }
 
@@ -182,6 +182,9 @@ TEST(PslamOutputs, TumRoundTrip)
   const std::string path = (dir / "poses_tum.txt").string();
   pcl_pslam::writeTumPoses(path, poses, stamps);
   std::ifstream in(path);
+  std::string header;
+  ASSERT_TRUE(std::getline(in, header)); // "# timestamp tx ty tz qx qy qz qw"
+  EXPECT_EQ(header.rfind("# timestamp", 0), 0u);
   for (std::size_t i = 0; i < poses.size(); ++i) {
     double t, x, y, z, qx, qy, qz, qw;
     ASSERT_TRUE(in >> t >> x >> y >> z >> qx >> qy >> qz >> qw);
