@@ -17,6 +17,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+#include <stdexcept>
+#include <limits>
 #include <utility>
 
 namespace pcl_parallel {
@@ -45,6 +48,11 @@ spatialOrder(const float* xyz,
              std::vector<std::uint32_t>& order)
 {
   order.clear();
+  // Indices are stored as uint32 (as the k-d tree's ids); a larger cloud is an error, not
+  // a silent wrap-around.
+  if (n >= std::numeric_limits<std::uint32_t>::max())
+    throw std::invalid_argument("pICP: " + std::to_string(n) +
+                                " source points; at most 2^32 - 2 are supported");
   float lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
   for (std::size_t i = 0; i < n; ++i) {
     const float* p = xyz + i * stride;
@@ -64,7 +72,9 @@ spatialOrder(const float* xyz,
     const float* p = xyz + static_cast<std::size_t>(order[k]) * stride;
     std::uint64_t code = 0;
     for (int a = 0; a < 3; ++a)
-      code |= spreadBits(static_cast<std::uint64_t>((p[a] - lo[a]) * scale[a])) << a;
+      code |= spreadBits(static_cast<std::uint64_t>(
+                  std::min(2097151.0, (static_cast<double>(p[a]) - lo[a]) * scale[a])))
+              << a; // 21 bits per axis, clamped: rounding must not spill into the next axis
     keyed[k] = {code, order[k]};
   }
   std::sort(keyed.begin(), keyed.end());
