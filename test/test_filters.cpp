@@ -6,10 +6,9 @@
 
 #include <pcl/filters/voxel_grid.h>
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
+#include <gtest/gtest.h>
 #include <limits>
 #include <random>
 #include <tuple>

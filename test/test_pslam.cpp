@@ -39,12 +39,10 @@ TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
 {
   const auto& set = smallSet();
   int last = 0;
-  const pcl_pslam::Result r = pcl_pslam::run(set.scans,
-                                             set.odometry,
-                                             pcl_pslam::Parameters(),
-                                             [&](const std::string&, int done, int) {
-                                               last = done;
-                                             });
+  const pcl_pslam::Result r = pcl_pslam::run(
+      set.scans, set.odometry, pcl_pslam::Parameters(), [&](const std::string&, int done, int) {
+        last = done;
+      });
   ASSERT_EQ(r.final.size(), set.scans.size());
   EXPECT_EQ(r.final[0], set.truth[0]); // the first pose stays fixed
   EXPECT_EQ(last, static_cast<int>(set.scans.size()));
@@ -61,8 +59,12 @@ TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
   const auto lum = summarizePoseErrors(r.final, set.truth);
   std::printf("mean error: odometry %.3f m %.2f deg, front end %.3f m %.2f deg, final %.3f m "
               "%.2f deg\n",
-              odo.distance.mean, odo.angle.mean / kDeg, icp.distance.mean,
-              icp.angle.mean / kDeg, lum.distance.mean, lum.angle.mean / kDeg);
+              odo.distance.mean,
+              odo.angle.mean / kDeg,
+              icp.distance.mean,
+              icp.angle.mean / kDeg,
+              lum.distance.mean,
+              lum.angle.mean / kDeg);
   EXPECT_LT(icp.distance.mean, 0.5 * odo.distance.mean);
   EXPECT_LT(icp.angle.mean, 0.5 * odo.angle.mean);
   EXPECT_LT(lum.distance.max, 0.1 * odo.distance.max);

@@ -17,9 +17,8 @@
 
 #include <Eigen/Geometry>
 
-#include <gtest/gtest.h>
-
 #include <cmath>
+#include <gtest/gtest.h>
 #include <random>
 
 namespace {
@@ -103,10 +102,16 @@ TEST(Pipeline, FrontEndBeatsOdometry)
   const auto odo_rpe = rpe(set.odometry), fe_rpe = rpe(run.front_end);
   std::printf("ATE rmse: odometry %.3f m %.2f deg, front end %.3f m %.2f deg, "
               "loop closed %.4f m %.3f deg\n",
-              odo_ate.translation.rmse, odo_ate.rotation_deg.rmse, fe_ate.translation.rmse,
-              fe_ate.rotation_deg.rmse, lc_ate.translation.rmse, lc_ate.rotation_deg.rmse);
+              odo_ate.translation.rmse,
+              odo_ate.rotation_deg.rmse,
+              fe_ate.translation.rmse,
+              fe_ate.rotation_deg.rmse,
+              lc_ate.translation.rmse,
+              lc_ate.rotation_deg.rmse);
   std::printf("RPE rmse: odometry %.4f m %.3f deg, front end %.4f m %.3f deg\n",
-              odo_rpe.translation.rmse, odo_rpe.rotation_deg.rmse, fe_rpe.translation.rmse,
+              odo_rpe.translation.rmse,
+              odo_rpe.rotation_deg.rmse,
+              fe_rpe.translation.rmse,
               fe_rpe.rotation_deg.rmse);
   EXPECT_LT(fe_ate.translation.rmse, odo_ate.translation.rmse / 2);
   EXPECT_LT(fe_ate.rotation_deg.rmse, odo_ate.rotation_deg.rmse / 2);
@@ -131,12 +136,14 @@ TEST(Pipeline, LoopClosingCutsDriftAndBreaksNoLink)
     return l.loop && l.target < 5 && l.source > set.scans.size() / 2;
   });
   EXPECT_TRUE(loop);
-  const auto fe = evaluation::absoluteTrajectoryError(run.front_end, set.truth,
-                                                      evaluation::Alignment::SE3);
+  const auto fe =
+      evaluation::absoluteTrajectoryError(run.front_end, set.truth, evaluation::Alignment::SE3);
   const auto lc =
       evaluation::absoluteTrajectoryError(run.final, set.truth, evaluation::Alignment::SE3);
   std::printf("scan-to-scan ATE rmse: front end %.4f m %.3f deg, loop closed %.4f m %.3f deg\n",
-              fe.translation.rmse, fe.rotation_deg.rmse, lc.translation.rmse,
+              fe.translation.rmse,
+              fe.rotation_deg.rmse,
+              lc.translation.rmse,
               lc.rotation_deg.rmse);
   EXPECT_LE(lc.translation.rmse, fe.translation.rmse / 3.0);
   EXPECT_LT(lc.translation.rmse, 0.01);
@@ -298,7 +305,8 @@ TEST(Preprocess, DeskewUndoesAConstantVelocitySweep)
     // The scanner at time t sits at motion^(t - 1/2) in the mid-sweep frame.
     const Pose at = slam::interpolateMotion(motion, t - 0.5);
     pcl::PointXYZ q;
-    q.getVector3fMap() = (at * p.getVector3fMap().cast<double>().homogeneous()).head<3>().cast<float>();
+    q.getVector3fMap() =
+        (at * p.getVector3fMap().cast<double>().homogeneous()).head<3>().cast<float>();
     measured.push_back(p);
     standing.push_back(q);
   }

@@ -78,15 +78,26 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
   std::size_t points = 0;
   for (const auto& s : set.scans)
     points += s->size();
-  std::printf("### pcl_pslam pipeline: preset %s (%s)\n\n", preset.c_str(),
+  std::printf("### pcl_pslam pipeline: preset %s (%s)\n\n",
+              preset.c_str(),
               use_odometry ? "from its odometry" : "no odometry: constant velocity");
   std::printf("%zu scans, %zu points (%.0f per scan), read from %s; default parameters%s. "
               "One run per thread count (deterministic: the errors are the same).\n\n",
-              n, points, double(points) / n, dir.c_str(),
+              n,
+              points,
+              double(points) / n,
+              dir.c_str(),
               reader.uos ? "" : ", deskewed");
 
-  Table t({"threads", "read [s]", "front end [s]", "loop det. [s]", "loop closing [s]",
-           "total [s]", "ms/scan", "scans/s", "relaxations"});
+  Table t({"threads",
+           "read [s]",
+           "front end [s]",
+           "loop det. [s]",
+           "loop closing [s]",
+           "total [s]",
+           "ms/scan",
+           "scans/s",
+           "relaxations"});
   evaluation::TrajectoryEvaluation odo_eval, fe_eval, final_eval;
   double total_one = 0.0;
   for (unsigned threads : opt.threads) {
@@ -103,17 +114,23 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
       Eigen::Matrix4d odo;
       const auto scan = reader.scan(i, odo);
       read += since(r0);
-      pipeline.addScan(*scan, use_odometry ? std::optional<Eigen::Matrix4d>(odo) : std::nullopt);
+      pipeline.addScan(*scan,
+                       use_odometry ? std::optional<Eigen::Matrix4d>(odo) : std::nullopt);
     }
     pipeline.finish();
     const double total = since(start);
     if (total_one == 0.0)
       total_one = total;
     const auto& st = pipeline.times();
-    t.addRow({fmt("%u", threads), fmt("%.2f", read), fmt("%.2f", st.front_end + st.preprocess),
-              fmt("%.2f", st.loop_detection), fmt("%.2f", st.loop_closing),
-              fmt("%.2f (%.2fx)", total, total_one / total), fmt("%.1f", 1e3 * total / n),
-              fmt("%.1f", n / total), fmt("%d", pipeline.relaxations())});
+    t.addRow({fmt("%u", threads),
+              fmt("%.2f", read),
+              fmt("%.2f", st.front_end + st.preprocess),
+              fmt("%.2f", st.loop_detection),
+              fmt("%.2f", st.loop_closing),
+              fmt("%.2f (%.2fx)", total, total_one / total),
+              fmt("%.1f", 1e3 * total / n),
+              fmt("%.1f", n / total),
+              fmt("%d", pipeline.relaxations())});
     evaluation::EvaluationOptions eo;
     std::vector<Eigen::Matrix4d> odometry;
     for (std::size_t i = 0; i < n; ++i) {
@@ -125,15 +142,23 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
     fe_eval = evaluation::evaluateTrajectory(pipeline.frontEndPoses(), truth, eo);
     final_eval = evaluation::evaluateTrajectory(pipeline.poses(), truth, eo);
     if (threads == opt.threads.front())
-      std::printf("kept per scan: %zu bytes; %zu links\n\n", pipeline.bytesPerScan(),
+      std::printf("kept per scan: %zu bytes; %zu links\n\n",
+                  pipeline.bytesPerScan(),
                   pipeline.links().size());
   }
   t.print();
-  Table e({"poses", "ATE rmse [m]", "ATE rot. rmse [deg]", "RPE [%]", "RPE [deg/m]",
+  Table e({"poses",
+           "ATE rmse [m]",
+           "ATE rot. rmse [deg]",
+           "RPE [%]",
+           "RPE [deg/m]",
            "per-frame RPE [m]"});
   auto row = [&](const char* what, const evaluation::TrajectoryEvaluation& v) {
-    e.addRow({what, fmt("%.4f", v.ate.translation.rmse), fmt("%.3f", v.ate.rotation_deg.rmse),
-              fmt("%.3f", v.kitti.translation_percent), fmt("%.5f", v.kitti.rotation_deg_per_m),
+    e.addRow({what,
+              fmt("%.4f", v.ate.translation.rmse),
+              fmt("%.3f", v.ate.rotation_deg.rmse),
+              fmt("%.3f", v.kitti.translation_percent),
+              fmt("%.5f", v.kitti.rotation_deg_per_m),
               fmt("%.4f", v.rpe.translation.rmse)});
   };
   std::printf("\n");

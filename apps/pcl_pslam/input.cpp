@@ -11,13 +11,13 @@
 #include <pcl_parallel/sim/simulated_scans.h>
 
 #include <algorithm>
-#include <unistd.h>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 

@@ -7,18 +7,18 @@
  * Exit status: 0 done, 1 bad data, 2 bad usage, 128 + signal when interrupted.
  */
 #include "evaluate_command.h"
-#include "simulate_command.h"
 #include "input.h"
 #include "options.h"
 #include "outputs.h"
 #include "progress.h"
+#include "simulate_command.h"
 #include "slam_pipeline.h"
+
+#include <pcl_parallel/io/scan_io.h>
 
 #include <pcl/console/print.h>
 
 #include <cstdio>
-#include <pcl_parallel/io/scan_io.h>
-#include <iostream>
 #include <filesystem>
 #include <iostream>
 #include <unistd.h>
@@ -130,8 +130,12 @@ main(int argc, char** argv)
       const auto& t = r.times;
       std::printf("stage times: front end %.2f s, loop detection %.2f s, loop closing %.2f s "
                   "(%d pLUM runs); %.1f ms per scan; %zu bytes kept per scan\n",
-                  t.preprocess + t.front_end, t.loop_detection, t.loop_closing, r.relaxations,
-                  1e3 * t.total() / static_cast<double>(in.scans.size()), r.bytes_per_scan);
+                  t.preprocess + t.front_end,
+                  t.loop_detection,
+                  t.loop_closing,
+                  r.relaxations,
+                  1e3 * t.total() / static_cast<double>(in.scans.size()),
+                  r.bytes_per_scan);
     }
     if (!in.truth.empty())
       pcl_pslam::printTruthErrors(std::cout, in, r);

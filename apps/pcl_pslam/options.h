@@ -64,7 +64,7 @@ struct Options {
   std::string style = "auto";      ///< map.png: auto, height, floorplan
   std::optional<double> map_voxel; ///< map.pcd's voxel (files' units; default: --voxel)
   std::string preset = "office";   ///< demo: the simulated preset
-  std::string keep;                ///< demo: keep the simulated scans here (default: a temp dir)
+  std::string keep; ///< demo: keep the simulated scans here (default: a temp dir)
 };
 
 /** Parses argv. Throws UsageError (message: one line) for anything it cannot run. */

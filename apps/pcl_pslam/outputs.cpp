@@ -6,9 +6,8 @@
 #include "outputs.h"
 
 #include <pcl_parallel/evaluation/trajectory_error.h>
-#include <pcl_parallel/io/pose_files.h>
-
 #include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/parallel.h>
 
 #include <pcl/common/transforms.h>
@@ -185,14 +184,27 @@ printTruthErrors(std::ostream& out, const Input& in, const Result& r)
          "devkit, over "
       << ev::kittiLengthsFor(in.truth).front() << ".." << ev::kittiLengthsFor(in.truth).back()
       << " m):\n";
-  std::snprintf(line, sizeof line, "  %-10s %10s %10s %9s %10s %12s\n", "", "ATE [m]",
-                "ATE [deg]", "RPE [%]", "RPE [deg/m]", "frame RPE [m]");
+  std::snprintf(line,
+                sizeof line,
+                "  %-10s %10s %10s %9s %10s %12s\n",
+                "",
+                "ATE [m]",
+                "ATE [deg]",
+                "RPE [%]",
+                "RPE [deg/m]",
+                "frame RPE [m]");
   out << line;
   auto row = [&](const char* what, const Poses& poses) {
     const auto e = ev::evaluateTrajectory(poses, in.truth);
-    std::snprintf(line, sizeof line, "  %-10s %10.4f %10.3f %9.3f %10.5f %12.4f\n", what,
-                  e.ate.translation.rmse, e.ate.rotation_deg.rmse, e.kitti.translation_percent,
-                  e.kitti.rotation_deg_per_m, e.rpe.translation.rmse);
+    std::snprintf(line,
+                  sizeof line,
+                  "  %-10s %10.4f %10.3f %9.3f %10.5f %12.4f\n",
+                  what,
+                  e.ate.translation.rmse,
+                  e.ate.rotation_deg.rmse,
+                  e.kitti.translation_percent,
+                  e.kitti.rotation_deg_per_m,
+                  e.rpe.translation.rmse);
     out << line;
   };
   if (in.odometry)
@@ -332,7 +344,8 @@ writeOutputs(const Options& o,
        std::isfinite(o.max_range) ? nlohmann::json(o.max_range) : nlohmann::json(nullptr)}};
   const auto& fe = r.front_end;
   const auto& lc = r.loop_closure;
-  j["parameters"] = { // as the pipeline resolved them (automatic lengths from the data)
+  j["parameters"] = {
+      // as the pipeline resolved them (automatic lengths from the data)
       {"voxel_size_m", fe.voxel_size},
       {"source_voxel_size_m", fe.source_voxel_size},
       {"map_voxel_size_m", fe.map_voxel_size},
@@ -380,8 +393,10 @@ writeOutputs(const Options& o,
       s["lum_iterations"] = rep.lum_iterations;
       nlohmann::json tried = nlohmann::json::array();
       for (const auto& c : rep.loops)
-        tried.push_back({{"target", c.link.target}, {"overlap", c.overlap},
-                         {"error", c.error}, {"accepted", c.accepted}});
+        tried.push_back({{"target", c.link.target},
+                         {"overlap", c.overlap},
+                         {"error", c.error},
+                         {"accepted", c.accepted}});
       s["loops_tried"] = tried;
     }
     if (!in.files[i].empty())

@@ -24,7 +24,8 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
   std::uint32_t seed = 1;
   unsigned threads = 0;
   po::options_description visible("simulate options");
-  visible.add_options()("preset,p", po::value(&preset)->value_name("NAME"),
+  visible.add_options()("preset,p",
+                        po::value(&preset)->value_name("NAME"),
                         "office, hannover, riegl or kitti (see --list)")(
       "seed", po::value(&seed)->default_value(1), "random seed; the same seed, the same files")(
       "threads,t", po::value(&threads)->default_value(0), "threads, 0 = all cores")(
@@ -44,10 +45,11 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
     return 2;
   }
   if (vm.count("help")) {
-    out << usage << "\nWrites the scans (uos scanNNN.3d + .pose for stop-and-go presets, "
-                    "KITTI NNNNNN.bin + odometry.txt + times.txt for kitti) and "
-                    "ground_truth.txt (KITTI poses) into OUT_DIR, which `pcl_pslam run "
-                    "OUT_DIR` reads back.\n\n"
+    out << usage
+        << "\nWrites the scans (uos scanNNN.3d + .pose for stop-and-go presets, "
+           "KITTI NNNNNN.bin + odometry.txt + times.txt for kitti) and "
+           "ground_truth.txt (KITTI poses) into OUT_DIR, which `pcl_pslam run "
+           "OUT_DIR` reads back.\n\n"
         << visible;
     return 0;
   }

@@ -28,7 +28,8 @@ run(const std::vector<Cloud::Ptr>& scans,
   for (int i = 0; i < n; ++i) {
     if (!scans[i] || scans[i]->empty())
       throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
-    pipeline.addScan(*scans[i], params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
+    pipeline.addScan(
+        *scans[i], params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
     if (progress)
       progress("icp", i + 1, n);
   }

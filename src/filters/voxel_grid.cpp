@@ -32,7 +32,9 @@ struct Keyed {
 } // namespace
 
 pcl::PointCloud<pcl::PointXYZ>::Ptr
-voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud, double voxel_size, unsigned num_threads)
+voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
+              double voxel_size,
+              unsigned num_threads)
 {
   pcl::PointCloud<pcl::PointXYZ>::Ptr out(new pcl::PointCloud<pcl::PointXYZ>);
   if (cloud.size() > std::numeric_limits<std::uint32_t>::max())
@@ -54,8 +56,9 @@ voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud, double voxel_size, un
   std::vector<char> valid(cloud.size(), 0);
   bool too_far = false;
   const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static) reduction(|| : too_far)         \
-    if (threads > 1 && n > 10000)
+#pragma omp parallel for num_threads(threads) schedule(static)                                 \
+    reduction(||                                                                               \
+              : too_far) if (threads > 1 && n > 10000)
   for (std::int64_t i = 0; i < n; ++i) {
     if (!finite(i))
       continue;

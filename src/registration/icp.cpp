@@ -17,9 +17,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <string>
-#include <stdexcept>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace pcl_parallel {

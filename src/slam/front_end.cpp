@@ -35,8 +35,8 @@ withNormals(const Cloud& scan, unsigned num_threads)
   if (scan.empty())
     return out;
   KdTreeIndex tree;
-  tree.build(scan.front().data, scan.size(), sizeof(PointT) / sizeof(float), nullptr,
-             num_threads);
+  tree.build(
+      scan.front().data, scan.size(), sizeof(PointT) / sizeof(float), nullptr, num_threads);
   std::vector<float> normals;
   estimateNormals(tree, 10, num_threads, normals);
   std::vector<std::uint32_t> position(scan.size(), KdTreeIndex::kInvalid);
@@ -77,10 +77,9 @@ FrontEnd::FrontEnd(const FrontEndParameters& params)
 double
 FrontEnd::gate() const
 {
-  return icp_->threshold
-             ? std::min(params_.max_correspondence_distance,
-                        icp_->threshold->correspondenceDistance())
-             : params_.max_correspondence_distance;
+  return icp_->threshold ? std::min(params_.max_correspondence_distance,
+                                    icp_->threshold->correspondenceDistance())
+                         : params_.max_correspondence_distance;
 }
 
 FrontEnd::~FrontEnd() = default;
@@ -98,8 +97,8 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
     last_odometry_ = odometry;
   r.prediction = first ? (odometry ? *odometry : Pose::Identity()) : Pose(pose_ * motion);
 
-  const Cloud::Ptr frame = params_.deskew ? deskew(scan, motion, params_.num_threads)
-                                          : Cloud::Ptr(new Cloud(scan));
+  const Cloud::Ptr frame =
+      params_.deskew ? deskew(scan, motion, params_.num_threads) : Cloud::Ptr(new Cloud(scan));
   r.reduced = filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
   const auto source =
       filters::voxelCentroid(*r.reduced, params_.source_voxel_size, params_.num_threads);

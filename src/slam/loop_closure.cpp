@@ -29,7 +29,10 @@ namespace {
 /** Fraction of (every step-th point of) `source`, moved by `pose`, that has a point of
  *  `target` within max_distance. */
 double
-overlap(const Cloud& source, const Pose& pose, const KdTreeIndex& target, double max_distance,
+overlap(const Cloud& source,
+        const Pose& pose,
+        const KdTreeIndex& target,
+        double max_distance,
         std::size_t step)
 {
   const Eigen::Matrix3f r = pose.topLeftCorner<3, 3>().cast<float>();
@@ -48,7 +51,8 @@ overlap(const Cloud& source, const Pose& pose, const KdTreeIndex& target, double
 } // namespace
 
 LoopCloser::LoopCloser(const LoopClosureParameters& params)
-    : params_(params), impl_(new Impl)
+    : params_(params)
+    , impl_(new Impl)
 {
   impl_->icp.setNumberOfThreads(params.num_threads);
   impl_->icp.setMaxCorrespondenceDistance(params.icp_distance);
@@ -76,8 +80,11 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan, const Pose& pose)
   impl_->points += scan->size();
   impl_->trees.emplace_back();
   if (!scan->empty())
-    impl_->trees.back().build(scan->front().data, scan->size(), sizeof(PointT) / sizeof(float),
-                            nullptr, params_.num_threads);
+    impl_->trees.back().build(scan->front().data,
+                              scan->size(),
+                              sizeof(PointT) / sizeof(float),
+                              nullptr,
+                              params_.num_threads);
   scans_.push_back(scan);
   poses_.push_back(pose);
   if (scans_.size() > 1) {
@@ -110,8 +117,11 @@ LoopCloser::detect()
   double best = -1.0;
   std::uint32_t best_i = 0;
   for (const std::uint32_t i : candidates) {
-    const double o = overlap(scan, Pose(poses_[i].inverse() * poses_[j]), impl_->trees[i],
-                             params_.overlap_distance * 2.0, step);
+    const double o = overlap(scan,
+                             Pose(poses_[i].inverse() * poses_[j]),
+                             impl_->trees[i],
+                             params_.overlap_distance * 2.0,
+                             step);
     if (o > best)
       best = o, best_i = i;
   }
@@ -132,10 +142,12 @@ LoopCloser::detect()
   if (icp.hasConverged()) {
     measured = icp.getFinalTransformation();
     c.overlap = overlap(scan, measured, impl_->trees[i], params_.overlap_distance, 1);
-    c.error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j], params_.median_range);
+    c.error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j],
+                                               params_.median_range);
     double path = 0.0; // what the front end travelled from i to j
     for (std::size_t k = i + 1; k <= j; ++k)
-      path += registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k], params_.median_range);
+      path += registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k],
+                                               params_.median_range);
     c.accepted = c.overlap >= params_.min_overlap &&
                  c.error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path);
   }
@@ -180,11 +192,8 @@ LoopCloser::bytesPerScan() const
 }
 
 std::vector<std::uint32_t>
-loopCandidates(const Poses& poses,
-               std::size_t j,
-               double distance,
-               int min_separation,
-               double range)
+loopCandidates(
+    const Poses& poses, std::size_t j, double distance, int min_separation, double range)
 {
   std::vector<std::pair<double, std::uint32_t>> near;
   if (min_separation < 1 || j < static_cast<std::size_t>(min_separation) || j >= poses.size())
@@ -213,14 +222,16 @@ distributeLoopError(Poses& poses, std::size_t i, std::size_t j, const Pose& meas
   // The correction that moves j to where the loop link puts it, as a rotation about j's
   // position and a translation; scan k gets the share of the path from i to k.
   const Pose target = poses[i] * measured;
-  const Eigen::Matrix3d dr = target.topLeftCorner<3, 3>() * poses[j].topLeftCorner<3, 3>().transpose();
+  const Eigen::Matrix3d dr =
+      target.topLeftCorner<3, 3>() * poses[j].topLeftCorner<3, 3>().transpose();
   const Eigen::AngleAxisd aa(dr);
   const Eigen::Vector3d pivot = poses[j].topRightCorner<3, 1>();
   const Eigen::Vector3d dt = target.topRightCorner<3, 1>() - pivot;
   std::vector<double> along(j - i + 1, 0.0);
   for (std::size_t k = i + 1; k <= j; ++k)
-    along[k - i] = along[k - i - 1] +
-                   (poses[k].topRightCorner<3, 1>() - poses[k - 1].topRightCorner<3, 1>()).norm();
+    along[k - i] =
+        along[k - i - 1] +
+        (poses[k].topRightCorner<3, 1>() - poses[k - 1].topRightCorner<3, 1>()).norm();
   const bool moved = along.back() > 1e-9;
   for (std::size_t k = i + 1; k <= j; ++k) {
     const double s = moved ? along[k - i] / along.back() : double(k - i) / double(j - i);

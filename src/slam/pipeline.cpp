@@ -89,7 +89,9 @@ loopClosureParameters(const Parameters& p, double r)
   return l;
 }
 
-Pipeline::Pipeline(const Parameters& params) : params_(params) {}
+Pipeline::Pipeline(const Parameters& params)
+    : params_(params)
+{}
 
 Pipeline::~Pipeline() = default;
 
@@ -99,7 +101,8 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
   const auto start = Clock::now();
   const std::size_t index = size();
   if (odometry && !odometry->allFinite())
-    throw std::invalid_argument("scan " + std::to_string(index) + ": odometry pose is not finite");
+    throw std::invalid_argument("scan " + std::to_string(index) +
+                                ": odometry pose is not finite");
   if (index > 0 && odometry.has_value() != has_odometry_)
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 ": odometry given for some scans but not for others");
@@ -109,7 +112,8 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
   report.points = scan.size();
   const Cloud::Ptr cropped = cropRange(scan, params_.min_range, params_.max_range);
   if (cropped->empty())
-    throw std::invalid_argument("scan " + std::to_string(index) + " has no finite points in range");
+    throw std::invalid_argument("scan " + std::to_string(index) +
+                                " has no finite points in range");
   if (!front_end_) { // lengths from the first scan
     const double r = medianRange(*cropped);
     front_end_params_ = slam::frontEndParameters(params_, r);
@@ -140,8 +144,9 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
     if (found != report.loops.end()) {
       // A new loop (not the continuation of one just closed) whose error shows in the map
       // is relaxed at once; the others wait for finish().
-      const bool new_loop = last_loop_scan_ == 0 ||
-                            index - last_loop_scan_ > static_cast<std::size_t>(params_.loop_size);
+      const bool new_loop =
+          last_loop_scan_ == 0 ||
+          index - last_loop_scan_ > static_cast<std::size_t>(params_.loop_size);
       const bool visible = found->error > loop_params_.overlap_distance;
       last_loop_scan_ = index;
       stage = Clock::now();

@@ -51,7 +51,8 @@ deskew(const Cloud& scan, const Pose& motion, unsigned num_threads)
     const PointT& p = scan[i];
     const double s = sweepTime(p) - 0.5; // motion^s, s in [-1/2, 1/2]
     const Eigen::Vector3d q =
-        Eigen::AngleAxisd(s * aa.angle(), aa.axis()) * p.getVector3fMap().cast<double>() + s * t;
+        Eigen::AngleAxisd(s * aa.angle(), aa.axis()) * p.getVector3fMap().cast<double>() +
+        s * t;
     (*out)[i].getVector3fMap() = q.cast<float>();
   }
   return out;

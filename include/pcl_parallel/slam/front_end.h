@@ -42,13 +42,13 @@ struct FrontEndParameters {
 
 /** What the front end did with one scan. */
 struct FrontEndResult {
-  Pose pose;               ///< matched pose (world)
-  Pose prediction;         ///< where the motion prior put it
-  Cloud::Ptr reduced;      ///< deskewed, reduced at voxel_size, scanner frame
+  Pose pose;          ///< matched pose (world)
+  Pose prediction;    ///< where the motion prior put it
+  Cloud::Ptr reduced; ///< deskewed, reduced at voxel_size, scanner frame
   std::size_t source_points = 0;
-  bool converged = true;   ///< false: pICP failed and the prediction was kept
-  double fitness = 0.0;    ///< mean squared distance of matched pairs (pICP's fitness)
-  double gate = 0.0;       ///< the correspondence distance used
+  bool converged = true; ///< false: pICP failed and the prediction was kept
+  double fitness = 0.0;  ///< mean squared distance of matched pairs (pICP's fitness)
+  double gate = 0.0;     ///< the correspondence distance used
 };
 
 /**

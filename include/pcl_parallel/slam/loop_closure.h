@@ -14,19 +14,19 @@ namespace slam {
 
 /** Loop detection and closing; lengths in the scans' units (metres for the defaults). */
 struct LoopClosureParameters {
-  double distance = 5.0;  ///< cldist: scans whose positions are closer may be linked
-  int min_separation = 5; ///< loopsize: ... if at least this many scans apart
+  double distance = 5.0;     ///< cldist: scans whose positions are closer may be linked
+  int min_separation = 5;    ///< loopsize: ... if at least this many scans apart
   double icp_distance = 1.0; ///< pICP gate when a loop pair is matched
   int icp_iterations = 50;
   double overlap_distance = 0.2; ///< a point overlaps if its partner is this close ...
   double min_overlap = 0.3;      ///< ... and a loop link needs this fraction of overlap
-  int max_candidates = 16; ///< nearest candidates looked at per scan; the best is matched
+  int max_candidates = 16;       ///< nearest candidates looked at per scan; the best is matched
   /** A loop's error (see LoopCandidate::error) must be explainable by the front end's
    *  drift: at most this fraction of the path between the two scans (translation plus
    *  rotation times the median range), or 2 overlap distances. A larger correction is a
    *  false match (two similar rooms, a scanner turning in place) and is rejected. */
   double max_drift = 0.05;
-  bool distribute_error = true;  ///< spread a loop's error along it before pLUM (ELCH's idea)
+  bool distribute_error = true; ///< spread a loop's error along it before pLUM (ELCH's idea)
   // pLUM (Sec. III, V): pairs within a gate shrinking from lum_distance to
   // lum_final_distance (x0.7 per iteration), point-to-plane, up to lum_iterations,
   // stopped once the mean pose update is below lum_epsilon (3DTK's --epsSLAM).
@@ -120,11 +120,8 @@ private:
  *  2 x distance. Neighbours along a slow or stopped path are thus never a "loop", and a
  *  scanner turning in place closes a loop once it has turned far enough. */
 std::vector<std::uint32_t>
-loopCandidates(const Poses& poses,
-               std::size_t j,
-               double distance,
-               int min_separation,
-               double range);
+loopCandidates(
+    const Poses& poses, std::size_t j, double distance, int min_separation, double range);
 
 /** Closes a loop before relaxation: the poses of scans i+1..j move by growing shares of
  *  the correction that puts j where `measured` (j's pose in i's frame) says, by path

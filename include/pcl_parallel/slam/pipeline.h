@@ -25,25 +25,26 @@ namespace slam {
  * and a terrestrial scanner (r ~ 30 m).
  */
 struct Parameters {
-  double min_range = 0.0;                                      ///< [-M] drop closer points
+  double min_range = 0.0;                                     ///< [-M] drop closer points
   double max_range = std::numeric_limits<double>::infinity(); ///< [-m] drop farther points
   double voxel_size = 0.0; ///< [-r] reduction kept per scan; auto r / 20
-  MatchTarget match_target = MatchTarget::kLocalMap; ///< [--metascan] vs the paper's scan-to-scan
-  double icp_distance = 0.0;      ///< [-d] pICP gate; auto 10 voxels
-  int icp_iterations = 50;        ///< [-i]
-  bool point_to_plane = true;     ///< front end pICP point-to-plane (else point-to-point)
-  double icp_epsilon = 1e-8;      ///< [--epsICP] squared change of the transform
-  bool deskew = false;            ///< spinning LiDAR: deskew by the predicted motion
+  MatchTarget match_target =
+      MatchTarget::kLocalMap; ///< [--metascan] vs the paper's scan-to-scan
+  double icp_distance = 0.0;  ///< [-d] pICP gate; auto 10 voxels
+  int icp_iterations = 50;    ///< [-i]
+  bool point_to_plane = true; ///< front end pICP point-to-plane (else point-to-point)
+  double icp_epsilon = 1e-8;  ///< [--epsICP] squared change of the transform
+  bool deskew = false;        ///< spinning LiDAR: deskew by the predicted motion
   bool close_loops = true;
-  double loop_distance = 0.0;     ///< [--cldist] auto r
-  int loop_size = 5;              ///< [--loopsize] (3DTK: 20; the path rule does the rest)
-  double min_overlap = 0.3;       ///< loop links need this overlap after matching
-  double lum_distance = 0.0;      ///< [-D] pLUM's first gate; auto 10 voxels
+  double loop_distance = 0.0;      ///< [--cldist] auto r
+  int loop_size = 5;               ///< [--loopsize] (3DTK: 20; the path rule does the rest)
+  double min_overlap = 0.3;        ///< loop links need this overlap after matching
+  double lum_distance = 0.0;       ///< [-D] pLUM's first gate; auto 10 voxels
   double lum_final_distance = 0.0; ///< pLUM's last gate (x0.7 per iteration); auto 2 voxels
-  int lum_iterations = 20;        ///< [-I]
-  double lum_epsilon = 1e-4;      ///< [--epsSLAM] mean pose update that ends pLUM
-  bool relax_each_loop = true;    ///< pLUM when a loop is found (the paper), not only at the end
-  unsigned num_threads = 0;       ///< 0: all cores
+  int lum_iterations = 20;         ///< [-I]
+  double lum_epsilon = 1e-4;       ///< [--epsSLAM] mean pose update that ends pLUM
+  bool relax_each_loop = true; ///< pLUM when a loop is found (the paper), not only at the end
+  unsigned num_threads = 0;    ///< 0: all cores
 };
 
 /** Median distance of the finite points from the scanner (0 for an empty scan). */
@@ -59,14 +60,14 @@ loopClosureParameters(const Parameters& p, double median_range);
 
 /** What happened to one scan. */
 struct ScanReport {
-  std::size_t points = 0;         ///< read
-  std::size_t reduced_points = 0; ///< kept (after crop, deskew and reduction)
-  std::size_t source_points = 0;  ///< registered against the map
-  bool converged = true;          ///< pICP; false: the prediction was kept
-  double fitness = 0.0;           ///< pICP's mean squared pair distance
-  double seconds = 0.0;           ///< all stages for this scan
+  std::size_t points = 0;           ///< read
+  std::size_t reduced_points = 0;   ///< kept (after crop, deskew and reduction)
+  std::size_t source_points = 0;    ///< registered against the map
+  bool converged = true;            ///< pICP; false: the prediction was kept
+  double fitness = 0.0;             ///< pICP's mean squared pair distance
+  double seconds = 0.0;             ///< all stages for this scan
   std::vector<LoopCandidate> loops; ///< loop pairs tried
-  int lum_iterations = 0;         ///< pLUM run after this scan (0: none)
+  int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
 };
 
 /** Seconds spent per stage. */

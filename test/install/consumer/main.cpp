@@ -62,8 +62,8 @@ main()
   for (int i = 0; i <= 40; ++i)
     for (int j = 0; j <= 20; ++j) {
       const float u = 0.1f * i - 2.0f, v = 0.1f * j - 1.0f;
-      room.push_back(pcl::PointXYZ(u, 2.0f, v));              // wall, y = 2
-      room.push_back(pcl::PointXYZ(2.5f, 0.1f * i - 2.0f, v)); // wall, x = 2.5
+      room.push_back(pcl::PointXYZ(u, 2.0f, v));                // wall, y = 2
+      room.push_back(pcl::PointXYZ(2.5f, 0.1f * i - 2.0f, v));  // wall, x = 2.5
       room.push_back(pcl::PointXYZ(u, 0.1f * j - 1.0f, -1.0f)); // floor
     }
   Cloud moved;
