@@ -19,7 +19,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 
 namespace pcl_parallel {
@@ -104,8 +103,6 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
     slam::Parameters p;
     p.num_threads = threads;
     p.deskew = !reader.uos;
-    if (std::getenv("P2P"))
-      p.point_to_plane = false;
     slam::Pipeline pipeline(p);
     double read = 0.0;
     const auto start = Clock::now();
