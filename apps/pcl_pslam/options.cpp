@@ -103,6 +103,9 @@ struct Descriptions {
        "match each scan against its predecessor only (the paper's and slam6D's default)")
       ("deskew", po::bool_switch(&o.deskew),
        "deskew scans taken while moving (spinning LiDAR) by the predicted motion")
+      ("map-normals", po::bool_switch(&o.map_normals),
+       "point-to-plane normals from the local map instead of each scan (sparse scanners, "
+       "e.g. Livox; slower on large maps)")
       ("no-loops", po::bool_switch(&o.no_loops), "no loop closing (front end only)");
     output.add_options()
       ("out,o", po::value<std::string>(&o.out)->value_name("DIR"),
@@ -332,6 +335,7 @@ toParameters(const Options& o, double scale)
   p.match_target = o.scan_to_scan ? pcl_parallel::slam::MatchTarget::kPreviousScan
                                   : pcl_parallel::slam::MatchTarget::kLocalMap;
   p.deskew = o.deskew;
+  p.normals_from_map = o.map_normals;
   p.close_loops = !o.no_loops;
   return p;
 }

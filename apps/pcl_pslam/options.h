@@ -56,6 +56,7 @@ struct Options {
   bool metascan = false;     ///< against a map of previous scans (the pipeline's default)
   bool scan_to_scan = false; ///< against the previous scan only (the paper's default)
   bool deskew = false;
+  bool map_normals = false; ///< point-to-plane normals on the local map (sparse scanners)
   bool no_loops = false;
   unsigned threads = 0;
   bool quiet = false;

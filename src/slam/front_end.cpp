@@ -4,13 +4,15 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/kdtree.h>
-#include <pcl_parallel/normal_estimation.h>
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/slam/front_end.h>
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <pcl/common/transforms.h>
+
+#include <Eigen/Eigenvalues>
 
 #include <cmath>
 #include <vector>
@@ -26,30 +28,55 @@ struct FrontEnd::Registration {
 
 namespace {
 
-/** The points with their normals (PCA of the 10 nearest neighbours in the same scan);
- *  points without a normal (too few neighbours) are left out. */
+/** The reduced points with their normals: PCA of each one's 10 nearest neighbours among
+ *  the scan's full-resolution points (denser than the reduced ones, so sparse scanners
+ *  still get local planes). Points whose neighbourhood is degenerate are left out. */
 MapCloud::Ptr
-withNormals(const Cloud& scan, unsigned num_threads)
+withNormals(const Cloud& reduced, const Cloud& full, unsigned num_threads)
 {
   MapCloud::Ptr out(new MapCloud);
-  if (scan.empty())
+  if (reduced.empty() || full.empty())
     return out;
   KdTreeIndex tree;
   tree.build(
-      scan.front().data, scan.size(), sizeof(PointT) / sizeof(float), nullptr, num_threads);
-  std::vector<float> normals;
-  estimateNormals(tree, 10, num_threads, normals);
-  std::vector<std::uint32_t> position(scan.size(), KdTreeIndex::kInvalid);
-  for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
-    position[tree.id(pos)] = pos;
-  out->reserve(scan.size());
-  for (std::size_t i = 0; i < scan.size(); ++i) {
-    const std::uint32_t pos = position[i];
-    if (pos == KdTreeIndex::kInvalid || !std::isfinite(normals[3 * pos]))
+      full.front().data, full.size(), sizeof(PointT) / sizeof(float), nullptr, num_threads);
+  constexpr std::size_t k = 10;
+  const std::int64_t n = static_cast<std::int64_t>(reduced.size());
+  std::vector<Eigen::Vector3f> normals(reduced.size(), Eigen::Vector3f::Constant(NAN));
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+#pragma omp parallel num_threads(threads) if (threads > 1 && n > 2000)
+  {
+    std::uint32_t pos[k];
+    float sqr[k];
+#pragma omp for schedule(static)
+    for (std::int64_t i = 0; i < n; ++i) {
+      const Eigen::Vector3f q = reduced[i].getVector3fMap();
+      const std::size_t got = tree.knn(q.data(), k, pos, sqr);
+      if (got < 3)
+        continue;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (std::size_t j = 0; j < got; ++j)
+        mean += (Eigen::Vector3f::Map(tree.point(pos[j])) - q).cast<double>();
+      mean /= static_cast<double>(got);
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      for (std::size_t j = 0; j < got; ++j) {
+        const Eigen::Vector3d d =
+            (Eigen::Vector3f::Map(tree.point(pos[j])) - q).cast<double>() - mean;
+        cov += d * d.transpose();
+      }
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+      eig.computeDirect(cov);
+      if (eig.eigenvalues()(1) > 1e-12) // a plane needs two spreads
+        normals[i] = eig.eigenvectors().col(0).cast<float>();
+    }
+  }
+  out->reserve(reduced.size());
+  for (std::size_t i = 0; i < reduced.size(); ++i) {
+    if (!normals[i].allFinite())
       continue;
     MapPoint p;
-    p.getVector3fMap() = scan[i].getVector3fMap();
-    p.getNormalVector3fMap() = Eigen::Vector3f::Map(&normals[3 * pos]);
+    p.getVector3fMap() = reduced[i].getVector3fMap();
+    p.getNormalVector3fMap() = normals[i];
     p.curvature = 0.0f;
     out->push_back(p);
   }
@@ -69,6 +96,7 @@ FrontEnd::FrontEnd(const FrontEndParameters& params)
   icp.setMaximumIterations(params.max_iterations);
   icp.setTransformationEpsilon(params.transformation_epsilon);
   icp.setUsePointToPlane(params.point_to_plane);
+  icp.setUseTargetNormalFields(!params.normals_from_map);
   if (params.adaptive_threshold) // KISS-ICP: min motion 0.1 m at 1 m voxels, max range
     icp_->threshold.reset(new registration::AdaptiveThreshold(
         params.max_correspondence_distance, 0.1 * params.map_voxel_size, params.map_distance));
@@ -130,8 +158,8 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);
   pose_ = r.pose;
 
-  // The scan's normals, once (k = 10 neighbours in the reduced scan), then into the world.
-  const MapCloud::Ptr world = withNormals(*r.reduced, params_.num_threads);
+  // The scan's normals, once (from its full-resolution points), then into the world.
+  const MapCloud::Ptr world = withNormals(*r.reduced, *frame, params_.num_threads);
   pcl::transformPointCloudWithNormals(*world, *world, pose_);
   if (to_map)
     map_.update(*world, pose_.topRightCorner<3, 1>());

@@ -63,6 +63,7 @@ frontEndParameters(const Parameters& p, double r)
   f.max_correspondence_distance = orAuto(p.icp_distance, 10.0 * f.voxel_size);
   f.max_iterations = p.icp_iterations;
   f.point_to_plane = p.point_to_plane;
+  f.normals_from_map = p.normals_from_map;
   f.transformation_epsilon = p.icp_epsilon;
   f.deskew = p.deskew;
   f.num_threads = p.num_threads;

@@ -30,8 +30,14 @@ struct FrontEndParameters {
    *  matches moved the scans from the motion prior, Geman-McClure kernel of scale
    *  sigma / 3. Off: the fixed gate and no kernel. */
   bool adaptive_threshold = true;
-  /** Point-to-plane pICP (normals estimated on the target) instead of point-to-point. */
+  /** Point-to-plane pICP instead of point-to-point. */
   bool point_to_plane = true;
+  /** Point-to-plane normals: false (default) estimates them once per scan from its
+   *  full-resolution points and carries them in the map (fast; right for scanners that
+   *  sample surfaces densely in one scan: spinning, tilting, terrestrial); true estimates
+   *  them on the local map after each refresh (slower on large maps; better for sparse,
+   *  non-repetitive patterns such as Livox's, measured on fastlio_quick_shack). */
+  bool normals_from_map = false;
   int max_iterations = 50;
   double transformation_epsilon = 1e-8; ///< pICP stop: squared change of the transform
   /** Deskew scans of a spinning LiDAR (sweep time from azimuth, see sweepTime) with the

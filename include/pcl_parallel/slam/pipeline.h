@@ -29,12 +29,13 @@ struct Parameters {
   double max_range = std::numeric_limits<double>::infinity(); ///< [-m] drop farther points
   double voxel_size = 0.0; ///< [-r] reduction kept per scan; auto r / 20
   MatchTarget match_target =
-      MatchTarget::kLocalMap; ///< [--metascan] vs the paper's scan-to-scan
-  double icp_distance = 0.0;  ///< [-d] pICP gate; auto 10 voxels
-  int icp_iterations = 50;    ///< [-i]
-  bool point_to_plane = true; ///< front end pICP point-to-plane (else point-to-point)
-  double icp_epsilon = 1e-8;  ///< [--epsICP] squared change of the transform
-  bool deskew = false;        ///< spinning LiDAR: deskew by the predicted motion
+      MatchTarget::kLocalMap;    ///< [--metascan] vs the paper's scan-to-scan
+  double icp_distance = 0.0;     ///< [-d] pICP gate; auto 10 voxels
+  int icp_iterations = 50;       ///< [-i]
+  bool point_to_plane = true;    ///< front end pICP point-to-plane (else point-to-point)
+  bool normals_from_map = false; ///< see FrontEndParameters::normals_from_map
+  double icp_epsilon = 1e-8;     ///< [--epsICP] squared change of the transform
+  bool deskew = false;           ///< spinning LiDAR: deskew by the predicted motion
   bool close_loops = true;
   double loop_distance = 0.0;      ///< [--cldist] auto r
   int loop_size = 5;               ///< [--loopsize] (3DTK: 20; the path rule does the rest)
