@@ -54,10 +54,11 @@ struct LoopCandidate {
 /**
  * \brief The pose graph and its loop closing (paper Sec. III, V, VI-C): scans are added
  * as the front end matches them (each linked to its predecessor); detect() links the
- * newest scan to earlier ones closer than `distance` and at least `min_separation` scans
- * back, keeping a link only if the pair, matched with pICP, overlaps by `min_overlap`,
- * and only one per `min_separation / 2` scans (so a scanner that lingers makes a graph
- * linear in the scans, not quadratic); relax() runs pLUM over the whole graph.
+ * newest scan to one earlier candidate (loopCandidates), keeping the link only if the
+ * pair, matched with pICP, overlaps by `min_overlap` and the correction is explainable
+ * by drift (`max_drift`), and only one per `min_separation / 2` scans (so a scanner that
+ * lingers makes a graph linear in the scans, not quadratic); relax() runs pLUM over the
+ * whole graph. Keeps each scan's reduced points with a k-d tree (bytesPerScan()).
  */
 class LoopCloser {
 public:
