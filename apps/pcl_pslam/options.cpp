@@ -95,7 +95,7 @@ struct Descriptions {
        "stop pICP when the transform changes by less than NR (squared: PCL's "
        "transformation epsilon) [default 1e-8]")
       ("epsSLAM", po::value<double>()->value_name("NR"),
-       "stop pLUM when the mean pose update (m, rad) is below NR [default 1e-4]")
+       "stop pLUM when the mean pose update (m, rad) is below NR [default: auto, a voxel / 100]")
       ("metascan", po::bool_switch(&o.metascan),
        "match each scan against a map of the previous scans (the default here: a local "
        "map of the recent scans)")

@@ -84,7 +84,7 @@ loopClosureParameters(const Parameters& p, double r)
   l.lum_distance = orAuto(p.lum_distance, 10.0 * voxel);
   l.lum_final_distance = std::min(l.lum_distance, orAuto(p.lum_final_distance, 2.0 * voxel));
   l.lum_iterations = p.lum_iterations;
-  l.lum_epsilon = p.lum_epsilon;
+  l.lum_epsilon = orAuto(p.lum_epsilon, 0.01 * voxel); // updates far below the sampling
   l.median_range = r;
   l.num_threads = p.num_threads;
   return l;

@@ -43,7 +43,7 @@ struct Parameters {
   double lum_distance = 0.0;       ///< [-D] pLUM's first gate; auto 10 voxels
   double lum_final_distance = 0.0; ///< pLUM's last gate (x0.7 per iteration); auto 2 voxels
   int lum_iterations = 20;         ///< [-I]
-  double lum_epsilon = 1e-4;       ///< [--epsSLAM] mean pose update that ends pLUM
+  double lum_epsilon = 0.0; ///< [--epsSLAM] mean pose update that ends pLUM; auto voxel / 100
   bool relax_each_loop = true; ///< pLUM when a loop is found (the paper), not only at the end
   unsigned num_threads = 0;    ///< 0: all cores
 };
