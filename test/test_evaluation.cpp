@@ -538,6 +538,17 @@ TEST(PoseFiles, BadFilesNameFileAndLine)
   EXPECT_HAS(errorOf([&] { pio::loadTrajectory(frames); }), "pass the directory");
   EXPECT_HAS(errorOf([&] { pio::writeKittiPoses(dir / "no/such/dir/p.txt", line(2)); }),
              "p.txt: cannot open for writing");
+  // A non-finite pose is refused before any file exists (no NaN in an output).
+  auto bad = line(3);
+  bad[1](2, 3) = std::nan("");
+  for (const char* name : {"nan.txt", "nan.tum", "nan.frames"}) {
+    const auto path = dir / name;
+    EXPECT_THROW(std::string(name) == "nan.txt"   ? pio::writeKittiPoses(path, bad)
+                 : std::string(name) == "nan.tum" ? pio::writeTumTrajectory(path, bad)
+                                                  : pio::writeFrames(path, bad),
+                 std::invalid_argument);
+    EXPECT_FALSE(std::filesystem::exists(path)) << name;
+  }
 }
 
 } // namespace

@@ -156,9 +156,24 @@ toString(PoseFileFormat format)
   return "?";
 }
 
+namespace {
+
+/** Writers refuse a non-finite pose before creating any file: no NaN in an output. */
+void
+requireFinite(const std::string& path, const std::vector<Eigen::Matrix4d>& poses)
+{
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    if (!poses[i].allFinite())
+      throw std::invalid_argument("pcl_parallel::io: " + path + ": pose " + std::to_string(i) +
+                                  " is not finite");
+}
+
+} // namespace
+
 void
 writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& poses)
 {
+  requireFinite(path, poses);
   writeAtomically(path, [&](std::ostream& out) {
     for (const auto& p : poses)
       for (int r = 0; r < 3; ++r)
@@ -206,6 +221,7 @@ writeTumTrajectory(const std::string& path,
     throw std::invalid_argument("pcl_parallel::io::writeTumTrajectory: " + path + ": " +
                                 std::to_string(timestamps.size()) + " timestamps for " +
                                 std::to_string(poses.size()) + " poses");
+  requireFinite(path, poses);
   writeAtomically(path, [&](std::ostream& out) {
     out << "# timestamp tx ty tz qx qy qz qw\n";
     for (std::size_t i = 0; i < poses.size(); ++i) {
@@ -252,6 +268,7 @@ writeFrames(const std::string& path,
             double unit,
             int type)
 {
+  requireFinite(path, history);
   writeAtomically(path, [&](std::ostream& out) {
     for (const auto& p : history) {
       for (int i = 0; i < 16; ++i) {

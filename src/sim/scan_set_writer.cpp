@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 
 #include <Eigen/Geometry>
@@ -95,18 +96,6 @@ append(std::string& out, double v, int digits = -1)
 }
 
 std::string
-kittiLine(const Eigen::Matrix4d& m)
-{
-  std::string line;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) {
-      append(line, m(r, c) == 0.0 ? 0.0 : m(r, c)); // no "-0"
-      line += (r == 2 && c == 3) ? '\n' : ' ';
-    }
-  return line;
-}
-
-std::string
 numbered(const char* pattern, std::size_t i)
 {
   char name[64];
@@ -134,18 +123,6 @@ toUosFrame(const Eigen::Matrix4d& pose)
   m.topLeftCorner<3, 3>() = c * pose.topLeftCorner<3, 3>() * c.transpose();
   m.topRightCorner<3, 1>() = c * pose.topRightCorner<3, 1>();
   return m;
-}
-
-void
-writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& poses)
-{
-  AtomicFile f(path);
-  for (const auto& m : poses) {
-    if (!m.allFinite())
-      throw std::invalid_argument("pcl_parallel::sim: " + path + ": non-finite pose");
-    f.write(kittiLine(m));
-  }
-  f.commit();
 }
 
 void
@@ -222,7 +199,7 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
       bin.write(bytes.data(), bytes.size());
       bin.commit();
     }
-    writeKittiPoses((root / "odometry.txt").string(), set.odometry);
+    io::writeKittiPoses((root / "odometry.txt").string(), set.odometry);
     std::string times;
     for (std::size_t i = 0; i < n; ++i)
       append(times, set.timestamps.empty() ? 0.1 * static_cast<double>(i) : set.timestamps[i]),
@@ -231,7 +208,7 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
     tf.write(times);
     tf.commit();
   }
-  writeKittiPoses((root / "ground_truth.txt").string(), truth);
+  io::writeKittiPoses((root / "ground_truth.txt").string(), truth);
 }
 
 } // namespace sim

@@ -50,10 +50,5 @@ writeScanSet(const SimulatedScanSet& set,
              const std::string& dir,
              ScanSetFormat format = ScanSetFormat::Auto);
 
-/** Writes poses as KITTI pose lines (12 numbers, [R|t] row-major, shortest exact
- *  decimal form), via a temporary file. */
-void
-writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& poses);
-
 } // namespace sim
 } // namespace pcl_parallel
