@@ -105,12 +105,14 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
     p.deskew = !reader.uos;
     slam::Pipeline pipeline(p);
     double read = 0.0;
+    std::vector<Eigen::Matrix4d> odometry; // as read with the scans
     const auto start = Clock::now();
     for (std::size_t i = 0; i < n; ++i) {
       const auto r0 = Clock::now();
       Eigen::Matrix4d odo;
       const auto scan = reader.scan(i, odo);
       read += since(r0);
+      odometry.push_back(odo);
       pipeline.addScan(*scan,
                        use_odometry ? std::optional<Eigen::Matrix4d>(odo) : std::nullopt);
     }
@@ -129,12 +131,6 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
               fmt("%.1f", n / total),
               fmt("%d", pipeline.relaxations())});
     evaluation::EvaluationOptions eo;
-    std::vector<Eigen::Matrix4d> odometry;
-    for (std::size_t i = 0; i < n; ++i) {
-      Eigen::Matrix4d o;
-      reader.uos ? (void)reader.scan(i, o) : (void)(o = reader.odometry[i]);
-      odometry.push_back(o);
-    }
     odo_eval = evaluation::evaluateTrajectory(odometry, truth, eo);
     fe_eval = evaluation::evaluateTrajectory(pipeline.frontEndPoses(), truth, eo);
     final_eval = evaluation::evaluateTrajectory(pipeline.poses(), truth, eo);
