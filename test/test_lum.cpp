@@ -926,12 +926,18 @@ TEST_F(QuietPcl, BunnyPlumConvergesToGroundTruth)
       EXPECT_NEAR(trace[k].max_rot, trace.back().max_rot, 0.005 * kDeg) << "iteration " << k;
       EXPECT_NEAR(trace[k].max_trans, trace.back().max_trans, 5e-6) << "iteration " << k;
     }
-    // The maximum error must not grow. Once converged (from iteration ~3), the fixed point
+    // The mean error must not grow. Once converged (from iteration ~3), the fixed point
     // still moves by 0.002 deg / 0.001 mm (measured) as the gate reaches 2 mm, so growth
-    // below 0.01 deg / 0.01 mm, 100x below the targets, is allowed.
+    // below 0.01 deg / 0.01 mm, 100x below the targets, is allowed. A least-squares step
+    // may move one pose away while it pulls the others in (seed 23 built with clang 14:
+    // max translation error 3.000 -> 3.058 mm at iteration 1 while the mean halves), so
+    // the maximum is only bounded by the start plus 5%; the paper's mode, whose maximum
+    // doubles on the way (see below), fails that bound.
     for (std::size_t k = 1; k < trace.size(); ++k) {
-      EXPECT_LE(trace[k].max_rot, trace[k - 1].max_rot + 0.01 * kDeg) << "iteration " << k;
-      EXPECT_LE(trace[k].max_trans, trace[k - 1].max_trans + 1e-5) << "iteration " << k;
+      EXPECT_LE(trace[k].mean_rot, trace[k - 1].mean_rot + 0.01 * kDeg) << "iteration " << k;
+      EXPECT_LE(trace[k].mean_trans, trace[k - 1].mean_trans + 1e-5) << "iteration " << k;
+      EXPECT_LE(trace[k].max_rot, 1.05 * trace.front().max_rot) << "iteration " << k;
+      EXPECT_LE(trace[k].max_trans, 1.05 * trace.front().max_trans) << "iteration " << k;
     }
     expectBunnyTargets(trace.back(), trace.front());
   }
