@@ -7,9 +7,11 @@
 #include <pcl/filters/voxel_grid.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <gtest/gtest.h>
 #include <limits>
+#include <map>
 #include <random>
 #include <tuple>
 #include <vector>
@@ -84,6 +86,36 @@ TEST(VoxelCentroid, CentroidOfEachVoxel)
 }
 
 // VoxelGrid gives up beyond 2^31 voxels in the bounding box; we reduce.
+// Brute force: centroids in (x, y, z) key order, each summed in double in input order.
+// Both the packed 64-bit keys and the wide ones (more than 2^21 voxels along an axis, here
+// 2e7 at 1 mm) must give exactly these, in this order.
+TEST(VoxelCentroid, KeyOrderAndCentroidsMatchBruteForce)
+{
+  for (const float extent : {5.0f, 1e4f}) {
+    SCOPED_TRACE(extent);
+    Cloud cloud = randomCloud(5000, extent, 6);
+    for (int i = 0; i < 2000; ++i) // many points per voxel too
+      cloud.push_back(cloud[i % 50]);
+    const double voxel = extent > 100.0f ? 1e-3 : 0.5;
+    std::map<std::array<std::int64_t, 3>, std::array<double, 4>> voxels;
+    for (const auto& p : cloud) {
+      auto& v = voxels[{static_cast<std::int64_t>(std::floor(p.x / voxel)),
+                        static_cast<std::int64_t>(std::floor(p.y / voxel)),
+                        static_cast<std::int64_t>(std::floor(p.z / voxel))}];
+      v[0] += p.x, v[1] += p.y, v[2] += p.z, v[3] += 1.0;
+    }
+    const auto out = pcl_parallel::filters::voxelCentroid(cloud, voxel);
+    ASSERT_EQ(out->size(), voxels.size());
+    std::size_t i = 0;
+    for (const auto& [key, v] : voxels) {
+      EXPECT_EQ((*out)[i].x, static_cast<float>(v[0] / v[3])) << i;
+      EXPECT_EQ((*out)[i].y, static_cast<float>(v[1] / v[3])) << i;
+      EXPECT_EQ((*out)[i].z, static_cast<float>(v[2] / v[3])) << i;
+      ++i;
+    }
+  }
+}
+
 TEST(VoxelCentroid, LargeExtentStillReduced)
 {
   Cloud cloud = randomCloud(20000, 1.0f, 3);

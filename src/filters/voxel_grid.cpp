@@ -6,7 +6,6 @@
 #include <pcl_parallel/parallel.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -19,15 +18,39 @@ namespace filters {
 
 namespace {
 
+/** A point's voxel key packed into 64 bits (x, then y, then z, each offset by its minimum,
+ *  so integer order is the lexicographic order of the keys) and its index. */
 struct Keyed {
-  std::array<std::int32_t, 3> key;
+  std::uint64_t key;
   std::uint32_t index;
-  bool
-  operator<(const Keyed& o) const
-  {
-    return key != o.key ? key < o.key : index < o.index;
-  }
 };
+
+/** Stable LSD radix sort by key, 8 bits a pass over the `bits` low bits: O(n), and equal
+ *  keys keep their input (index) order, which fixes each centroid's summation order. */
+void
+radixSort(std::vector<Keyed>& a, int bits)
+{
+  std::vector<Keyed> b(a.size());
+  for (int shift = 0; shift < bits; shift += 8) {
+    std::size_t count[257] = {0};
+    for (const Keyed& k : a)
+      ++count[((k.key >> shift) & 0xff) + 1];
+    for (int d = 0; d < 256; ++d)
+      count[d + 1] += count[d];
+    for (const Keyed& k : a)
+      b[count[(k.key >> shift) & 0xff]++] = k;
+    a.swap(b);
+  }
+}
+
+int
+bitWidth(std::uint64_t v)
+{
+  int w = 0;
+  for (; v; v >>= 1)
+    ++w;
+  return w;
+}
 
 } // namespace
 
@@ -49,11 +72,11 @@ voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
         out->push_back(cloud[i]);
     return out;
   }
-  // Voxel keys: floor(p / voxel_size) per axis; non-finite points get no key.
+  // Voxel keys: floor(p / voxel_size) per axis; non-finite points get none (INT64_MIN).
   const double inv = 1.0 / voxel_size;
   constexpr double limit = 2147483647.0;
-  std::vector<Keyed> keyed(cloud.size());
-  std::vector<char> valid(cloud.size(), 0);
+  constexpr std::int64_t none = std::numeric_limits<std::int64_t>::min();
+  std::vector<std::int64_t> coords(3 * cloud.size(), none);
   bool too_far = false;
   const unsigned threads = resolveNumberOfThreads(num_threads);
 #pragma omp parallel for num_threads(threads) schedule(static)                                 \
@@ -69,27 +92,63 @@ voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
       too_far = true;
       continue;
     }
-    keyed[i] = {{static_cast<std::int32_t>(c[0]),
-                 static_cast<std::int32_t>(c[1]),
-                 static_cast<std::int32_t>(c[2])},
-                static_cast<std::uint32_t>(i)};
-    valid[i] = 1;
+    for (int a = 0; a < 3; ++a)
+      coords[3 * i + a] = static_cast<std::int64_t>(c[a]);
   }
   if (too_far)
     throw std::invalid_argument("voxelCentroid: a point lies more than 2^31 voxels of " +
                                 std::to_string(voxel_size) + " from the origin");
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < keyed.size(); ++i)
-    if (valid[i])
-      keyed[kept++] = keyed[i];
-  keyed.resize(kept);
-  std::sort(keyed.begin(), keyed.end());
+  std::int64_t lo[3], hi[3];
+  std::fill(lo, lo + 3, std::numeric_limits<std::int64_t>::max());
+  std::fill(hi, hi + 3, none);
+  for (std::int64_t i = 0; i < n; ++i)
+    if (coords[3 * i] != none)
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], coords[3 * i + a]);
+        hi[a] = std::max(hi[a], coords[3 * i + a]);
+      }
+  // Each axis gets the bits its extent needs; 3 x 32 bits always fit in 96, and 64 hold
+  // any extent below 2^21 voxels an axis (e.g. 200 km at 10 cm), so the wide case sorts
+  // by a second key word only when it must.
+  int width[3];
+  for (int a = 0; a < 3; ++a)
+    width[a] = hi[a] >= lo[a] ? bitWidth(static_cast<std::uint64_t>(hi[a] - lo[a])) : 0;
+  const int bits = width[0] + width[1] + width[2];
+  std::vector<Keyed> keyed;
+  keyed.reserve(cloud.size());
+  if (bits <= 64) {
+    for (std::int64_t i = 0; i < n; ++i)
+      if (coords[3 * i] != none) {
+        const std::uint64_t x = static_cast<std::uint64_t>(coords[3 * i] - lo[0]);
+        const std::uint64_t y = static_cast<std::uint64_t>(coords[3 * i + 1] - lo[1]);
+        const std::uint64_t z = static_cast<std::uint64_t>(coords[3 * i + 2] - lo[2]);
+        keyed.push_back({(x << (width[1] + width[2])) | (y << width[2]) | z,
+                         static_cast<std::uint32_t>(i)});
+      }
+    radixSort(keyed, bits);
+  }
+  else { // z first, then (x, y): two stable passes give the (x, y, z) order
+    for (std::int64_t i = 0; i < n; ++i)
+      if (coords[3 * i] != none)
+        keyed.push_back({static_cast<std::uint64_t>(coords[3 * i + 2] - lo[2]),
+                         static_cast<std::uint32_t>(i)});
+    radixSort(keyed, width[2]);
+    for (Keyed& k : keyed)
+      k.key = (static_cast<std::uint64_t>(coords[3 * k.index] - lo[0]) << 32) |
+              static_cast<std::uint64_t>(coords[3 * k.index + 1] - lo[1]);
+    radixSort(keyed, 64);
+  }
 
-  // One centroid per run of equal keys, summed in double in input order.
+  // One centroid per run of equal voxels, summed in double in input order.
+  auto same = [&](const Keyed& a, const Keyed& b) {
+    return coords[3 * a.index] == coords[3 * b.index] &&
+           coords[3 * a.index + 1] == coords[3 * b.index + 1] &&
+           coords[3 * a.index + 2] == coords[3 * b.index + 2];
+  };
   for (std::size_t b = 0; b < keyed.size();) {
     std::size_t e = b;
     double sx = 0.0, sy = 0.0, sz = 0.0;
-    for (; e < keyed.size() && keyed[e].key == keyed[b].key; ++e) {
+    for (; e < keyed.size() && same(keyed[e], keyed[b]); ++e) {
       const auto& p = cloud[keyed[e].index];
       sx += p.x, sy += p.y, sz += p.z;
     }

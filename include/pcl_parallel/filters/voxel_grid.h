@@ -19,12 +19,11 @@ namespace filters {
  * returns the cloud unreduced. Here each voxel is keyed by its three integer coordinates,
  * so any extent works as long as |coordinate / voxel_size| < 2^31.
  *
- * Keys are computed in parallel and sorted with the point index as tie-break; each
- * centroid is summed in double in input order. The output is in key order (x, then y,
- * then z) and bit-identical for any thread count. Non-finite points are dropped; the
- * output is dense. voxel_size <= 0 (or NaN) returns the finite points unchanged.
- * Throws std::invalid_argument when a coordinate is too far from the origin for the
- * voxel size.
+ * Keys are computed in parallel and radix-sorted (stable, so equal keys stay in input order);
+ * each centroid is summed in double in input order. The output is in key order (x, then y, then
+ * z) and bit-identical for any thread count. Non-finite points are dropped; the output is
+ * dense. voxel_size <= 0 (or NaN) returns the finite points unchanged. Throws
+ * std::invalid_argument when a coordinate is too far from the origin for the voxel size.
  */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
