@@ -4,7 +4,10 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 
+#include <pcl/common/transforms.h>
 #include <pcl/filters/voxel_grid.h>
+
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <array>
@@ -162,6 +165,47 @@ TEST(VoxelCentroid, SameForAnyThreadCount)
       EXPECT_EQ((*one)[i].z, (*many)[i].z);
     }
   }
+}
+
+} // namespace
+
+namespace {
+
+// Scans added one by one give what voxelCentroid gives for them moved and concatenated:
+// the same centroids, order and bits, for any thread count.
+TEST(VoxelCentroidMap, EqualsVoxelCentroidOfTheConcatenation)
+{
+  std::vector<Cloud> scans;
+  std::vector<Eigen::Matrix4d> poses;
+  Cloud all;
+  for (unsigned k = 0; k < 4; ++k) {
+    scans.push_back(randomCloud(30000, 8.0f, 10 + k));
+    scans.back().push_back(pcl::PointXYZ(std::numeric_limits<float>::quiet_NaN(), 0, 0));
+    Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+    pose.topLeftCorner<3, 3>() =
+        Eigen::AngleAxisd(0.3 * k, Eigen::Vector3d(0.1, 0.2, 1.0).normalized()).matrix();
+    pose.topRightCorner<3, 1>() = Eigen::Vector3d(1.5 * k, -0.7 * k, 0.1 * k);
+    poses.push_back(pose);
+    Cloud moved;
+    pcl::transformPointCloud(scans.back(), moved, pose);
+    all += moved;
+  }
+  const auto expected = pcl_parallel::filters::voxelCentroid(all, 0.25, 1);
+  for (unsigned t : {1u, 2u, 3u}) {
+    pcl_parallel::filters::VoxelCentroidMap map(0.25, t);
+    for (std::size_t k = 0; k < scans.size(); ++k)
+      map.add(scans[k], poses[k]);
+    EXPECT_EQ(map.size(), expected->size());
+    const auto got = map.centroids();
+    ASSERT_EQ(got->size(), expected->size()) << t;
+    for (std::size_t i = 0; i < got->size(); ++i)
+      ASSERT_EQ((*got)[i].getVector3fMap(), (*expected)[i].getVector3fMap()) << t << " " << i;
+  }
+  EXPECT_THROW(pcl_parallel::filters::VoxelCentroidMap(0.0), std::invalid_argument);
+  pcl_parallel::filters::VoxelCentroidMap tiny(1e-3);
+  Cloud far;
+  far.push_back(pcl::PointXYZ(1e9f, 0, 0));
+  EXPECT_THROW(tiny.add(far), std::invalid_argument);
 }
 
 } // namespace

@@ -5,12 +5,15 @@
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/parallel.h>
 
+#include <pcl/common/transforms.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace pcl_parallel {
@@ -157,6 +160,128 @@ voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
                                  static_cast<float>(sy / count),
                                  static_cast<float>(sz / count)));
     b = e;
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------
+// VoxelCentroidMap
+
+namespace {
+
+using VoxelKey = std::array<std::int32_t, 3>;
+
+struct VoxelKeyHash {
+  std::size_t
+  operator()(const VoxelKey& k) const
+  {
+    // The spatial hash of Teschner et al. 2003 (also KISS-ICP's voxel map).
+    return static_cast<std::size_t>(static_cast<std::uint32_t>(k[0]) * 73856093u ^
+                                    static_cast<std::uint32_t>(k[1]) * 19349669u ^
+                                    static_cast<std::uint32_t>(k[2]) * 83492791u);
+  }
+};
+
+/** Fixed, so a voxel's shard (and with it nothing but the work split) is independent of
+ *  the thread count. */
+constexpr std::size_t kShards = 64;
+
+} // namespace
+
+struct VoxelCentroidMap::Shard {
+  struct Sum {
+    double x = 0.0, y = 0.0, z = 0.0;
+    std::uint64_t count = 0;
+  };
+  std::unordered_map<VoxelKey, Sum, VoxelKeyHash> voxels;
+};
+
+VoxelCentroidMap::VoxelCentroidMap(double voxel_size, unsigned num_threads)
+    : voxel_size_(voxel_size)
+    , num_threads_(num_threads)
+    , shards_(kShards)
+{
+  if (!(voxel_size > 0.0) || !std::isfinite(voxel_size))
+    throw std::invalid_argument("VoxelCentroidMap: the voxel size must be positive");
+}
+
+VoxelCentroidMap::~VoxelCentroidMap() = default;
+VoxelCentroidMap::VoxelCentroidMap(VoxelCentroidMap&&) noexcept = default;
+VoxelCentroidMap&
+VoxelCentroidMap::operator=(VoxelCentroidMap&&) noexcept = default;
+
+void
+VoxelCentroidMap::add(const pcl::PointCloud<pcl::PointXYZ>& cloud, const Eigen::Matrix4d& pose)
+{
+  pcl::PointCloud<pcl::PointXYZ> moved;
+  pcl::transformPointCloud(cloud, moved, pose);
+  const std::int64_t n = static_cast<std::int64_t>(moved.size());
+  const double inv = 1.0 / voxel_size_;
+  constexpr double limit = 2147483647.0;
+  std::vector<VoxelKey> keys(moved.size());
+  std::vector<std::uint8_t> shard(moved.size(), kShards); // kShards: no voxel
+  bool too_far = false;
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+  VoxelKeyHash hash;
+#pragma omp parallel for num_threads(threads) schedule(static)                                 \
+    reduction(||                                                                               \
+              : too_far) if (threads > 1 && n > 10000)
+  for (std::int64_t i = 0; i < n; ++i) {
+    const auto& p = moved[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      continue;
+    const double c[3] = {std::floor(p.x * inv), std::floor(p.y * inv), std::floor(p.z * inv)};
+    if (std::abs(c[0]) >= limit || std::abs(c[1]) >= limit || std::abs(c[2]) >= limit) {
+      too_far = true;
+      continue;
+    }
+    keys[i] = {static_cast<std::int32_t>(c[0]),
+               static_cast<std::int32_t>(c[1]),
+               static_cast<std::int32_t>(c[2])};
+    shard[i] = static_cast<std::uint8_t>(hash(keys[i]) % kShards);
+  }
+  if (too_far)
+    throw std::invalid_argument("VoxelCentroidMap: a point lies more than 2^31 voxels of " +
+                                std::to_string(voxel_size_) + " from the origin");
+    // Each shard walks the points in order: a voxel's sum runs in input order.
+#pragma omp parallel for num_threads(threads) schedule(dynamic) if (threads > 1 && n > 10000)
+  for (std::int64_t s = 0; s < static_cast<std::int64_t>(kShards); ++s) {
+    auto& voxels = shards_[s].voxels;
+    for (std::int64_t i = 0; i < n; ++i)
+      if (shard[i] == s) {
+        auto& v = voxels[keys[i]];
+        v.x += moved[i].x, v.y += moved[i].y, v.z += moved[i].z;
+        ++v.count;
+      }
+  }
+}
+
+std::size_t
+VoxelCentroidMap::size() const
+{
+  std::size_t n = 0;
+  for (const auto& s : shards_)
+    n += s.voxels.size();
+  return n;
+}
+
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+VoxelCentroidMap::centroids() const
+{
+  std::vector<std::pair<VoxelKey, const Shard::Sum*>> all;
+  all.reserve(size());
+  for (const auto& s : shards_)
+    for (const auto& [key, sum] : s.voxels)
+      all.emplace_back(key, &sum);
+  std::sort(
+      all.begin(), all.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  pcl::PointCloud<pcl::PointXYZ>::Ptr out(new pcl::PointCloud<pcl::PointXYZ>);
+  out->reserve(all.size());
+  for (const auto& [key, v] : all) {
+    const double count = static_cast<double>(v->count);
+    out->push_back(pcl::PointXYZ(static_cast<float>(v->x / count),
+                                 static_cast<float>(v->y / count),
+                                 static_cast<float>(v->z / count)));
   }
   return out;
 }
