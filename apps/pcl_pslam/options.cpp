@@ -53,7 +53,8 @@ struct Descriptions {
       ("end,e", po::value<int>(&o.last)->value_name("NR"),
        "end after scan NR (inclusive; past the last scan: the last) [default: all]")
       ("max,max-range,m", po::value<double>(&o.max_range)->value_name("NR"),
-       "drop points farther than NR from the scanner, files' units (also --max-range) [default: none]")
+       "drop points farther than NR from the scanner, files' units (also --max-range); "
+       "the local map reaches as far [default: none; map: 5 x the median range]")
       ("min,min-range,M", po::value<double>(&o.min_range)->value_name("NR"),
        "drop points closer than NR to the scanner, files' units (also --min-range) [default 0]")
       ("poses", po::value<std::string>(&o.poses_file)->value_name("FILE"),
@@ -320,6 +321,9 @@ toParameters(const Options& o, double scale)
     return v ? *v * scale : fallback;
   };
   p.voxel_size = length(o.voxel, p.voxel_size);
+  // The scans are cropped when read; the pipeline also sizes its local map by the range.
+  p.min_range = o.min_range * scale;
+  p.max_range = o.max_range * scale;
   p.icp_distance = length(o.icp_distance, p.icp_distance);
   p.icp_iterations = o.icp_iterations;
   p.loop_distance = length(o.loop_distance, p.loop_distance);

@@ -59,7 +59,9 @@ frontEndParameters(const Parameters& p, double r)
   f.source_voxel_size = 3.0 * f.voxel_size; // KISS-ICP registers a 1.5x coarser sample
   f.map_voxel_size = 2.0 * f.voxel_size;
   f.map_points_per_voxel = 20;
-  f.map_distance = std::min(p.max_range, 5.0 * r);
+  // The map reaches as far as the scans (KISS-ICP: max_range): a crop inside it cuts the
+  // far walls that pin rotations (docs/design.md, "Local map"). Unbounded: 5 r.
+  f.map_distance = std::isfinite(p.max_range) ? p.max_range : 5.0 * r;
   f.max_correspondence_distance = orAuto(p.icp_distance, 10.0 * f.voxel_size);
   f.max_iterations = p.icp_iterations;
   f.point_to_plane = p.point_to_plane;

@@ -26,7 +26,7 @@ namespace slam {
  */
 struct Parameters {
   double min_range = 0.0;                                     ///< [-M] drop closer points
-  double max_range = std::numeric_limits<double>::infinity(); ///< [-m] drop farther points
+  double max_range = std::numeric_limits<double>::infinity(); ///< [-m] drop farther; map reach
   double voxel_size = 0.0; ///< [-r] reduction kept per scan; auto r / 20
   MatchTarget match_target =
       MatchTarget::kLocalMap;    ///< [--metascan] vs the paper's scan-to-scan
