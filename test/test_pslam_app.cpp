@@ -321,6 +321,22 @@ TEST(PslamPicture, StyleAndFile)
 
 namespace {
 
+/** Distance (cm) and angle (deg) of the last pose in our .frames file `ours` from slam6D's
+ *  2009 one of the same name; printed. */
+std::pair<double, double>
+fromSlamSixD(const fs::path& ours_file, const std::string& data)
+{
+  const std::string name = ours_file.filename().string();
+  const Eigen::Matrix4d ours = pcl_parallel::io::loadFramesFinalPose(ours_file.string());
+  const Eigen::Matrix4d ref =
+      pcl_parallel::io::loadFramesFinalPose(data + "/reference_frames_2009/" + name);
+  const double dt = (ours.topRightCorner<3, 1>() - ref.topRightCorner<3, 1>()).norm();
+  const Eigen::Matrix3d dr = ours.topLeftCorner<3, 3>().transpose() * ref.topLeftCorner<3, 3>();
+  const double angle = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) / kDeg;
+  std::printf("%s: %.2f cm, %.3f deg from slam6D's final pose\n", name.c_str(), dt, angle);
+  return {dt, angle};
+}
+
 // Real 3DTK data through the app's input, pipeline and .frames writer, against slam6D's
 // own .frames (reference_frames_2009, slam6D parameters unknown: a sanity reference).
 // Returns per scan the distance (cm) and angle (deg) of our final pose from slam6D's.
@@ -344,15 +360,7 @@ framesAgainstSlamSixD(std::vector<const char*> args)
     std::snprintf(name, sizeof name, "scan%03zu.frames", i);
     pcl_pslam::writeFrames(
         (out / name).string(), in.initial[i], r.icp[i], r.final[i], i == 0, in.scale);
-    const Eigen::Matrix4d ours = pcl_parallel::io::loadFramesFinalPose((out / name).string());
-    const Eigen::Matrix4d ref =
-        pcl_parallel::io::loadFramesFinalPose(data + "/reference_frames_2009/" + name);
-    const double dt = (ours.topRightCorner<3, 1>() - ref.topRightCorner<3, 1>()).norm();
-    const Eigen::Matrix3d dr =
-        ours.topLeftCorner<3, 3>().transpose() * ref.topLeftCorner<3, 3>();
-    const double angle = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) / kDeg;
-    std::printf("%s: %.2f cm, %.3f deg from slam6D's final pose\n", name, dt, angle);
-    errors.emplace_back(dt, angle);
+    errors.push_back(fromSlamSixD(out / name, data));
   }
   fs::remove_all(out);
   return errors;
@@ -406,14 +414,7 @@ TEST(PslamApp, ThreeDtkFramesWithinTwoCentimetres)
   for (int i = 0; i < 3; ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "scan%03d.frames", i);
-    const Eigen::Matrix4d ours = pcl_parallel::io::loadFramesFinalPose((out / name).string());
-    const Eigen::Matrix4d ref =
-        pcl_parallel::io::loadFramesFinalPose(data + "/reference_frames_2009/" + name);
-    const double dt = (ours.topRightCorner<3, 1>() - ref.topRightCorner<3, 1>()).norm();
-    const Eigen::Matrix3d dr =
-        ours.topLeftCorner<3, 3>().transpose() * ref.topLeftCorner<3, 3>();
-    const double angle = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) / kDeg;
-    std::printf("%s: %.2f cm, %.3f deg from slam6D's final pose\n", name, dt, angle);
+    const auto [dt, angle] = fromSlamSixD(out / name, data);
     EXPECT_LT(dt, 2.0) << name;
     EXPECT_LT(angle, 0.5) << name;
   }
