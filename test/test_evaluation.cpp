@@ -551,4 +551,37 @@ TEST(PoseFiles, BadFilesNameFileAndLine)
   }
 }
 
+// Fuzz-stage findings (fuzz_frames_history, fuzz_frames_dir; scripts/test.sh fuzz), kept
+// as regressions: the two .frames readers (pose_files.h loadFrames, uos.h
+// loadFramesFinalPose) accepted a last row other than 0 0 0 1 (not a rigid motion), and
+// disagreed on commas between numbers, on "+-1" and on a non-finite type code.
+TEST(PoseFiles, FuzzFindingsFramesReadersAgree)
+{
+  ScratchDir dir;
+  const std::string row =
+      dir.write("row.frames",
+                "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n"
+                "0.99 0.01 0 0 -0.01 0.99 0 0 0 0 1 0 12.5 -3 337.79 2 1\n");
+  EXPECT_HAS(errorOf([&] { pio::loadFrames(row); }), "row.frames:2: columns 4, 8, 12, 16");
+  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(row); }),
+             "row.frames:2: columns 4, 8, 12, 16");
+  const std::string plus_minus =
+      dir.write("pm.frames", "+-1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n");
+  EXPECT_HAS(errorOf([&] { pio::loadFrames(plus_minus); }), "pm.frames:1: column 1");
+  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(plus_minus); }), "pm.frames:1:");
+  const std::string type = dir.write("type.frames", "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 nan\n");
+  EXPECT_HAS(errorOf([&] { pio::loadFrames(type); }), "type.frames:1: column 17");
+  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(type); }), "type.frames:1:");
+  // Commas separate numbers in every text format (as KITTI poses and .xyz), read alike.
+  const std::string commas =
+      dir.write("commas.frames", "\t1 0 0 0, 0 1 0 0 ,0 0 1 0,0.5,1 , -3 1 2\n");
+  Eigen::Matrix4d expected = Eigen::Matrix4d::Identity();
+  expected.topRightCorner<3, 1>() << 0.5, 1, -3;
+  EXPECT_EQ(pio::loadFrames(commas, 1.0).back(), expected);
+  EXPECT_EQ(pio::loadFramesFinalPose(commas), expected);
+  const std::string tum = dir.write("commas.tum", "1.5, 1, 2, 3, 0, 0, 0, 1\n");
+  const Eigen::Vector3d t = pio::loadTumTrajectory(tum).poses.at(0).topRightCorner<3, 1>();
+  EXPECT_EQ(t, Eigen::Vector3d(1, 2, 3));
+}
+
 } // namespace
