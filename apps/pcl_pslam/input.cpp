@@ -84,10 +84,15 @@ loadDirectory(const Options& o, const ReadProgress& progress)
 
   // One format per directory: -f, else the most common scan extension (.txt only when
   // asked for: it also names notes and pose lists).
+  // Not only regular files: a directory or dangling link named like a scan is reported
+  // by the reader when its turn comes, not silently left out.
   std::map<std::string, std::vector<fs::path>> by_ext;
-  for (const auto& e : fs::directory_iterator(o.dir))
-    if (e.is_regular_file() && pcl_parallel::io::isScanFile(e.path().string()))
-      by_ext[lowerCase(e.path().extension().string().substr(1))].push_back(e.path());
+  std::error_code ec;
+  for (fs::directory_iterator it(o.dir, ec), end; !ec && it != end; it.increment(ec))
+    if (pcl_parallel::io::isScanFile(it->path().string()))
+      by_ext[lowerCase(it->path().extension().string().substr(1))].push_back(it->path());
+  if (ec)
+    throw DataError(o.dir + ": cannot list the directory (" + ec.message() + ")");
   std::string format = o.format;
   if (format.empty()) {
     std::size_t best = 0;

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -105,16 +106,17 @@ writeAtomically(const std::string& path, const std::function<void(std::ostream&)
   const fs::path tmp = target.parent_path() /
                        ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()));
   {
+    errno = 0; // then the failed write's
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out)
       fail(path, 0, "cannot open for writing (" + tmp.string() + ")");
     body(out);
-    out.flush();
+    out.close(); // a full disk shows at the latest when the buffer is written out
     if (!out) {
-      out.close();
+      const std::string reason = errno ? std::string(" (") + std::strerror(errno) + ")" : "";
       std::error_code ec;
       fs::remove(tmp, ec);
-      fail(path, 0, "write error");
+      fail(path, 0, "write error" + reason);
     }
   }
   std::error_code ec;
