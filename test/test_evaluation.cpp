@@ -584,4 +584,25 @@ TEST(PoseFiles, FuzzFindingsFramesReadersAgree)
   EXPECT_EQ(t, Eigen::Vector3d(1, 2, 3));
 }
 
+// KITTI's times.txt (read by `pcl_pslam run`): the text formats' one number parser (no
+// locale, "+" allowed), errors with file and line and a short quote of binary garbage.
+TEST(PoseFiles, KittiTimes)
+{
+  ScratchDir dir;
+  const std::string good = dir.write("times.txt", "0.000000e+00\n\n1.036594e-01\r\n  +2.5 \n");
+  EXPECT_EQ(pio::loadKittiTimes(good), (std::vector<double>{0.0, 1.036594e-01, 2.5}));
+  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("two.txt", "1\n2 3\n")); }),
+             "two.txt:2: expected 1 numbers");
+  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("nan.txt", "1\nnan\n")); }),
+             "nan.txt:2: column 1 is not a finite number");
+  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("comma.txt", "0,5\n")); }),
+             "comma.txt:1: expected 1 numbers");
+  const std::string garbage = dir.write("garbage.txt", std::string(5000, '\xff'));
+  const std::string message = errorOf([&] { pio::loadKittiTimes(garbage); });
+  EXPECT_HAS(message, "garbage.txt:1: column 1 is not a finite number: \"\\xff");
+  EXPECT_LT(message.size(), garbage.size() + 250) << message;
+  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir / "missing.txt"); }),
+             "missing.txt: no such");
+}
+
 } // namespace

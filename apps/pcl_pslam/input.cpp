@@ -4,6 +4,7 @@
  */
 #include "input.h"
 
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/sim/presets.h>
@@ -47,27 +48,16 @@ trailingNumber(const fs::path& file)
   return std::stol(stem.substr(k));
 }
 
-/** One timestamp (seconds) per non-blank line. */
+/** One timestamp (seconds) per non-blank line (io::loadKittiTimes). */
 std::vector<double>
 readTimes(const std::string& path)
 {
-  std::ifstream in(path);
-  if (!in)
-    throw DataError(path + ": cannot open file for reading");
-  std::vector<double> t;
-  std::string line;
-  for (std::size_t no = 1; std::getline(in, line); ++no) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos)
-      continue;
-    std::istringstream ss(line);
-    double v;
-    std::string extra;
-    if (!(ss >> v) || !std::isfinite(v) || (ss >> extra))
-      throw DataError(path + ":" + std::to_string(no) + ": expected one timestamp, got \"" +
-                      line + "\"");
-    t.push_back(v);
+  try {
+    return pcl_parallel::io::loadKittiTimes(path);
   }
-  return t;
+  catch (const std::runtime_error& e) {
+    throw DataError(withoutPrefix(e.what()));
+  }
 }
 
 } // namespace

@@ -180,6 +180,19 @@ writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& pos
   });
 }
 
+std::vector<double>
+loadKittiTimes(const std::string& path)
+{
+  requireExisting(path);
+  std::vector<double> times;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    double t;
+    parseLine(path, line_no, line, &t, 1, 0, "a timestamp in seconds");
+    times.push_back(t);
+  });
+  return times;
+}
+
 Trajectory
 loadTumTrajectory(const std::string& path)
 {

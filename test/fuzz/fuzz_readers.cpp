@@ -147,6 +147,11 @@ read(const std::string& path)
       if (!pose.allFinite())
         std::abort();
   }
+  else if (format_name == "kitti_times") {
+    for (double t : loadKittiTimes(path))
+      if (!std::isfinite(t))
+        std::abort();
+  }
   else if (format_name == "tum") {
     checkTrajectory(loadTumTrajectory(path), true);
   }
@@ -208,6 +213,7 @@ initialize(const char* format)
                                                                  {"pcd", ".pcd"},
                                                                  {"ply", ".ply"},
                                                                  {"tum", ".tum"},
+                                                                 {"kitti_times", ".txt"},
                                                                  {"frames_history", ".frames"},
                                                                  {"trajectory", ".txt"},
                                                                  {"frames_dir", "_dir"},

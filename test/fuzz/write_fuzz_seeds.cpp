@@ -98,6 +98,7 @@ main(int argc, char** argv)
                             "0.99955 -0.029996 0 3.7 0.029996 0.99955 0 0.6 0 0 1 -0.02\n";
   const std::string frame = "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n";
   const std::string moved = "0.99 0.01 0 0 -0.01 0.99 0 0 0 0 1 0 12.5 -3 337.79 1 1\n";
+  seed("kitti_times", "times", "0.000000e+00\n1.036594e-01\n\n2.072864e-01\r\n+3.1e-1\n");
   seed("tum", "tum", tum);
   seed("tum", "crlf", "0 0 0 0 0 0 0 1\r\n1.5 +1 -2 3e-1 0 0 0.7071068 0.7071068\r\n");
   seed("frames_history", "history", frame + moved + frame);
