@@ -565,6 +565,11 @@ TEST(PoseFiles, FuzzFindingsFramesReadersAgree)
   EXPECT_HAS(errorOf([&] { pio::loadFrames(row); }), "row.frames:2: columns 4, 8, 12, 16");
   EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(row); }),
              "row.frames:2: columns 4, 8, 12, 16");
+  // Rounding left by a writer is tolerated, and the row set exactly.
+  const std::string rounded =
+      dir.write("rounded.frames", "1 0 0 1e-12 0 1 0 0 0 0 1 0 1 2 3 0.9999999999997 2\n");
+  EXPECT_EQ(pio::loadFrames(rounded, 1.0).back().row(3), Eigen::RowVector4d(0, 0, 0, 1));
+  EXPECT_EQ(pio::loadFramesFinalPose(rounded).row(3), Eigen::RowVector4d(0, 0, 0, 1));
   const std::string plus_minus =
       dir.write("pm.frames", "+-1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n");
   EXPECT_HAS(errorOf([&] { pio::loadFrames(plus_minus); }), "pm.frames:1: column 1");

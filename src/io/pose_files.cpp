@@ -263,7 +263,7 @@ loadFrames(const std::string& path, double unit)
     Eigen::Matrix4d pose;
     for (int i = 0; i < 16; ++i)
       pose(i % 4, i / 4) = v[i];
-    if (pose.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+    if (!detail::homogeneousLastRow(pose))
       fail(path, line_no, "columns 4, 8, 12, 16 (the last row) are not 0 0 0 1");
     pose.topRightCorner<3, 1>() *= unit;
     history.push_back(pose);

@@ -134,7 +134,7 @@ loadFramesFinalPose(const std::string& path)
         fail(path, line_no, "non-finite value in frame");
     for (int i = 0; i < 16; ++i)
       pose(i % 4, i / 4) = v[i];
-    if (pose.row(3) != Eigen::RowVector4d(0, 0, 0, 1)) // a rigid transformation
+    if (!detail::homogeneousLastRow(pose)) // a rigid transformation
       fail(path, line_no, "columns 4, 8, 12, 16 (the last row) are not 0 0 0 1");
     ++frames;
   });
