@@ -4,12 +4,17 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 
+#include <pcl/common/transforms.h>
 #include <pcl/filters/voxel_grid.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <gtest/gtest.h>
 #include <limits>
+#include <map>
 #include <random>
 #include <tuple>
 #include <vector>
@@ -84,6 +89,36 @@ TEST(VoxelCentroid, CentroidOfEachVoxel)
 }
 
 // VoxelGrid gives up beyond 2^31 voxels in the bounding box; we reduce.
+// Brute force: centroids in (x, y, z) key order, each summed in double in input order.
+// Both the packed 64-bit keys and the wide ones (more than 2^21 voxels along an axis, here
+// 2e7 at 1 mm) must give exactly these, in this order.
+TEST(VoxelCentroid, KeyOrderAndCentroidsMatchBruteForce)
+{
+  for (const float extent : {5.0f, 1e4f}) {
+    SCOPED_TRACE(extent);
+    Cloud cloud = randomCloud(5000, extent, 6);
+    for (int i = 0; i < 2000; ++i) // many points per voxel too
+      cloud.push_back(cloud[i % 50]);
+    const double voxel = extent > 100.0f ? 1e-3 : 0.5;
+    std::map<std::array<std::int64_t, 3>, std::array<double, 4>> voxels;
+    for (const auto& p : cloud) {
+      auto& v = voxels[{static_cast<std::int64_t>(std::floor(p.x / voxel)),
+                        static_cast<std::int64_t>(std::floor(p.y / voxel)),
+                        static_cast<std::int64_t>(std::floor(p.z / voxel))}];
+      v[0] += p.x, v[1] += p.y, v[2] += p.z, v[3] += 1.0;
+    }
+    const auto out = pcl_parallel::filters::voxelCentroid(cloud, voxel);
+    ASSERT_EQ(out->size(), voxels.size());
+    std::size_t i = 0;
+    for (const auto& [key, v] : voxels) {
+      EXPECT_EQ((*out)[i].x, static_cast<float>(v[0] / v[3])) << i;
+      EXPECT_EQ((*out)[i].y, static_cast<float>(v[1] / v[3])) << i;
+      EXPECT_EQ((*out)[i].z, static_cast<float>(v[2] / v[3])) << i;
+      ++i;
+    }
+  }
+}
+
 TEST(VoxelCentroid, LargeExtentStillReduced)
 {
   Cloud cloud = randomCloud(20000, 1.0f, 3);
@@ -130,6 +165,47 @@ TEST(VoxelCentroid, SameForAnyThreadCount)
       EXPECT_EQ((*one)[i].z, (*many)[i].z);
     }
   }
+}
+
+} // namespace
+
+namespace {
+
+// Scans added one by one give what voxelCentroid gives for them moved and concatenated:
+// the same centroids, order and bits, for any thread count.
+TEST(VoxelCentroidMap, EqualsVoxelCentroidOfTheConcatenation)
+{
+  std::vector<Cloud> scans;
+  std::vector<Eigen::Matrix4d> poses;
+  Cloud all;
+  for (unsigned k = 0; k < 4; ++k) {
+    scans.push_back(randomCloud(30000, 8.0f, 10 + k));
+    scans.back().push_back(pcl::PointXYZ(std::numeric_limits<float>::quiet_NaN(), 0, 0));
+    Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+    pose.topLeftCorner<3, 3>() =
+        Eigen::AngleAxisd(0.3 * k, Eigen::Vector3d(0.1, 0.2, 1.0).normalized()).matrix();
+    pose.topRightCorner<3, 1>() = Eigen::Vector3d(1.5 * k, -0.7 * k, 0.1 * k);
+    poses.push_back(pose);
+    Cloud moved;
+    pcl::transformPointCloud(scans.back(), moved, pose);
+    all += moved;
+  }
+  const auto expected = pcl_parallel::filters::voxelCentroid(all, 0.25, 1);
+  for (unsigned t : {1u, 2u, 3u}) {
+    pcl_parallel::filters::VoxelCentroidMap map(0.25, t);
+    for (std::size_t k = 0; k < scans.size(); ++k)
+      map.add(scans[k], poses[k]);
+    EXPECT_EQ(map.size(), expected->size());
+    const auto got = map.centroids();
+    ASSERT_EQ(got->size(), expected->size()) << t;
+    for (std::size_t i = 0; i < got->size(); ++i)
+      ASSERT_EQ((*got)[i].getVector3fMap(), (*expected)[i].getVector3fMap()) << t << " " << i;
+  }
+  EXPECT_THROW(pcl_parallel::filters::VoxelCentroidMap(0.0), std::invalid_argument);
+  pcl_parallel::filters::VoxelCentroidMap tiny(1e-3);
+  Cloud far;
+  far.push_back(pcl::PointXYZ(1e9f, 0, 0));
+  EXPECT_THROW(tiny.add(far), std::invalid_argument);
 }
 
 } // namespace

@@ -377,7 +377,7 @@ TEST(PslamInput, UnreadableDirectoryAndScanFileAreErrorsNamingThem)
   o.dir = dir.string();
   auto errorOf = [&] {
     try {
-      pcl_pslam::loadDirectory(o);
+      pcl_pslam::readAllScans(pcl_pslam::openDirectory(o));
     }
     catch (const pcl_pslam::DataError& e) {
       return std::string(e.what());
@@ -491,14 +491,14 @@ framesAgainstSlamSixD(std::vector<const char*> args)
   args.insert(args.begin(), "run");
   args.push_back(data.c_str());
   const auto o = parse(args);
-  const pcl_pslam::Input in = pcl_pslam::loadDirectory(o);
-  EXPECT_EQ(in.scans.size(), 3u);
+  const pcl_pslam::Input in = pcl_pslam::openDirectory(o);
+  EXPECT_EQ(in.size(), 3u);
   EXPECT_TRUE(in.frames_3dtk);
   pcl_pslam::Parameters p = pcl_pslam::toParameters(o, in.scale);
   p.odometry = in.odometry;
-  const pcl_pslam::Result r = pcl_pslam::run(in.scans, in.initial, p);
+  const pcl_pslam::Result r = pcl_pslam::run(pcl_pslam::readAllScans(in), in.initial, p);
   std::vector<std::pair<double, double>> errors;
-  for (std::size_t i = 0; i < in.scans.size(); ++i) {
+  for (std::size_t i = 0; i < in.size(); ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "scan%03zu.frames", i);
     pcl_pslam::writeFrames(

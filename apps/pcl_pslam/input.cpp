@@ -63,7 +63,7 @@ readTimes(const std::string& path)
 } // namespace
 
 Input
-loadDirectory(const Options& o, const ReadProgress& progress)
+openDirectory(const Options& o)
 {
   if (!fs::is_directory(o.dir))
     throw UsageError(o.dir + ": " +
@@ -166,28 +166,11 @@ loadDirectory(const Options& o, const ReadProgress& progress)
                      (o.last >= 0 ? " -e " + std::to_string(o.last) : "") +
                      "; pcl_pslam needs at least 2");
 
-  const float s = static_cast<float>(in.scale);
+  in.min_range = o.min_range;
+  in.max_range = o.max_range;
   bool have_uos_poses = uos && all_poses.empty();
-  for (std::size_t k = 0; k < selected.size(); ++k) {
-    const std::size_t i = selected[k];
-    const std::string file = files[i].string();
-    Cloud::Ptr cloud;
-    try {
-      cloud = pcl_parallel::io::loadScan(file, o.min_range, o.max_range);
-    }
-    catch (const std::exception& e) {
-      throw DataError(withoutPrefix(e.what()));
-    }
-    if (cloud->empty())
-      throw DataError(file + ": no finite points" +
-                      (o.min_range > 0 || std::isfinite(o.max_range)
-                           ? " within the range limits (-M/-m)"
-                           : ""));
-    in.points_read.push_back(cloud->size());
-    for (auto& p : *cloud)
-      p.getVector3fMap() *= s;
-    in.scans.push_back(cloud);
-    in.files.push_back(file);
+  for (const std::size_t i : selected) {
+    in.files.push_back(files[i].string());
     in.numbers.push_back(static_cast<int>(numbers[i]));
     in.stamps.push_back(all_times.empty() ? static_cast<double>(numbers[i]) : all_times[i]);
     if (have_uos_poses) {
@@ -214,15 +197,45 @@ loadDirectory(const Options& o, const ReadProgress& progress)
       m.topRightCorner<3, 1>() *= in.scale;
       in.initial.push_back(m);
     }
-    if (progress)
-      progress(static_cast<int>(k + 1), static_cast<int>(selected.size()));
   }
+  in.points_read.assign(in.files.size(), 0);
   in.has_stamps = !all_times.empty();
   if (in.initial.empty()) { // no odometry: constant-velocity guesses
-    in.initial.assign(in.scans.size(), Eigen::Matrix4d::Identity());
+    in.initial.assign(in.files.size(), Eigen::Matrix4d::Identity());
     in.odometry = false;
   }
   return in;
+}
+
+Cloud::Ptr
+readScan(const Input& in, std::size_t k)
+{
+  const std::string& file = in.files.at(k);
+  Cloud::Ptr cloud;
+  try {
+    cloud = pcl_parallel::io::loadScan(file, in.min_range, in.max_range);
+  }
+  catch (const std::exception& e) {
+    throw DataError(withoutPrefix(e.what()));
+  }
+  if (cloud->empty())
+    throw DataError(file + ": no finite points" +
+                    (in.min_range > 0 || std::isfinite(in.max_range)
+                         ? " within the range limits (-M/-m)"
+                         : ""));
+  const float s = static_cast<float>(in.scale);
+  for (auto& p : *cloud)
+    p.getVector3fMap() *= s;
+  return cloud;
+}
+
+std::vector<Cloud::Ptr>
+readAllScans(const Input& in)
+{
+  std::vector<Cloud::Ptr> scans;
+  for (std::size_t k = 0; k < in.size(); ++k)
+    scans.push_back(readScan(in, k));
+  return scans;
 }
 
 std::string

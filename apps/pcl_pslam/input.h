@@ -11,37 +11,54 @@
 #include "slam_pipeline.h"
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
 namespace pcl_pslam {
 
+/** What `run` reads: the selected scan files with their initial poses and timestamps.
+ *  The scans themselves are read one at a time (readScan), as the pipeline needs them. */
 struct Input {
-  std::vector<Cloud::Ptr> scans; ///< in metres (coordinates times `scale`)
-  Poses initial;                 ///< odometry, or identities when `odometry` is false
+  Poses initial; ///< odometry, or identities when `odometry` is false
   bool odometry = true;
   Poses truth;                    ///< the simulation's truth (demo), else empty
-  std::vector<std::string> files; ///< per scan: its file ("" for simulated scans)
+  std::vector<std::string> files; ///< per scan: its file
   std::vector<int> numbers;       ///< per scan: its number (-s/-e count in these)
   std::vector<double> stamps;     ///< per scan: time (s), or the number when none given
   bool has_stamps = false;
-  std::vector<std::size_t> points_read; ///< per scan: points read (after range limits)
-  std::string format;                   ///< "3d", "bin", ... ("sim" for the demo)
+  std::vector<std::size_t> points_read; ///< per scan: points read (filled by the caller)
+  double read_seconds = 0.0;            ///< time spent reading scans (filled by the caller)
+  std::string format;                   ///< "3d", "bin", ...
   double scale = 1.0;                   ///< file coordinates times scale = metres
   int up = 2;                           ///< vertical axis
   bool frames_3dtk = false;             ///< data in 3DTK's frame and units: .frames in those
+  double min_range = 0.0;               ///< -M, files' units
+  double max_range = std::numeric_limits<double>::infinity(); ///< -m, files' units
+
+  std::size_t
+  size() const
+  {
+    return files.size();
+  }
 };
 
-/** Called after each scan is read (done, total); may throw to stop. */
-using ReadProgress = std::function<void(int done, int total)>;
-
-/** The scans of o.dir selected by -s/-e, their initial poses and timestamps.
- *  Throws UsageError for a directory that does not exist, a poses/times file that does
- *  not exist or -s/-e that select fewer than 2 scans, DataError naming the file (and line) for
- * bad data: no scans, a scan that cannot be parsed or has no finite points within the range
- * limits, a poses or times file whose line count differs from the number of scan files. */
+/** The scan files of o.dir selected by -s/-e, their initial poses and timestamps; no scan
+ *  is read yet. Throws UsageError for a directory that does not exist, a poses/times file
+ *  that does not exist or -s/-e that select fewer than 2 scans, DataError naming the file
+ *  (and line) for bad data: no scans, a bad .pose file, a poses or times file whose line
+ *  count differs from the number of scan files. */
 Input
-loadDirectory(const Options& o, const ReadProgress& progress = ReadProgress());
+openDirectory(const Options& o);
+
+/** Scan k of `in`, in metres, within the range limits. Throws DataError naming the file
+ *  when it cannot be parsed or has no finite points within the limits. */
+Cloud::Ptr
+readScan(const Input& in, std::size_t k);
+
+/** Every scan of `in` (small sets and tests; `run` streams them). */
+std::vector<Cloud::Ptr>
+readAllScans(const Input& in);
 
 /** The demo's simulated scan set (metres, z up, odometry and truth). */
 /** `demo`: simulates o.preset and writes it to o.keep (or a new temporary folder) in the

@@ -19,6 +19,7 @@
 #include <pcl/console/print.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -103,31 +104,44 @@ runCommand(int argc, char** argv)
       o.poses_file = (fs::path(o.dir) / "odometry.txt").string(); // as `simulate` writes it
       progress.note("odometry from " + o.poses_file);
     }
-    pcl_pslam::Input in = pcl_pslam::loadDirectory(
-        o, [&](int done, int total) { progress.update("read", done, total); });
+    pcl_pslam::Input in = pcl_pslam::openDirectory(o);
     in.truth = truth;
     if (o.keep.empty())
       cleanup.dir = demo_dir; // the temporary scans go when main returns
-    std::size_t points = 0;
-    for (const auto& s : in.scans)
-      points += s->size();
-    progress.finish();
-    progress.note(std::to_string(in.scans.size()) + " scans, " + std::to_string(points) +
-                  " points" +
+    progress.note(std::to_string(in.size()) + " scans" +
                   (in.odometry ? "" : "; no initial poses: constant-velocity guesses"));
     pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);
     params.odometry = in.odometry;
-    const pcl_pslam::Result r = pcl_pslam::run(
-        in.scans, in.initial, params, [&](const std::string& stage, int done, int total) {
-          progress.update(stage, done, total);
-        });
+    // Streamed: each scan is read when the pipeline takes it, and dropped after.
+    auto read = [&](std::size_t k) {
+      const auto start = std::chrono::steady_clock::now();
+      auto scan = pcl_pslam::readScan(in, k);
+      in.points_read[k] = scan->size();
+      in.read_seconds +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      return scan;
+    };
+    const pcl_pslam::Result r =
+        pcl_pslam::run(read,
+                       in.size(),
+                       in.initial,
+                       params,
+                       [&](const std::string& stage, int done, int total) {
+                         progress.update(stage, done, total);
+                       });
+    progress.finish();
+    std::size_t points = 0;
+    for (const std::size_t p : in.points_read)
+      points += p;
+    progress.note(std::to_string(points) + " points read in " +
+                  std::to_string(in.read_seconds).substr(0, 4) + " s");
     pcl_pslam::setWritingOutputs(true);
     const auto written = pcl_pslam::writeOutputs(o, in, r, progress, command_line);
 
     if (r.icp_failures > 0)
       std::printf("pICP: %d of %zu matches did not converge; their initial steps were kept\n",
                   r.icp_failures,
-                  in.scans.size() - 1);
+                  in.size() - 1);
     std::printf("pLUM: %zu links, %d iterations\n", r.links.size(), r.lum_iterations);
     if (!o.quiet) {
       const auto& t = r.times;
@@ -137,7 +151,7 @@ runCommand(int argc, char** argv)
                   t.loop_detection,
                   t.loop_closing,
                   r.relaxations,
-                  1e3 * t.total() / static_cast<double>(in.scans.size()),
+                  1e3 * t.total() / static_cast<double>(in.size()),
                   r.bytes_per_scan);
     }
     if (!in.truth.empty())

@@ -226,22 +226,31 @@ writeKittiPoses(const std::string& path, const Poses& poses)
 }
 
 Cloud::Ptr
-buildMap(const std::vector<Cloud::Ptr>& scans,
+buildMap(const Input& in,
          const Poses& poses,
          double voxel_size,
-         unsigned num_threads)
+         unsigned num_threads,
+         const std::function<void(int, int)>& step)
 {
-  Cloud map;
-  std::size_t n = 0;
-  for (const auto& s : scans)
-    n += s->size();
-  map.reserve(n);
-  for (std::size_t i = 0; i < scans.size(); ++i) {
-    Cloud moved;
-    pcl::transformPointCloud(*scans[i], moved, poses[i]);
-    map += moved;
+  const int n = static_cast<int>(in.size());
+  if (!(voxel_size > 0.0)) { // every point, as asked
+    Cloud::Ptr map(new Cloud);
+    for (int i = 0; i < n; ++i) {
+      Cloud moved;
+      pcl::transformPointCloud(*readScan(in, i), moved, poses[i]);
+      *map += moved;
+      if (step)
+        step(i + 1, n);
+    }
+    return map;
   }
-  return pcl_parallel::filters::voxelCentroid(map, voxel_size, num_threads);
+  pcl_parallel::filters::VoxelCentroidMap map(voxel_size, num_threads);
+  for (int i = 0; i < n; ++i) {
+    map.add(*readScan(in, i), poses[i]);
+    if (step)
+      step(i + 1, n);
+  }
+  return map.centroids();
 }
 
 double
@@ -300,7 +309,7 @@ writeOutputs(const Options& o,
              const std::string& command_line)
 {
   std::vector<std::string> written;
-  const std::size_t n = in.scans.size();
+  const std::size_t n = in.size();
   // 3DTK's units for data that came in them (uos: cm), metres otherwise.
   const double frames_scale = in.frames_3dtk ? in.scale : 1.0;
   const Parameters params = toParameters(o, in.scale);
@@ -330,8 +339,9 @@ writeOutputs(const Options& o,
 
   progress.update("map", 0, 1);
   const double map_voxel = mapVoxel(o, in.scale);
-  const Cloud::Ptr map = buildMap(in.scans, r.final, map_voxel, o.threads);
-  progress.update("map", 1, 1);
+  const Cloud::Ptr map = buildMap(in, r.final, map_voxel, o.threads, [&](int done, int total) {
+    progress.update("map", done, total);
+  });
   progress.update("save", 0, 1);
   writeMapPcd(join(o.out, "map.pcd"), *map);
   written.push_back("map.pcd");
@@ -439,7 +449,8 @@ writeOutputs(const Options& o,
       {"scan_to_scan", fe.target == pcl_parallel::slam::MatchTarget::kPreviousScan},
       {"deskew", fe.deskew},
       {"close_loops", params.close_loops}};
-  j["pipeline_seconds"] = {{"preprocess", r.times.preprocess},
+  j["pipeline_seconds"] = {{"read", in.read_seconds},
+                           {"preprocess", r.times.preprocess},
                            {"front_end", r.times.front_end},
                            {"loop_detection", r.times.loop_detection},
                            {"loop_closing", r.times.loop_closing}};
@@ -456,7 +467,7 @@ writeOutputs(const Options& o,
                         {"number", in.numbers[i]},
                         {"stamp", in.stamps[i]},
                         {"points", in.points_read[i]},
-                        {"points_reduced", r.reduced[i]->size()}};
+                        {"points_reduced", r.reports.at(i).reduced_points}};
     if (i < r.reports.size()) {
       const auto& rep = r.reports[i];
       s["icp_converged"] = rep.converged;

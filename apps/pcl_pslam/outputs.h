@@ -67,13 +67,16 @@ writeTumPoses(const std::string& path, const Poses& poses, const std::vector<dou
 void
 writeKittiPoses(const std::string& path, const Poses& poses);
 
-/** The merged map: every scan moved by its pose, one centroid per voxel of voxel_size
- *  (pcl_parallel::filters::voxelCentroid: no int32 voxel-index overflow on large maps). */
+/** The merged map: every scan of `in`, read again one at a time at full resolution and
+ *  moved by its pose, one centroid per voxel of voxel_size (filters::VoxelCentroidMap:
+ *  memory per voxel, not per point; no int32 voxel-index overflow). voxel_size <= 0 keeps
+ *  every point. `step` is called after each scan (done, total). */
 Cloud::Ptr
-buildMap(const std::vector<Cloud::Ptr>& scans,
+buildMap(const Input& in,
          const Poses& poses,
          double voxel_size,
-         unsigned num_threads);
+         unsigned num_threads,
+         const std::function<void(int, int)>& step = {});
 
 /** Everything a run writes into o.out, in order, with a progress update (and so a check
  *  for SIGINT/SIGTERM) between files. Returns the names written. `pipeline_result`

@@ -13,25 +13,26 @@
 namespace pcl_pslam {
 
 Result
-run(const std::vector<Cloud::Ptr>& scans,
+run(const ScanReader& read,
+    std::size_t n,
     const Poses& initial,
     const Parameters& params,
     const Progress& progress)
 {
-  const int n = static_cast<int>(scans.size());
   if (n < 2)
     throw std::invalid_argument("pcl_pslam: needs at least 2 scans, got " + std::to_string(n));
-  if (initial.size() != scans.size())
+  if (initial.size() != n)
     throw std::invalid_argument("pcl_pslam: " + std::to_string(initial.size()) +
                                 " initial poses for " + std::to_string(n) + " scans");
   pcl_parallel::slam::Pipeline pipeline(params);
-  for (int i = 0; i < n; ++i) {
-    if (!scans[i] || scans[i]->empty())
+  for (std::size_t i = 0; i < n; ++i) {
+    const Cloud::Ptr scan = read(i);
+    if (!scan || scan->empty())
       throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
     pipeline.addScan(
-        *scans[i], params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
+        *scan, params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
     if (progress)
-      progress("icp", i + 1, n);
+      progress("icp", static_cast<int>(i + 1), static_cast<int>(n));
   }
   pipeline.finish();
   Result result;
@@ -40,12 +41,10 @@ run(const std::vector<Cloud::Ptr>& scans,
   for (const auto& l : pipeline.links())
     if (l.loop)
       result.links.emplace_back(l.source, l.target);
-  for (const auto& r : pipeline.reports())
+  for (const auto& r : pipeline.reports()) {
     result.icp_failures += r.converged ? 0 : 1;
-  for (const auto& r : pipeline.reports())
     result.lum_iterations += r.lum_iterations;
-  for (int i = 0; i < n; ++i)
-    result.reduced.push_back(std::const_pointer_cast<Cloud>(pipeline.reducedScan(i)));
+  }
   result.times = pipeline.times();
   result.reports = pipeline.reports();
   result.relaxations = pipeline.relaxations();
@@ -53,6 +52,15 @@ run(const std::vector<Cloud::Ptr>& scans,
   result.front_end = pipeline.frontEndParameters();
   result.loop_closure = pipeline.loopClosureParameters();
   return result;
+}
+
+Result
+run(const std::vector<Cloud::Ptr>& scans,
+    const Poses& initial,
+    const Parameters& params,
+    const Progress& progress)
+{
+  return run([&](std::size_t k) { return scans[k]; }, scans.size(), initial, params, progress);
 }
 
 } // namespace pcl_pslam

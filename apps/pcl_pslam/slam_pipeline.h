@@ -44,7 +44,6 @@ struct Result {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> links; ///< pLUM's graph
   int icp_failures = 0; ///< pICP matches that did not converge (odometry step kept)
   int lum_iterations = 0;
-  std::vector<Cloud::Ptr> reduced;                        ///< the scans as matched
   pcl_parallel::slam::StageTimes times;                   ///< seconds per stage
   std::vector<pcl_parallel::slam::ScanReport> reports;    ///< per scan
   int relaxations = 0;                                    ///< pLUM runs
@@ -53,11 +52,22 @@ struct Result {
   pcl_parallel::slam::LoopClosureParameters loop_closure; ///< likewise
 };
 
-/** Runs slam::Pipeline over the scans from initial poses (odometry, when
- *  params.odometry; the first pose is kept fixed), then finish(). Progress: ("icp", scans
- *  done, scans).
- *  Throws std::invalid_argument for fewer than 2 scans, mismatched sizes, an empty scan
- *  or non-finite initial poses. */
+/** Scan k (0-based), read when the pipeline needs it. */
+using ScanReader = std::function<Cloud::Ptr(std::size_t k)>;
+
+/** Streams scans 0..n-1 through slam::Pipeline from initial poses (odometry, when
+ *  params.odometry; the first pose is kept fixed), then finish(): each scan is read,
+ *  matched and dropped (the pipeline keeps its reduced points only). Progress: ("icp",
+ *  scans done, scans). Throws std::invalid_argument for fewer than 2 scans, mismatched
+ *  sizes, an empty scan or non-finite initial poses. */
+Result
+run(const ScanReader& read,
+    std::size_t n,
+    const Poses& initial,
+    const Parameters& params,
+    const Progress& progress = Progress());
+
+/** The same over scans in memory. */
 Result
 run(const std::vector<Cloud::Ptr>& scans,
     const Poses& initial,

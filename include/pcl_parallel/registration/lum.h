@@ -322,6 +322,11 @@ public:
    *  max_distance, at the current poses (builds the k-d trees if needed). */
   double
   computeOverlap(const Vertex& source_vertex, const Vertex& target_vertex, double max_distance);
+  /** The k-d tree pLUM searches in a vertex's cloud (built now if needed, with the
+   *  normals in point-to-plane mode), for callers that query the same scans, e.g. for
+   *  overlap checks, so that a scan has one tree. */
+  std::shared_ptr<const KdTreeIndex>
+  getSearchTree(const Vertex& vertex);
   /** All pairs (i < j) whose overlap, the smaller of the two directions, is at least
    *  min_fraction, in parallel over pairs. Returns them; does not add links. */
   std::vector<std::pair<Vertex, Vertex>>

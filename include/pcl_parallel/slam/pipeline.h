@@ -113,7 +113,9 @@ public:
   /** Current best poses: after the last loop closing. */
   const Poses&
   poses() const;
-  /** The front end's poses, before any loop closing. */
+  /** The front end's trajectory: the steps it matched, chained from the first pose without
+   *  the loop closures' corrections (it continues from the corrected poses, but these are
+   *  what it measured: its drift, comparable with a run without loop closing). */
   const Poses&
   frontEndPoses() const
   {

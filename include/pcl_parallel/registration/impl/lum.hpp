@@ -707,6 +707,15 @@ ParallelLUM<PointT>::computeOverlap(const Vertex& source_vertex,
 }
 
 template <typename PointT>
+std::shared_ptr<const KdTreeIndex>
+ParallelLUM<PointT>::getSearchTree(const Vertex& vertex)
+{
+  checkVertex(vertex, "getSearchTree");
+  buildTrees();
+  return trees_[vertex];
+}
+
+template <typename PointT>
 double
 ParallelLUM<PointT>::overlap(const Vertex& source_vertex,
                              const Vertex& target_vertex,
