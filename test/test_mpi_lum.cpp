@@ -225,6 +225,24 @@ TEST_F(QuietPcl, SyntheticLoopIsIdenticalToOneProcess)
   expectIdenticalToOneProcess(p, 0.05);
 }
 
+// Three poses, two links: with 3 ranks one rank owns no link (and loads no scan).
+TEST_F(QuietPcl, RankWithoutLinksIsIdenticalToOneProcess)
+{
+  const Poses truth = {
+      Eigen::Matrix4d::Identity(),
+      (Eigen::Matrix4d() << 1, 0, 0, 1, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1).finished(),
+      (Eigen::Matrix4d() << 1, 0, 0, 2, 0, 1, 0, 0.2, 0, 0, 1, 0, 0, 0, 0, 1).finished()};
+  const auto sg = pcl_parallel::test::makeGraph(truth, {{0, 1}, {1, 2}}, 400, 0.6, 0.001, 9u);
+  std::mt19937 rng(3);
+  Problem p;
+  p.start = truth;
+  for (std::size_t v = 1; v < truth.size(); ++v)
+    p.start[v] = pcl_parallel::test::perturb(truth[v], 1.0 * kDeg, 0.01, rng);
+  p.links = {{0, 1}, {1, 2}};
+  p.load = [&sg](std::size_t v) { return sg.clouds[v]; };
+  expectIdenticalToOneProcess(p, 0.05);
+}
+
 TEST_F(QuietPcl, BunnyIsIdenticalToOneProcess)
 {
   PCL_PARALLEL_REQUIRE_DATA(conf, "stanford_bunny/bun.conf");
