@@ -37,21 +37,9 @@ estimateNormals(const KdTreeIndex& tree,
       const std::size_t found = tree.knn(p, k, pos.data(), d2.data());
       if (found < 3)
         continue;
-      // Covariance about the neighbourhood's centroid, in double.
-      Eigen::Vector3d c = Eigen::Vector3d::Zero();
-      for (std::size_t j = 0; j < found; ++j)
-        c += Eigen::Vector3f(tree.point(pos[j])).cast<double>();
-      c /= static_cast<double>(found);
-      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-      for (std::size_t j = 0; j < found; ++j) {
-        const Eigen::Vector3d e = Eigen::Vector3f(tree.point(pos[j])).cast<double>() - c;
-        cov += e * e.transpose();
-      }
-      if (!(cov.trace() > 0.0))
+      Eigen::Vector3d nrm, ev;
+      if (!neighbourhoodNormal(tree, pos.data(), found, p, nrm, ev) || !(ev.sum() > 0.0))
         continue; // all neighbours coincide
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
-      eig.computeDirect(cov);
-      Eigen::Vector3d nrm = eig.eigenvectors().col(0); // eigenvalues ascending
       // PCL's flipNormalTowardsViewpoint: n · (vp - p) >= 0.
       const double dot =
           nrm[0] * (vp[0] - p[0]) + nrm[1] * (vp[1] - p[1]) + nrm[2] * (vp[2] - p[2]);
@@ -62,6 +50,34 @@ estimateNormals(const KdTreeIndex& tree,
         out[a] = static_cast<float>(nrm[a]);
     }
   }
+}
+
+bool
+neighbourhoodNormal(const KdTreeIndex& tree,
+                    const std::uint32_t* pos,
+                    std::size_t count,
+                    const float origin[3],
+                    Eigen::Vector3d& normal,
+                    Eigen::Vector3d& eigenvalues)
+{
+  if (count < 3)
+    return false;
+  const Eigen::Vector3f o = Eigen::Vector3f::Map(origin);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (std::size_t j = 0; j < count; ++j)
+    mean += (Eigen::Vector3f::Map(tree.point(pos[j])) - o).cast<double>();
+  mean /= static_cast<double>(count);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (std::size_t j = 0; j < count; ++j) {
+    const Eigen::Vector3d d =
+        (Eigen::Vector3f::Map(tree.point(pos[j])) - o).cast<double>() - mean;
+    cov += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+  eig.computeDirect(cov);
+  eigenvalues = eig.eigenvalues();
+  normal = eig.eigenvectors().col(0);
+  return normal.allFinite();
 }
 
 } // namespace pcl_parallel

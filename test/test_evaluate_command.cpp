@@ -14,6 +14,7 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
+#include <fstream>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -22,6 +23,7 @@ namespace {
 
 namespace pio = pcl_parallel::io;
 using pcl_parallel::test::ScratchDir;
+namespace ev = pcl_parallel::evaluation;
 using Poses = std::vector<Eigen::Matrix4d>;
 
 /** 40 poses on a circle of radius 10 m (a path of ~62 m). */
@@ -190,6 +192,49 @@ TEST(EvaluateCommand, BadDataExitsOneNamingFileAndLine)
   EXPECT_HAS(r.err, "est.txt:2:");
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
   EXPECT_EQ(evaluate({dir / "none.txt", dir / "gt.txt"}).code, 1);
+}
+
+// Fuzz-stage finding (fuzz_evaluate): a KITTI line is any 12 finite numbers; a rotation
+// entry of 7.7e80 made the per-frame RPE inf, printed with exit 0. Poses that are not
+// rigid motions, or lie beyond 1e9 m, are now exit 1 naming the file and the pose.
+TEST(EvaluateCommand, FuzzFindingPosesThatAreNotRigidMotions)
+{
+  ScratchDir dir;
+  pio::writeKittiPoses(dir / "gt.txt", circle());
+  const std::string circle_text = [&] {
+    std::ifstream in(dir / "gt.txt");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  const std::size_t third = [&] {
+    std::size_t pos = 0;
+    for (int k = 0; k < 2; ++k)
+      pos = circle_text.find('\n', pos) + 1;
+    return pos;
+  }();
+  const std::pair<const char*, const char*> bad[] = {
+      {"huge.txt", "1 0 0 0 0 1 0 0 7.7e80 0 1 0\n"},
+      {"scaled.txt", "2 0 0 0 0 2 0 0 0 0 2 0\n"},
+      {"mirror.txt", "-1 0 0 0 0 1 0 0 0 0 1 0\n"},
+      {"far.txt", "1 0 0 0 0 1 0 1e300 0 0 1 0\n"}};
+  for (const auto& [name, line] : bad) {
+    std::string text = circle_text;
+    text.replace(third, text.find('\n', third) + 1 - third, line);
+    const std::string path = dir.write(name, text);
+    for (const char* align : {"none", "se3", "sim3"}) {
+      const Outcome r = evaluate({path, dir / "gt.txt", "--align", align});
+      EXPECT_EQ(r.code, 1) << name << ' ' << align << '\n' << r.out;
+      EXPECT_HAS(r.err, std::string(name) + ": pose 3 ");
+      const Outcome swapped = evaluate({dir / "gt.txt", path, "--align", align});
+      EXPECT_EQ(swapped.code, 1) << name << ' ' << align << '\n' << swapped.out;
+    }
+  }
+  EXPECT_THROW(ev::evaluateTrajectory(circle(),
+                                      [] {
+                                        auto p = circle();
+                                        p[1](0, 0) = 7.7e80;
+                                        return p;
+                                      }()),
+               std::invalid_argument);
 }
 
 TEST(EvaluateCommand, BadUsageExitsTwo)

@@ -551,4 +551,63 @@ TEST(PoseFiles, BadFilesNameFileAndLine)
   }
 }
 
+// Fuzz-stage findings (fuzz_frames_history, fuzz_frames_dir; scripts/test.sh fuzz), kept
+// as regressions: the two .frames readers (pose_files.h loadFrames, uos.h
+// loadFramesFinalPose) accepted a last row other than 0 0 0 1 (not a rigid motion), and
+// disagreed on commas between numbers, on "+-1" and on a non-finite type code.
+TEST(PoseFiles, FuzzFindingsFramesReadersAgree)
+{
+  ScratchDir dir;
+  const std::string row =
+      dir.write("row.frames",
+                "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n"
+                "0.99 0.01 0 0 -0.01 0.99 0 0 0 0 1 0 12.5 -3 337.79 2 1\n");
+  EXPECT_HAS(errorOf([&] { pio::loadFrames(row); }), "row.frames:2: columns 4, 8, 12, 16");
+  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(row); }),
+             "row.frames:2: columns 4, 8, 12, 16");
+  // Rounding left by a writer is tolerated, and the row set exactly.
+  const std::string rounded =
+      dir.write("rounded.frames", "1 0 0 1e-12 0 1 0 0 0 0 1 0 1 2 3 0.9999999999997 2\n");
+  EXPECT_EQ(pio::loadFrames(rounded, 1.0).back().row(3), Eigen::RowVector4d(0, 0, 0, 1));
+  EXPECT_EQ(pio::loadFramesFinalPose(rounded).row(3), Eigen::RowVector4d(0, 0, 0, 1));
+  const std::string plus_minus =
+      dir.write("pm.frames", "+-1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n");
+  EXPECT_HAS(errorOf([&] { pio::loadFrames(plus_minus); }), "pm.frames:1: column 1");
+  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(plus_minus); }), "pm.frames:1:");
+  const std::string type = dir.write("type.frames", "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 nan\n");
+  EXPECT_HAS(errorOf([&] { pio::loadFrames(type); }), "type.frames:1: column 17");
+  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(type); }), "type.frames:1:");
+  // Commas separate numbers in every text format (as KITTI poses and .xyz), read alike.
+  const std::string commas =
+      dir.write("commas.frames", "\t1 0 0 0, 0 1 0 0 ,0 0 1 0,0.5,1 , -3 1 2\n");
+  Eigen::Matrix4d expected = Eigen::Matrix4d::Identity();
+  expected.topRightCorner<3, 1>() << 0.5, 1, -3;
+  EXPECT_EQ(pio::loadFrames(commas, 1.0).back(), expected);
+  EXPECT_EQ(pio::loadFramesFinalPose(commas), expected);
+  const std::string tum = dir.write("commas.tum", "1.5, 1, 2, 3, 0, 0, 0, 1\n");
+  const Eigen::Vector3d t = pio::loadTumTrajectory(tum).poses.at(0).topRightCorner<3, 1>();
+  EXPECT_EQ(t, Eigen::Vector3d(1, 2, 3));
+}
+
+// KITTI's times.txt (read by `pcl_pslam run`): the text formats' one number parser (no
+// locale, "+" allowed), errors with file and line and a short quote of binary garbage.
+TEST(PoseFiles, KittiTimes)
+{
+  ScratchDir dir;
+  const std::string good = dir.write("times.txt", "0.000000e+00\n\n1.036594e-01\r\n  +2.5 \n");
+  EXPECT_EQ(pio::loadKittiTimes(good), (std::vector<double>{0.0, 1.036594e-01, 2.5}));
+  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("two.txt", "1\n2 3\n")); }),
+             "two.txt:2: expected 1 numbers");
+  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("nan.txt", "1\nnan\n")); }),
+             "nan.txt:2: column 1 is not a finite number");
+  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("comma.txt", "0,5\n")); }),
+             "comma.txt:1: expected 1 numbers");
+  const std::string garbage = dir.write("garbage.txt", std::string(5000, '\xff'));
+  const std::string message = errorOf([&] { pio::loadKittiTimes(garbage); });
+  EXPECT_HAS(message, "garbage.txt:1: column 1 is not a finite number: \"\\xff");
+  EXPECT_LT(message.size(), garbage.size() + 250) << message;
+  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir / "missing.txt"); }),
+             "missing.txt: no such");
+}
+
 } // namespace

@@ -689,7 +689,12 @@ TEST_F(TempFiles, FuzzFindingsAreHandled)
            "\000\000\000\000\000\000\000\000\000\000\000\000\000\200\077\000\000\000\000\000"
            "\000\000\000\000\000\000\000\000\000\000\000\000\000\000\000\006\000\000\000\001"
            "\000\000\000\000\000\000\000\000\000\000\000",
-           794)}};
+           794)},
+      // An element without properties but a count of 8e18: PCL's parser looped over it
+      // (a hang; the header check skipped elements without properties).
+      {"ply_timeout_9847e72f.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex888 8174784388664859760\n"
+       "element face 0\nend_header\n"}};
   for (const auto& [name, bytes] : findings) {
     const auto path = write(name, bytes);
     try {

@@ -12,18 +12,24 @@
 
 #include <pcl_parallel/io/uos.h>
 
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <random>
 #include <sstream>
+#include <sys/resource.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 
@@ -235,6 +241,166 @@ TEST(PslamOutputs, AtomicWrites)
   fs::remove_all(dir);
 }
 
+// The maps are written by the app, not by PCL's writers (which fail silently or by SIGBUS
+// on a full disk): the PCD is byte for byte PCL's binary PCD, the PLY reads back in PCL.
+TEST(PslamOutputs, MapFilesAsPclWritesAndReadsThem)
+{
+  const fs::path dir = scratch("maps");
+  pcl_pslam::Cloud map;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-50.0f, 50.0f);
+  for (int i = 0; i < 70000; ++i) // more than one write chunk (65536 points)
+    map.emplace_back(u(rng), u(rng), u(rng));
+  const std::string ours = (dir / "map.pcd").string(), pcl = (dir / "pcl.pcd").string();
+  pcl_pslam::writeMapPcd(ours, map);
+  ASSERT_EQ(pcl::io::savePCDFileBinary(pcl, map), 0);
+  auto bytes = [](const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_TRUE(bytes(ours) == bytes(pcl));
+  const std::string ply = (dir / "map.ply").string();
+  pcl_pslam::writeMapPly(ply, map);
+  pcl_pslam::Cloud back;
+  ASSERT_EQ(pcl::io::loadPLYFile(ply, back), 0);
+  ASSERT_EQ(back.size(), map.size());
+  for (std::size_t i = 0; i < map.size(); ++i)
+    ASSERT_TRUE(back[i].getVector3fMap() == map[i].getVector3fMap()) << i;
+  pcl_pslam::writeMapPcd(ours, pcl_pslam::Cloud()); // an empty map is a valid file
+  ASSERT_EQ(pcl::io::loadPCDFile(ours, back), 0);
+  EXPECT_TRUE(back.empty());
+  fs::remove_all(dir);
+}
+
+namespace {
+
+/** Files limited to `bytes` in this process (writes beyond fail with EFBIG, as on a full
+ *  disk; SIGXFSZ ignored) while it lives. */
+class FileSizeLimit {
+public:
+  explicit FileSizeLimit(rlim_t bytes)
+  {
+    old_handler_ = std::signal(SIGXFSZ, SIG_IGN);
+    ::getrlimit(RLIMIT_FSIZE, &old_);
+    rlimit limit = old_;
+    limit.rlim_cur = bytes;
+    ::setrlimit(RLIMIT_FSIZE, &limit);
+  }
+  ~FileSizeLimit()
+  {
+    ::setrlimit(RLIMIT_FSIZE, &old_); // a soft limit may be raised again up to the hard one
+    std::signal(SIGXFSZ, old_handler_);
+  }
+
+private:
+  rlimit old_;
+  void (*old_handler_)(int);
+};
+
+} // namespace
+
+// Every writer of `run` on a full disk: an error naming the file (not its temporary), no
+// file under the name or a temporary left, an old file of that name kept intact.
+TEST(PslamOutputs, FullDiskIsAnErrorNamingTheFileAndLeavesNoFile)
+{
+  const fs::path dir = scratch("full");
+  pcl_pslam::Cloud map;
+  for (int i = 0; i < 2000; ++i)
+    map.emplace_back(0.01f * i, std::sin(0.01f * i), 1.0f);
+  pcl_pslam::Poses poses;
+  for (int i = 0; i < 50; ++i)
+    poses.push_back(somePose(0.1 * i, 0.01 * i, -0.02 * i, Eigen::Vector3d(i, 0.5 * i, 0)));
+  const std::vector<double> stamps(poses.size(), 1.5);
+  pcl_pslam::PictureOptions po;
+  po.caption = {"full disk"};
+  const std::pair<const char*, std::function<void(const std::string&)>> writers[] = {
+      {"scan000.frames",
+       [&](const std::string& p) {
+         pcl_pslam::writeFrames(p, poses[1], poses[2], poses[3], false, 0.01);
+       }},
+      {"poses.txt", [&](const std::string& p) { pcl_pslam::writeKittiPoses(p, poses); }},
+      {"poses_tum.txt",
+       [&](const std::string& p) { pcl_pslam::writeTumPoses(p, poses, stamps); }},
+      {"map.pcd", [&](const std::string& p) { pcl_pslam::writeMapPcd(p, map); }},
+      {"map.ply", [&](const std::string& p) { pcl_pslam::writeMapPly(p, map); }},
+      {"map.png", [&](const std::string& p) {
+         pcl_pslam::writeAtomically(p, [&](const std::string& tmp) {
+           pcl_pslam::writeMapPicture(tmp, map, poses, po);
+         });
+       }}};
+  for (const auto& [name, write] : writers) {
+    const std::string path = (dir / name).string();
+    for (const bool old_file : {false, true}) {
+      if (old_file)
+        std::ofstream(path) << "old\n";
+      std::string message = "no exception";
+      {
+        const FileSizeLimit limit(100); // each of these files is larger
+        try {
+          write(path);
+        }
+        catch (const std::runtime_error& e) {
+          message = e.what();
+        }
+      }
+      EXPECT_NE(message.find(path + ": "), std::string::npos) << name << ": " << message;
+      EXPECT_EQ(message.find(".tmp"), std::string::npos) << name << ": " << message;
+      std::vector<std::string> left;
+      for (const auto& e : fs::directory_iterator(dir))
+        left.push_back(e.path().filename().string());
+      if (old_file) {
+        std::ifstream in(path);
+        std::string content;
+        std::getline(in, content);
+        EXPECT_EQ(content, "old") << name;
+        EXPECT_EQ(left, std::vector<std::string>{name});
+      }
+      else
+        EXPECT_TRUE(left.empty()) << name << ": " << left.front();
+    }
+    fs::remove(path);
+    write(path); // and without the limit, the file is written
+    EXPECT_GT(fs::file_size(path), 100u) << name;
+    fs::remove(path);
+  }
+  fs::remove_all(dir);
+}
+
+// An input directory or scan file that cannot be read (permissions: not as root, which
+// reads anything) is an error naming it.
+TEST(PslamInput, UnreadableDirectoryAndScanFileAreErrorsNamingThem)
+{
+  if (::geteuid() == 0)
+    GTEST_SKIP() << "running as root: permission bits do not stop reads";
+  const fs::path dir = scratch("unreadable");
+  for (int s = 0; s < 3; ++s) {
+    std::ofstream out(dir / ("scan" + std::to_string(s) + ".xyz"));
+    for (int i = 0; i < 10; ++i)
+      for (int j = 0; j < 10; ++j)
+        out << i << ' ' << j << " 0\n" << i << " 0 " << j << "\n0 " << i << ' ' << j << '\n';
+  }
+  pcl_pslam::Options o;
+  o.command = "run";
+  o.dir = dir.string();
+  auto errorOf = [&] {
+    try {
+      pcl_pslam::readAllScans(pcl_pslam::openDirectory(o));
+    }
+    catch (const pcl_pslam::DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no DataError");
+  };
+  fs::permissions(dir / "scan1.xyz", fs::perms::none);
+  EXPECT_NE(errorOf().find((dir / "scan1.xyz").string() + ": cannot open"), std::string::npos)
+      << errorOf();
+  fs::permissions(dir, fs::perms::none);
+  EXPECT_NE(errorOf().find(dir.string() + ": cannot list the directory"), std::string::npos)
+      << errorOf();
+  fs::permissions(dir, fs::perms::owner_all);
+  fs::remove_all(dir);
+}
+
 // The picture's extent covers the trajectory and the points around it, and neither one
 // far return nor a sprinkle of them (min/max would take them all in) moves it.
 TEST(PslamPicture, ExtentIsRobustToFarReturns)
@@ -321,6 +487,22 @@ TEST(PslamPicture, StyleAndFile)
 
 namespace {
 
+/** Distance (cm) and angle (deg) of the last pose in our .frames file `ours` from slam6D's
+ *  2009 one of the same name; printed. */
+std::pair<double, double>
+fromSlamSixD(const fs::path& ours_file, const std::string& data)
+{
+  const std::string name = ours_file.filename().string();
+  const Eigen::Matrix4d ours = pcl_parallel::io::loadFramesFinalPose(ours_file.string());
+  const Eigen::Matrix4d ref =
+      pcl_parallel::io::loadFramesFinalPose(data + "/reference_frames_2009/" + name);
+  const double dt = (ours.topRightCorner<3, 1>() - ref.topRightCorner<3, 1>()).norm();
+  const Eigen::Matrix3d dr = ours.topLeftCorner<3, 3>().transpose() * ref.topLeftCorner<3, 3>();
+  const double angle = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) / kDeg;
+  std::printf("%s: %.2f cm, %.3f deg from slam6D's final pose\n", name.c_str(), dt, angle);
+  return {dt, angle};
+}
+
 // Real 3DTK data through the app's input, pipeline and .frames writer, against slam6D's
 // own .frames (reference_frames_2009, slam6D parameters unknown: a sanity reference).
 // Returns per scan the distance (cm) and angle (deg) of our final pose from slam6D's.
@@ -344,15 +526,7 @@ framesAgainstSlamSixD(std::vector<const char*> args)
     std::snprintf(name, sizeof name, "scan%03zu.frames", i);
     pcl_pslam::writeFrames(
         (out / name).string(), in.initial[i], r.icp[i], r.final[i], i == 0, in.scale);
-    const Eigen::Matrix4d ours = pcl_parallel::io::loadFramesFinalPose((out / name).string());
-    const Eigen::Matrix4d ref =
-        pcl_parallel::io::loadFramesFinalPose(data + "/reference_frames_2009/" + name);
-    const double dt = (ours.topRightCorner<3, 1>() - ref.topRightCorner<3, 1>()).norm();
-    const Eigen::Matrix3d dr =
-        ours.topLeftCorner<3, 3>().transpose() * ref.topLeftCorner<3, 3>();
-    const double angle = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) / kDeg;
-    std::printf("%s: %.2f cm, %.3f deg from slam6D's final pose\n", name, dt, angle);
-    errors.emplace_back(dt, angle);
+    errors.push_back(fromSlamSixD(out / name, data));
   }
   fs::remove_all(out);
   return errors;
@@ -406,14 +580,7 @@ TEST(PslamApp, ThreeDtkFramesWithinTwoCentimetres)
   for (int i = 0; i < 3; ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "scan%03d.frames", i);
-    const Eigen::Matrix4d ours = pcl_parallel::io::loadFramesFinalPose((out / name).string());
-    const Eigen::Matrix4d ref =
-        pcl_parallel::io::loadFramesFinalPose(data + "/reference_frames_2009/" + name);
-    const double dt = (ours.topRightCorner<3, 1>() - ref.topRightCorner<3, 1>()).norm();
-    const Eigen::Matrix3d dr =
-        ours.topLeftCorner<3, 3>().transpose() * ref.topLeftCorner<3, 3>();
-    const double angle = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) / kDeg;
-    std::printf("%s: %.2f cm, %.3f deg from slam6D's final pose\n", name, dt, angle);
+    const auto [dt, angle] = fromSlamSixD(out / name, data);
     EXPECT_LT(dt, 2.0) << name;
     EXPECT_LT(angle, 0.5) << name;
   }

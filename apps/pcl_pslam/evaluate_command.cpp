@@ -262,6 +262,8 @@ evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
   try {
     const pio::Trajectory est = pio::loadTrajectory(estimate_path, frames_unit);
     const pio::Trajectory truth = pio::loadTrajectory(truth_path, frames_unit);
+    ev::requireRigidMotions(est.poses, estimate_path); // named by file, before pairing
+    ev::requireRigidMotions(truth.poses, truth_path);
     ev::Poses e, t;
     std::string association;
     if (!est.timestamps.empty() && !truth.timestamps.empty()) {

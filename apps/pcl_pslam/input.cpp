@@ -4,6 +4,7 @@
  */
 #include "input.h"
 
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/sim/presets.h>
@@ -47,27 +48,16 @@ trailingNumber(const fs::path& file)
   return std::stol(stem.substr(k));
 }
 
-/** One timestamp (seconds) per non-blank line. */
+/** One timestamp (seconds) per non-blank line (io::loadKittiTimes). */
 std::vector<double>
 readTimes(const std::string& path)
 {
-  std::ifstream in(path);
-  if (!in)
-    throw DataError(path + ": cannot open file for reading");
-  std::vector<double> t;
-  std::string line;
-  for (std::size_t no = 1; std::getline(in, line); ++no) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos)
-      continue;
-    std::istringstream ss(line);
-    double v;
-    std::string extra;
-    if (!(ss >> v) || !std::isfinite(v) || (ss >> extra))
-      throw DataError(path + ":" + std::to_string(no) + ": expected one timestamp, got \"" +
-                      line + "\"");
-    t.push_back(v);
+  try {
+    return pcl_parallel::io::loadKittiTimes(path);
   }
-  return t;
+  catch (const std::runtime_error& e) {
+    throw DataError(withoutPrefix(e.what()));
+  }
 }
 
 } // namespace
@@ -84,10 +74,15 @@ openDirectory(const Options& o)
 
   // One format per directory: -f, else the most common scan extension (.txt only when
   // asked for: it also names notes and pose lists).
+  // Not only regular files: a directory or dangling link named like a scan is reported
+  // by the reader when its turn comes, not silently left out.
   std::map<std::string, std::vector<fs::path>> by_ext;
-  for (const auto& e : fs::directory_iterator(o.dir))
-    if (e.is_regular_file() && pcl_parallel::io::isScanFile(e.path().string()))
-      by_ext[lowerCase(e.path().extension().string().substr(1))].push_back(e.path());
+  std::error_code ec;
+  for (fs::directory_iterator it(o.dir, ec), end; !ec && it != end; it.increment(ec))
+    if (pcl_parallel::io::isScanFile(it->path().string()))
+      by_ext[lowerCase(it->path().extension().string().substr(1))].push_back(it->path());
+  if (ec)
+    throw DataError(o.dir + ": cannot list the directory (" + ec.message() + ")");
   std::string format = o.format;
   if (format.empty()) {
     std::size_t best = 0;

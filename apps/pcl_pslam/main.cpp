@@ -18,8 +18,10 @@
 
 #include <pcl/console/print.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <unistd.h>
@@ -58,7 +60,7 @@ removeIfEmpty(bool created, const std::string& dir)
 } // namespace
 
 int
-main(int argc, char** argv)
+runCommand(int argc, char** argv)
 {
   pcl_pslam::Options o;
   try {
@@ -97,7 +99,8 @@ main(int argc, char** argv)
       progress.update("simulate", 1, 1);
       truth = pcl_parallel::io::loadKittiPoses(demo_dir + "/ground_truth.txt");
     }
-    else if (o.poses_file.empty() && fs::exists(fs::path(o.dir) / "odometry.txt")) {
+    else if (std::error_code ec;
+             o.poses_file.empty() && fs::exists(fs::path(o.dir) / "odometry.txt", ec)) {
       o.poses_file = (fs::path(o.dir) / "odometry.txt").string(); // as `simulate` writes it
       progress.note("odometry from " + o.poses_file);
     }
@@ -171,4 +174,22 @@ main(int argc, char** argv)
     return fail(1, e.what());
   }
   return 0;
+}
+
+/** Standard output that could not be written (a full disk, /dev/full) is a failure:
+ *  `evaluate`'s table or JSON is the product, and a run's summary must not vanish. */
+int
+main(int argc, char** argv)
+{
+  const int status = runCommand(argc, argv);
+  std::cout.flush();
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) || !std::cout) {
+    std::fprintf(stderr,
+                 "pcl_pslam: standard output: write error%s%s\n",
+                 errno ? ": " : "",
+                 errno ? std::strerror(errno) : "");
+    return status == 0 ? 1 : status;
+  }
+  return status;
 }

@@ -475,8 +475,10 @@ writeMapPicture(const std::string& path,
     cairo_show_text(cr, "dark: walls and objects, grey: floor/ceiling");
   }
   cairo_surface_flush(surface.get());
-  if (cairo_surface_write_to_png(surface.get(), path.c_str()) != CAIRO_STATUS_SUCCESS)
-    throw std::runtime_error(path + ": cannot write the picture");
+  const cairo_status_t status = cairo_surface_write_to_png(surface.get(), path.c_str());
+  if (status != CAIRO_STATUS_SUCCESS)
+    throw std::runtime_error(path + ": cannot write the picture (" +
+                             cairo_status_to_string(status) + ")");
   return style;
 }
 

@@ -11,15 +11,16 @@
 #include <pcl_parallel/parallel.h>
 
 #include <pcl/common/transforms.h>
-#include <pcl/io/pcd_io.h>
-#include <pcl/io/ply_io.h>
 #include <pcl/pcl_config.h>
 
 #include <Eigen/Geometry>
 #include <boost/version.hpp>
 
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -37,22 +38,32 @@ namespace pcl_pslam {
 
 namespace {
 
-/** Opens a text file for writing; throws naming it. */
-std::ofstream
-openText(const std::string& path)
+/** The reason of the last failed system call, for a message. */
+std::string
+reason()
 {
-  std::ofstream out(path);
+  return errno ? std::string(" (") + std::strerror(errno) + ")" : std::string();
+}
+
+/** Opens a file for writing; throws (writeAtomically names the file). */
+std::ofstream
+openText(const std::string& path, std::ios::openmode mode = std::ios::out)
+{
+  errno = 0;
+  std::ofstream out(path, mode);
   if (!out)
-    throw std::runtime_error(path + ": cannot open for writing");
+    throw std::runtime_error("cannot open for writing" + reason());
   return out;
 }
 
+/** Closes and checks: a full disk shows at the latest when the buffer is written out
+ *  (errno: of the failed write, since openText cleared it). */
 void
-closeText(std::ofstream& out, const std::string& path)
+closeText(std::ofstream& out)
 {
   out.close();
   if (!out)
-    throw std::runtime_error(path + ": write error");
+    throw std::runtime_error("write error" + reason());
 }
 
 std::string
@@ -93,15 +104,83 @@ writeAtomically(const std::string& path, const std::function<void(const std::str
   const std::string tmp =
       (p.parent_path() / ("." + p.filename().string() + ".tmp" + std::to_string(::getpid())))
           .string();
+  auto removeTmp = [&] {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+  };
   try {
     write(tmp);
     fs::rename(tmp, path); // atomic within one file system (POSIX rename)
   }
-  catch (...) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
+  catch (const Interrupted&) {
+    removeTmp();
     throw;
   }
+  catch (const std::exception& e) { // named by the file asked for, not its temporary
+    removeTmp();
+    std::string what = e.what();
+    if (what.rfind(tmp + ": ", 0) == 0)
+      what.erase(0, tmp.size() + 2);
+    throw std::runtime_error(path + ": " + what);
+  }
+  catch (...) {
+    removeTmp();
+    throw;
+  }
+}
+
+namespace {
+
+/** A header, then x y z of every point as packed float32 in host order, atomically. */
+void
+writeXyzFile(const std::string& path, const std::string& header, const Cloud& map)
+{
+  writeAtomically(path, [&](const std::string& tmp) {
+    std::ofstream out = openText(tmp, std::ios::out | std::ios::binary);
+    out << header;
+    std::vector<float> xyz;
+    constexpr std::size_t kChunk = 3 << 16;
+    xyz.reserve(std::min(3 * map.size(), kChunk));
+    for (std::size_t i = 0; i < map.size(); ++i) {
+      xyz.insert(xyz.end(), {map[i].x, map[i].y, map[i].z});
+      if (xyz.size() >= kChunk || i + 1 == map.size()) {
+        out.write(reinterpret_cast<const char*>(xyz.data()),
+                  static_cast<std::streamsize>(xyz.size() * sizeof(float)));
+        xyz.clear();
+      }
+    }
+    closeText(out);
+  });
+}
+
+} // namespace
+
+// The maps are written here rather than by pcl::io::savePCDFileBinary / savePLYFileBinary:
+// PCL 1.13's PLY writer reports success for a file cut short by a full disk, its PCD
+// writer fills an mmap (a full disk is a SIGBUS where fallocate is unsupported) and its
+// exceptions do not name the file. Formats: PCD v0.7 (pointclouds.org, "The PCD file
+// format"), PLY 1.0 (Turk, "The PLY polygon file format"), as PCL reads them.
+void
+writeMapPcd(const std::string& path, const Cloud& map)
+{
+  std::ostringstream h;
+  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\n"
+       "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH "
+    << map.size() << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << map.size()
+    << "\nDATA binary\n";
+  writeXyzFile(path, h.str(), map);
+}
+
+void
+writeMapPly(const std::string& path, const Cloud& map)
+{
+  const std::uint16_t one = 1;
+  const bool little = *reinterpret_cast<const unsigned char*>(&one) == 1;
+  std::ostringstream h;
+  h << "ply\nformat " << (little ? "binary_little_endian" : "binary_big_endian")
+    << " 1.0\ncomment pcl_pslam map\nelement vertex " << map.size()
+    << "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  writeXyzFile(path, h.str(), map);
 }
 
 std::string
@@ -130,7 +209,7 @@ writeFrames(const std::string& path,
     out << framesLine(initial, scale, kFramesInvalid) << '\n'
         << framesLine(icp, scale, fixed ? kFramesIcpInactive : kFramesIcp) << '\n'
         << framesLine(final_pose, scale, fixed ? kFramesIcpInactive : kFramesLum) << '\n';
-    closeText(out, tmp);
+    closeText(out);
   });
 }
 
@@ -264,17 +343,11 @@ writeOutputs(const Options& o,
     progress.update("map", done, total);
   });
   progress.update("save", 0, 1);
-  writeAtomically(join(o.out, "map.pcd"), [&](const std::string& tmp) {
-    if (pcl::io::savePCDFileBinary(tmp, *map) < 0)
-      throw std::runtime_error(tmp + ": cannot write the map");
-  });
+  writeMapPcd(join(o.out, "map.pcd"), *map);
   written.push_back("map.pcd");
   if (o.ply) {
     progress.update("save", 0, 1);
-    writeAtomically(join(o.out, "map.ply"), [&](const std::string& tmp) {
-      if (pcl::io::savePLYFileBinary(tmp, *map) < 0)
-        throw std::runtime_error(tmp + ": cannot write the map");
-    });
+    writeMapPly(join(o.out, "map.ply"), *map);
     written.push_back("map.ply");
   }
   progress.update("save", 1, 1);
@@ -433,7 +506,7 @@ writeOutputs(const Options& o,
   writeAtomically(join(o.out, "report.json"), [&](const std::string& tmp) {
     std::ofstream out = openText(tmp);
     out << j.dump(2) << '\n';
-    closeText(out, tmp);
+    closeText(out);
   });
   written.push_back("report.json");
   return written;

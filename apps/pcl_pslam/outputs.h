@@ -27,9 +27,17 @@ bool
 prepareOutputDirectory(const std::string& dir);
 
 /** Calls write(tmp) with a temporary path beside `path`, then renames it to `path`; on any
- *  exception the temporary file is removed and the exception passed on. */
+ *  exception the temporary file is removed and the exception passed on, a std::exception
+ *  (other than Interrupted) as std::runtime_error "PATH: what" naming `path`. */
 void
 writeAtomically(const std::string& path, const std::function<void(const std::string&)>& write);
+
+/** The map as a binary PCD / PLY (x y z float32), atomically; a failed write (a full
+ *  disk) throws std::runtime_error naming `path` and leaves no file. */
+void
+writeMapPcd(const std::string& path, const Cloud& map);
+void
+writeMapPly(const std::string& path, const Cloud& map);
 
 /** A pose as 3DTK stores it in .frames: the 4x4 column-major (OpenGL order), translation
  *  divided by `scale` (file units = metres / scale). Inverse of io::loadFramesFinalPose

@@ -6,6 +6,9 @@
 
 #include <pcl_parallel/kdtree.h>
 
+#include <Eigen/Core>
+
+#include <cstdint>
 #include <vector>
 
 namespace pcl_parallel {
@@ -25,5 +28,20 @@ estimateNormals(const KdTreeIndex& tree,
                 unsigned num_threads,
                 std::vector<float>& normals,
                 const float viewpoint[3] = nullptr);
+
+/**
+ * \brief PCA of one neighbourhood, the step every normal estimate here shares: the
+ * covariance of the \a count tree points at positions \a pos about their mean (summed in
+ * double relative to \a origin, e.g. the query, so far-off coordinates lose no
+ * precision), its eigenvalues (ascending) and the eigenvector of the smallest, the
+ * normal. Callers judge the eigenvalues (is it a plane?). False for fewer than 3 points.
+ */
+bool
+neighbourhoodNormal(const KdTreeIndex& tree,
+                    const std::uint32_t* pos,
+                    std::size_t count,
+                    const float origin[3],
+                    Eigen::Vector3d& normal,
+                    Eigen::Vector3d& eigenvalues);
 
 } // namespace pcl_parallel

@@ -4,6 +4,8 @@
  */
 #include <pcl_parallel/evaluation/trajectory_error.h>
 
+#include <Eigen/LU> // determinant
+
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -197,6 +199,26 @@ associateByTimestamp(const std::vector<double>& estimate_stamps,
   return pairs;
 }
 
+void
+requireRigidMotions(const Poses& poses, const std::string& name)
+{
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const Eigen::Matrix4d& p = poses[i];
+    const Eigen::Matrix3d r = p.topLeftCorner<3, 3>();
+    auto fail = [&](const std::string& what) {
+      throw std::invalid_argument(name + ": pose " + std::to_string(i + 1) + " " + what);
+    };
+    if (!p.allFinite())
+      fail("is not finite");
+    if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-3) ||
+        !(r.determinant() > 0.0) || p.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+      fail("is not a rigid motion (its rotation is not orthonormal within 1e-3, or a "
+           "reflection)");
+    if (!(p.topRightCorner<3, 1>().cwiseAbs().maxCoeff() <= 1e9))
+      fail("lies beyond 1e9 m");
+  }
+}
+
 TrajectoryEvaluation
 evaluateTrajectory(const Poses& estimate,
                    const Poses& reference,
@@ -207,6 +229,8 @@ evaluateTrajectory(const Poses& estimate,
     throw std::invalid_argument("pcl_parallel::evaluation::evaluateTrajectory: needs at least "
                                 "2 poses, got " +
                                 std::to_string(estimate.size()));
+  requireRigidMotions(estimate, "pcl_parallel::evaluation::evaluateTrajectory: the estimate");
+  requireRigidMotions(reference, "pcl_parallel::evaluation::evaluateTrajectory: the reference");
   TrajectoryEvaluation ev;
   ev.poses = estimate.size();
   ev.reference_path_length = pathDistances(reference).back();

@@ -10,6 +10,8 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <Eigen/Core>
+
 #include <charconv>
 #include <cmath>
 #include <cstddef>
@@ -155,6 +157,18 @@ parseNumbers(std::string_view line, double* out, std::size_t n)
   while (k < n && fields.next(field) && parseNumber(field, out[k]))
     ++k;
   return k;
+}
+
+/** A pose read as a whole 4x4 matrix (.frames) must be a rigid motion's: its last row
+ *  0 0 0 1, up to 1e-9 (what printing and arithmetic of the writer may leave), then set
+ *  exactly. False for any other last row. */
+inline bool
+homogeneousLastRow(Eigen::Matrix4d& pose)
+{
+  if (!((pose.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() <= 1e-9))
+    return false;
+  pose.row(3) << 0, 0, 0, 1;
+  return true;
 }
 
 /** Runs f() and turns an allocation failure into our error naming the file: a header that

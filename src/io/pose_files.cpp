@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -31,30 +32,24 @@ namespace {
 
 using detail::fail;
 
-/** The white-space separated fields of a line. */
+/** The fields of a line, separated as in every text format (detail::Fields: white space
+ *  or a comma). */
 std::vector<std::string_view>
 splitFields(const std::string& line)
 {
   std::vector<std::string_view> fields;
-  std::size_t pos = 0;
-  while ((pos = line.find_first_not_of(detail::kSpace, pos)) != std::string::npos) {
-    const std::size_t end = std::min(line.find_first_of(detail::kSpace, pos), line.size());
-    fields.emplace_back(line.data() + pos, end - pos);
-    pos = end;
-  }
+  detail::Fields parser(line);
+  std::string_view field;
+  while (parser.next(field))
+    fields.push_back(field);
   return fields;
 }
 
-/** A whole field as a finite double, independent of the locale (std::from_chars). */
+/** A whole field as a finite double: the one number parser of the text formats. */
 bool
 parseFinite(std::string_view field, double& value)
 {
-  const char* begin = field.data();
-  const char* end = begin + field.size();
-  if (begin != end && *begin == '+')
-    ++begin;
-  const auto [ptr, ec] = std::from_chars(begin, end, value);
-  return begin != end && ec == std::errc() && ptr == end && std::isfinite(value);
+  return detail::parseNumber(field, value) && std::isfinite(value);
 }
 
 /** Parses exactly n finite numbers (the first `optional` further fields are allowed and
@@ -79,8 +74,8 @@ parseLine(const std::string& path,
     if (!parseFinite(fields[k], v))
       fail(path,
            line_no,
-           "column " + std::to_string(k + 1) + " is not a finite number: \"" +
-               std::string(fields[k]) + "\"");
+           "column " + std::to_string(k + 1) +
+               " is not a finite number: " + detail::quoted(fields[k]));
     if (k < n)
       out[k] = v;
   }
@@ -111,16 +106,17 @@ writeAtomically(const std::string& path, const std::function<void(std::ostream&)
   const fs::path tmp = target.parent_path() /
                        ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()));
   {
+    errno = 0; // then the failed write's
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out)
       fail(path, 0, "cannot open for writing (" + tmp.string() + ")");
     body(out);
-    out.flush();
+    out.close(); // a full disk shows at the latest when the buffer is written out
     if (!out) {
-      out.close();
+      const std::string reason = errno ? std::string(" (") + std::strerror(errno) + ")" : "";
       std::error_code ec;
       fs::remove(tmp, ec);
-      fail(path, 0, "write error");
+      fail(path, 0, "write error" + reason);
     }
   }
   std::error_code ec;
@@ -182,6 +178,19 @@ writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& pos
           out << (r == 2 && c == 3 ? '\n' : ' ');
         }
   });
+}
+
+std::vector<double>
+loadKittiTimes(const std::string& path)
+{
+  requireExisting(path);
+  std::vector<double> times;
+  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
+    double t;
+    parseLine(path, line_no, line, &t, 1, 0, "a timestamp in seconds");
+    times.push_back(t);
+  });
+  return times;
 }
 
 Trajectory
@@ -254,6 +263,8 @@ loadFrames(const std::string& path, double unit)
     Eigen::Matrix4d pose;
     for (int i = 0; i < 16; ++i)
       pose(i % 4, i / 4) = v[i];
+    if (!detail::homogeneousLastRow(pose))
+      fail(path, line_no, "columns 4, 8, 12, 16 (the last row) are not 0 0 0 1");
     pose.topRightCorner<3, 1>() *= unit;
     history.push_back(pose);
   });

@@ -129,11 +129,13 @@ loadFramesFinalPose(const std::string& path)
     }
     if (k < 16)
       fail(path, line_no, "expected 16 numbers and a type code, got " + std::to_string(k));
-    for (int i = 0; i < 16; ++i) {
+    for (std::size_t i = 0; i < k; ++i) // the type code too, as loadFrames
       if (!std::isfinite(v[i]))
         fail(path, line_no, "non-finite value in frame");
+    for (int i = 0; i < 16; ++i)
       pose(i % 4, i / 4) = v[i];
-    }
+    if (!detail::homogeneousLastRow(pose)) // a rigid transformation
+      fail(path, line_no, "columns 4, 8, 12, 16 (the last row) are not 0 0 0 1");
     ++frames;
   });
   if (frames == 0)

@@ -4,6 +4,7 @@
  */
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/registration/lum_solver.h>
 
@@ -203,24 +204,12 @@ estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
       const std::size_t got = tree.knn(tree.point(p), k, pos.data(), sqr.data());
       if (got < 3)
         continue;
-      // Covariance about the neighbours' mean, relative to the query point for precision.
-      const Eigen::Vector3d q = Eigen::Vector3f::Map(tree.point(p)).cast<double>();
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      Eigen::Matrix3d sum_sq = Eigen::Matrix3d::Zero();
-      for (std::size_t j = 0; j < got; ++j) {
-        const Eigen::Vector3d d = Eigen::Vector3f::Map(tree.point(pos[j])).cast<double>() - q;
-        sum += d;
-        sum_sq += d * d.transpose();
-      }
-      const double m = static_cast<double>(got);
-      const Eigen::Matrix3d cov = sum_sq / m - (sum / m) * (sum / m).transpose();
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
-      eig.computeDirect(cov);
-      const Eigen::Vector3d ev = eig.eigenvalues();
+      Eigen::Vector3d normal, ev;
       // A plane needs two clearly non-zero spreads; the normal's must be the smallest.
-      if (!(ev(1) > 1e-6 * ev(2)) || !eig.eigenvectors().allFinite())
+      if (!neighbourhoodNormal(tree, pos.data(), got, tree.point(p), normal, ev) ||
+          !(ev(1) > 1e-6 * ev(2)))
         continue;
-      normals[i] = eig.eigenvectors().col(0).normalized().cast<float>();
+      normals[i] = normal.normalized().cast<float>();
     }
   }
   return normals;

@@ -4,6 +4,7 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
@@ -11,8 +12,6 @@
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <pcl/common/transforms.h>
-
-#include <Eigen/Eigenvalues>
 
 #include <cmath>
 #include <vector>
@@ -56,20 +55,10 @@ withNormals(const Cloud& reduced, const Cloud& full, unsigned num_threads)
       const std::size_t got = tree.knn(q.data(), k, pos, sqr);
       if (got < 3)
         continue;
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      for (std::size_t j = 0; j < got; ++j)
-        mean += (Eigen::Vector3f::Map(tree.point(pos[j])) - q).cast<double>();
-      mean /= static_cast<double>(got);
-      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-      for (std::size_t j = 0; j < got; ++j) {
-        const Eigen::Vector3d d =
-            (Eigen::Vector3f::Map(tree.point(pos[j])) - q).cast<double>() - mean;
-        cov += d * d.transpose();
-      }
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
-      eig.computeDirect(cov);
-      if (eig.eigenvalues()(1) > 1e-12) // a plane needs two spreads
-        normals[i] = eig.eigenvectors().col(0).cast<float>();
+      Eigen::Vector3d normal, ev;
+      if (neighbourhoodNormal(tree, pos, got, q.data(), normal, ev) &&
+          ev(1) > 1e-12) // a plane needs two spreads
+        normals[i] = normal.cast<float>();
     }
   }
   out->reserve(reduced.size());

@@ -5,17 +5,24 @@
  * libFuzzer harness for our file readers (issue 11): the shared part, compiled once. Each
  * fuzz_<format> executable is fuzz_main.cpp with PCL_PARALLEL_FUZZ_FORMAT="<format>"
  * (test/fuzz/CMakeLists.txt). The readers take a path, so each input is written to a
- * private file with the reader's extension first.
+ * private file with the reader's extension first ("frames_dir": into a directory, one file
+ * per NUL-separated chunk whose first line is its name; "evaluate": two files, estimate and
+ * ground truth, split at the first NUL, given to `pcl_pslam evaluate`).
  * Contract under test: a reader returns or throws std::exception (our std::runtime_error,
  * std::invalid_argument, std::out_of_range); anything else (a crash, an ASan/UBSan report,
  * a hang, an allocation beyond -malloc_limit_mb, a non-finite point in the cloud) is a bug.
  */
+#include "evaluate_command.h" // apps/pcl_pslam
+
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
 
 #include <pcl/console/print.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -23,15 +30,94 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <unistd.h>
 #include <utility>
+#include <vector>
 
 namespace pcl_parallel_fuzz {
 
 namespace {
 
+namespace fs = std::filesystem;
+
 std::string format_name, extension, input_path;
+
+void
+writeFile(const fs::path& path, const char* data, std::size_t size)
+{
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(data, static_cast<std::streamsize>(size));
+}
+
+/** A trajectory reader's promise: finite poses with a rotation (TUM: from a normalised
+ *  quaternion) and homogeneous last row, one finite timestamp per pose or none. */
+void
+checkTrajectory(const pcl_parallel::io::Trajectory& t, bool rotations)
+{
+  if (!t.timestamps.empty() && t.timestamps.size() != t.poses.size())
+    std::abort();
+  for (double s : t.timestamps)
+    if (!std::isfinite(s))
+      std::abort();
+  for (const auto& pose : t.poses) {
+    if (!pose.allFinite() || pose.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+      std::abort();
+    const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
+    if (rotations && !(r.transpose() * r).isApprox(Eigen::Matrix3d::Identity(), 1e-9))
+      std::abort();
+  }
+}
+
+/** "frames_dir": each NUL-separated chunk of the input is a file of the directory; its
+ *  first line is the name (characters outside [A-Za-z0-9._-] dropped), the rest the text. */
+void
+writeDirectory(const std::uint8_t* data, std::size_t size)
+{
+  std::error_code ec;
+  fs::remove_all(input_path, ec);
+  fs::create_directories(input_path);
+  const char* p = reinterpret_cast<const char*>(data);
+  const char* end = p + size;
+  for (int files = 0; p < end && files < 16; ++files) {
+    const char* chunk_end = std::find(p, end, '\0');
+    const char* name_end = std::find(p, chunk_end, '\n');
+    std::string name;
+    for (const char* c = p; c < name_end && name.size() < 40; ++c)
+      if (std::isalnum(static_cast<unsigned char>(*c)) || *c == '.' || *c == '_' || *c == '-')
+        name += *c;
+    if (!name.empty() && name != "." && name != "..") {
+      const char* body = name_end == chunk_end ? chunk_end : name_end + 1;
+      writeFile(fs::path(input_path) / name, body, static_cast<std::size_t>(chunk_end - body));
+    }
+    p = chunk_end == end ? end : chunk_end + 1;
+  }
+}
+
+/** "evaluate": the app's command on two files (estimate, ground truth). It returns 0 with a
+ *  table free of nan/inf, or 1 with one error line; never 2 (the arguments are good). */
+void
+evaluate(const std::uint8_t* data, std::size_t size)
+{
+  const char* p = reinterpret_cast<const char*>(data);
+  const char* split = std::find(p, p + size, '\0');
+  const std::string estimate = input_path + "_estimate.txt", truth = input_path + "_truth.txt";
+  writeFile(estimate, p, static_cast<std::size_t>(split - p));
+  const char* t = split == p + size ? split : split + 1;
+  writeFile(truth, t, static_cast<std::size_t>(p + size - t));
+  static const char* const kAlign[] = {"none", "se3", "sim3"};
+  std::ostringstream out, err;
+  const int rc = pcl_pslam::evaluateCommand(
+      {estimate, truth, "--truncate", "--align", kAlign[size % 3]}, out, err);
+  std::string text = out.str();
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
+  if (rc == 0 ? text.find("nan") != std::string::npos || text.find("inf") != std::string::npos
+              : rc != 1 || err.str().empty())
+    std::abort();
+}
 
 void
 checkCloud(const pcl::PointCloud<pcl::PointXYZ>& cloud)
@@ -61,6 +147,44 @@ read(const std::string& path)
       if (!pose.allFinite())
         std::abort();
   }
+  else if (format_name == "kitti_times") {
+    for (double t : loadKittiTimes(path))
+      if (!std::isfinite(t))
+        std::abort();
+  }
+  else if (format_name == "tum") {
+    checkTrajectory(loadTumTrajectory(path), true);
+  }
+  else if (format_name == "frames_history") {
+    // Two readers of .frames: they accept the same files, and with unit 1 their final
+    // poses agree.
+    std::vector<Eigen::Matrix4d> history;
+    Eigen::Matrix4d final_pose;
+    bool history_read = false, final_read = false;
+    try {
+      history = loadFrames(path, 1.0);
+      history_read = true;
+    }
+    catch (const std::runtime_error&) {
+    }
+    try {
+      final_pose = loadFramesFinalPose(path);
+      final_read = true;
+    }
+    catch (const std::runtime_error&) {
+    }
+    if (history_read != final_read)
+      std::abort();
+    if (history_read) {
+      checkTrajectory({history, {}, PoseFileFormat::Frames}, false);
+      if (history.back() != final_pose)
+        std::abort();
+    }
+  }
+  else if (format_name == "trajectory" || format_name == "frames_dir") {
+    const Trajectory t = loadTrajectory(path);
+    checkTrajectory(t, t.format == PoseFileFormat::Tum);
+  }
   else if (format_name == "stanford_conf") {
     for (const auto& entry : loadStanfordConf(path))
       if (!entry.pose.allFinite())
@@ -87,7 +211,13 @@ initialize(const char* format)
                                                                  {"kitti_poses", ".txt"},
                                                                  {"stanford_conf", ".conf"},
                                                                  {"pcd", ".pcd"},
-                                                                 {"ply", ".ply"}};
+                                                                 {"ply", ".ply"},
+                                                                 {"tum", ".tum"},
+                                                                 {"kitti_times", ".txt"},
+                                                                 {"frames_history", ".frames"},
+                                                                 {"trajectory", ".txt"},
+                                                                 {"frames_dir", "_dir"},
+                                                                 {"evaluate", "_evaluate"}};
   format_name = format;
   for (const auto& [name, ext] : kFormats)
     if (format_name == name)
@@ -98,16 +228,25 @@ initialize(const char* format)
   const std::filesystem::path dir =
       std::filesystem::exists("/dev/shm") ? "/dev/shm" : std::filesystem::temp_directory_path();
   input_path = (dir / ("pcl_parallel_fuzz_" + std::to_string(::getpid()) + extension)).string();
-  std::atexit([] { std::remove(input_path.c_str()); });
+  std::atexit([] {
+    std::error_code ec;
+    fs::remove_all(input_path, ec);
+    fs::remove(input_path + "_estimate.txt", ec);
+    fs::remove(input_path + "_truth.txt", ec);
+  });
 }
 
 void
 testOneInput(const std::uint8_t* data, std::size_t size)
 {
-  {
-    std::ofstream out(input_path, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+  if (format_name == "evaluate") {
+    evaluate(data, size);
+    return;
   }
+  if (format_name == "frames_dir")
+    writeDirectory(data, size);
+  else
+    writeFile(input_path, reinterpret_cast<const char*>(data), size);
   try {
     read(input_path);
   }

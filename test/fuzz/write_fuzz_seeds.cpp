@@ -86,6 +86,32 @@ main(int argc, char** argv)
        "camera -0.0172 -0.0936 -0.734  -0.0461723 0.970603 -0.235889 0.0124573\n"
        "bmesh a.ply 0 0 0 0 0 0 1\n"
        "bmesh b.ply -0.052 -0.00038 -0.0109 0.0054 -0.2946 -0.0038 0.9555\n");
+  // Trajectories (pose_files.h) and `pcl_pslam evaluate` on two of them.
+  const std::string tum =
+      "# timestamp tx ty tz qx qy qz qw\n"
+      "1305031102.175304 1.3405 0.6266 1.6575 0.6574 0.6126 -0.2949 -0.3248\n"
+      "1305031102.211214 1.3303 0.6256 1.6464 0.6579 0.6161 -0.2932 -0.3189\n"
+      "1305031102.243211 1.3160 0.6254 1.6302 0.6609 0.6199 -0.2893 -0.3086\n";
+  const std::string kitti = "1 0 0 0 0 1 0 0 0 0 1 0\n"
+                            "0.99995 -0.0099998 0 1.2 0.0099998 0.99995 0 0.1 0 0 1 0\n"
+                            "0.9998 -0.019999 0 2.5 0.019999 0.9998 0 0.3 0 0 1 0.01\n"
+                            "0.99955 -0.029996 0 3.7 0.029996 0.99955 0 0.6 0 0 1 -0.02\n";
+  const std::string frame = "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n";
+  const std::string moved = "0.99 0.01 0 0 -0.01 0.99 0 0 0 0 1 0 12.5 -3 337.79 1 1\n";
+  seed("kitti_times", "times", "0.000000e+00\n1.036594e-01\n\n2.072864e-01\r\n+3.1e-1\n");
+  seed("tum", "tum", tum);
+  seed("tum", "crlf", "0 0 0 0 0 0 0 1\r\n1.5 +1 -2 3e-1 0 0 0.7071068 0.7071068\r\n");
+  seed("frames_history", "history", frame + moved + frame);
+  seed("trajectory", "kitti", kitti);
+  seed("trajectory", "tum", tum);
+  seed("frames_dir",
+       "numbered",
+       "scan000.frames\n" + frame + std::string(1, '\0') + "scan001.frames\n" + frame + moved +
+           std::string(1, '\0') + "scan1000.frames\n" + moved + std::string(1, '\0') +
+           "other.frames\n" + frame + std::string(1, '\0') + "scan002.3d\n0 0 0\n");
+  seed("evaluate", "kitti_kitti", kitti + std::string(1, '\0') + kitti);
+  seed("evaluate", "tum_tum", tum + std::string(1, '\0') + tum);
+  seed("evaluate", "tum_kitti", tum + std::string(1, '\0') + kitti.substr(0, 3 * 26));
 
   pcl::PointCloud<pcl::PointXYZ> cloud;
   for (int i = 0; i < 5; ++i)

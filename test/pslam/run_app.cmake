@@ -1,10 +1,12 @@
 # Runs pcl_pslam and checks its exit status AND its message (and, optionally, files).
 #   cmake -DCMD="prog|arg|..." -DEXPECT_RC=N -DEXPECT_REGEX=RE [-DOUT_DIR=D]
 #         [-DEXPECT_FILES="a|b"] [-DEXPECT_ABSENT="a|b"] [-DCLEAN=D] [-DCHECK_REPORT=1]
-#         [-DINTERRUPT_AFTER=S] -P run_app.cmake
+#         [-DINTERRUPT_AFTER=S] [-DFILE_SIZE_LIMIT=BLOCKS] [-DSTDOUT=FILE] -P run_app.cmake
 # '|' separates list items (ctest would split ';'). INTERRUPT_AFTER sends SIGINT after S
-# seconds (coreutils timeout). CHECK_REPORT: OUT_DIR/report.json parses and holds a time
-# for each pipeline stage. Every output in OUT_DIR must be complete: no temporary left.
+# seconds (coreutils timeout). FILE_SIZE_LIMIT: files limited to BLOCKS x 512 bytes, as on
+# a full disk (file_size_limit.sh). STDOUT: standard output goes there (e.g. /dev/full), not
+# into the checked output. CHECK_REPORT: OUT_DIR/report.json parses and holds a time for
+# each pipeline stage. Every output in OUT_DIR must be complete: no temporary left.
 cmake_minimum_required(VERSION 3.19) # string(JSON), IN_LIST
 string(REPLACE "|" ";" cmd "${CMD}")
 list(FILTER cmd EXCLUDE REGEX "^$")
@@ -14,7 +16,15 @@ endif()
 if(INTERRUPT_AFTER)
   set(cmd timeout --preserve-status -s INT ${INTERRUPT_AFTER} ${cmd})
 endif()
-execute_process(COMMAND ${cmd} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT "${FILE_SIZE_LIMIT}" STREQUAL "")
+  set(cmd sh ${CMAKE_CURRENT_LIST_DIR}/file_size_limit.sh ${FILE_SIZE_LIMIT} ${cmd})
+endif()
+if(STDOUT)
+  execute_process(COMMAND ${cmd} RESULT_VARIABLE rc OUTPUT_FILE ${STDOUT} ERROR_VARIABLE err)
+  set(out "")
+else()
+  execute_process(COMMAND ${cmd} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+endif()
 set(all "${out}${err}")
 if(NOT rc STREQUAL "${EXPECT_RC}")
   message(FATAL_ERROR "exit status ${rc}, expected ${EXPECT_RC}; output:\n${all}")
@@ -24,7 +34,7 @@ if(NOT all MATCHES "${EXPECT_REGEX}")
 endif()
 if(NOT EXPECT_RC STREQUAL "0")
   # An error is one line on stderr (progress lines aside, which -q silences).
-  string(REGEX MATCHALL "\npcl_pslam: " lines "\n${err}")
+  string(REGEX MATCHALL "\npcl_pslam( [a-z]+)?: " lines "\n${err}")
   list(LENGTH lines n)
   if(NOT n EQUAL 1)
     message(FATAL_ERROR "expected one 'pcl_pslam: ' error line, got ${n}:\n${err}")
@@ -43,7 +53,7 @@ foreach(f IN LISTS absent)
   endif()
 endforeach()
 if(OUT_DIR AND EXISTS "${OUT_DIR}")
-  file(GLOB tmp "${OUT_DIR}/.*tmp*")
+  file(GLOB tmp "${OUT_DIR}/.*tmp*" "${OUT_DIR}/*.tmp*")
   if(tmp)
     message(FATAL_ERROR "temporary files left: ${tmp}")
   endif()

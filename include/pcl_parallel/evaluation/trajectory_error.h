@@ -125,8 +125,16 @@ struct TrajectoryEvaluation {
   FrameRelativeError rpe;   ///< likewise
 };
 
+/** What the errors can be computed from: every pose a rigid motion (rotation block
+ *  orthonormal within 1e-3 per entry of RᵀR - I, determinant positive; last row 0 0 0 1)
+ *  with a translation within 1e9 m (beyond, differences and squares lose everything or
+ *  overflow to inf). Throws std::invalid_argument "NAME: pose I (from 1) ...". */
+void
+requireRigidMotions(const Poses& poses, const std::string& name);
+
 /** Throws std::invalid_argument when the lists differ in size or hold fewer than 2 poses,
- *  or when the alignment is degenerate (see umeyamaAlignment). */
+ *  when a pose is not a rigid motion (requireRigidMotions), or when the alignment is
+ *  degenerate (see umeyamaAlignment). */
 TrajectoryEvaluation
 evaluateTrajectory(const Poses& estimate,
                    const Poses& reference,

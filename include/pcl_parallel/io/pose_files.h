@@ -44,6 +44,11 @@ struct Trajectory {
 void
 writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& poses);
 
+/** Reads KITTI odometry's times.txt: one timestamp (seconds) a line, blank lines skipped;
+ *  a line with anything but one finite number is an error. */
+std::vector<double>
+loadKittiTimes(const std::string& path);
+
 /** Reads a TUM trajectory: per line "timestamp tx ty tz qx qy qz qw" (Sturm et al., TUM
  *  RGB-D benchmark; evo's file_interface), blank lines and lines starting with '#' skipped.
  *  The quaternion is normalised; a line whose quaternion norm is not within 1 ± 0.01 (a
