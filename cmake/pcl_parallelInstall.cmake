@@ -12,7 +12,12 @@ install(TARGETS pcl_parallel EXPORT pcl_parallelTargets
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # (The include directory is already in the target's INSTALL_INTERFACE; an INCLUDES
 # DESTINATION here would list it twice in the exported target.)
-install(DIRECTORY include/pcl_parallel DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+set(_pcl_parallel_exclude "")
+if(NOT PCL_PARALLEL_WITH_MPI) # mpi/ is built only with MPI
+  set(_pcl_parallel_exclude PATTERN mpi EXCLUDE)
+endif()
+install(DIRECTORY include/pcl_parallel DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+  ${_pcl_parallel_exclude})
 install(EXPORT pcl_parallelTargets NAMESPACE pcl_parallel::
   DESTINATION ${PCL_PARALLEL_CMAKE_DIR})
 

@@ -20,6 +20,11 @@
 
 namespace pcl_parallel {
 
+namespace mpi {
+template <typename PointT>
+class DistributedLUM;
+} // namespace mpi
+
 /**
  * \brief pLUM: Lu/Milios style 6D GraphSLAM, parallel over the links of the graph
  * (Nüchter 2007, Sec. III and V), with the public API of pcl::registration::LUM.
@@ -367,16 +372,48 @@ private:
   /** A link's hints for one search direction: (source, target, duplicate, pass). */
   using HintKey = std::tuple<Vertex, Vertex, std::size_t, int>;
 
+  // mpi::DistributedLUM runs compute()'s steps on different ranks (docs/design.md, MPI).
+  template <typename>
+  friend class mpi::DistributedLUM;
+
+  /** The state of one compute(), split into its steps so that another driver can run the
+   *  links' part (steps 1-2) and the solve (steps 3-5) in different processes. */
+  struct Run {
+    std::vector<LinkRef> links;
+    std::vector<lum::LinkBlock, Eigen::aligned_allocator<lum::LinkBlock>> blocks;
+    std::vector<const char*> reasons;
+    std::vector<std::size_t> pair_counts;
+    std::vector<pcl::CorrespondencesPtr> link_corrs;
+    std::vector<ThreadState> states; // paper Sec. IV-B/V: padded, one per thread
+    std::vector<lum::Vector6d, Eigen::aligned_allocator<lum::Vector6d>> delta;
+    bool plum = false;
+    unsigned threads = 1;
+  };
+  /** Syncs the poses, checks the graph and builds the trees. This process computes the
+   *  links [begin, end) of the link order: only their vertices need clouds and trees. */
+  void
+  beginCompute(Run& run, std::size_t begin, std::size_t end);
+  /** Steps 1-2 of iteration `it` for the links [begin, end): fills their blocks. */
+  void
+  measureLinks(Run& run, int it, std::size_t begin, std::size_t end);
+  /** Steps 3-5 from all blocks; false when compute() is to stop. */
+  bool
+  solveIteration(Run& run, int it);
+  void
+  endCompute(Run& run);
+
   void
   syncPoses();
   void
   writeBackPoses();
   std::vector<LinkRef>
   collectLinks() const;
+  /** Clouds are checked for the vertices of links [begin, end) only (all: every vertex). */
   void
-  validate(const std::vector<LinkRef>& links) const;
+  validate(const std::vector<LinkRef>& links, std::size_t begin, std::size_t end) const;
+  /** Trees of the vertices with needed[v] (null: all). */
   void
-  buildTrees();
+  buildTrees(const std::vector<char>* needed = nullptr);
   /** One pairing step of a link within max_distance, the source scan moved by `motion`
    *  (world frame) on top of its pose; pairs go to acc (and out, if given). */
   void

@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -348,7 +349,9 @@ ParallelLUM<PointT>::collectLinks() const
 
 template <typename PointT>
 void
-ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links) const
+ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links,
+                              std::size_t begin,
+                              std::size_t end) const
 {
   const std::size_t n = getNumVertices();
   const std::string where = "[pcl_parallel::ParallelLUM::compute] ";
@@ -356,9 +359,13 @@ ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links) const
     throw std::invalid_argument(where + "the graph needs at least 2 vertices");
   if (links.empty())
     throw std::invalid_argument(where + "the graph has no links");
+  end = std::min(end, links.size());
+  std::vector<char> needed(n, begin == 0 && end == links.size());
+  for (std::size_t li = begin; li < end; ++li)
+    needed[links[li].source] = needed[links[li].target] = 1;
   for (std::size_t v = 0; v < n; ++v) {
     const auto& cloud = (*slam_graph_)[v].cloud_;
-    if (!cloud || cloud->empty())
+    if (needed[v] && (!cloud || cloud->empty()))
       throw std::invalid_argument(where + "vertex " + std::to_string(v) +
                                   " has no or an empty point cloud");
     if (!poses_[v].allFinite())
@@ -366,10 +373,11 @@ ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links) const
                                   " has a non-finite pose");
   }
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;
-  for (const LinkRef& l : links) {
+  for (std::size_t li = 0; li < links.size(); ++li) {
+    const LinkRef& l = links[li];
     pairs.emplace_back(static_cast<std::uint32_t>(l.source),
                        static_cast<std::uint32_t>(l.target));
-    if (correspondence_distance_ > 0.0)
+    if (correspondence_distance_ > 0.0 || li < begin || li >= end)
       continue;
     const auto& corrs = (*slam_graph_)[l.edge].corrs_;
     const std::string name =
@@ -394,7 +402,7 @@ ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links) const
 
 template <typename PointT>
 void
-ParallelLUM<PointT>::buildTrees()
+ParallelLUM<PointT>::buildTrees(const std::vector<char>* needed)
 {
   const std::size_t n = getNumVertices();
   trees_.resize(n);
@@ -405,6 +413,8 @@ ParallelLUM<PointT>::buildTrees()
   for (std::size_t v = 0; v < n; ++v) {
     const PointCloud* c = (*slam_graph_)[v].cloud_.get();
     const std::size_t size = c ? c->size() : 0;
+    if (needed && !(*needed)[v])
+      continue;
     if (!trees_[v] || tree_source_[v] != std::make_pair(c, size))
       todo.push_back(v);
   }
@@ -424,7 +434,7 @@ ParallelLUM<PointT>::buildTrees()
   if (!point_to_plane_)
     return;
   for (std::size_t v = 0; v < n; ++v)
-    if (normals_k_[v] != normal_neighbours_) {
+    if (trees_[v] && normals_k_[v] != normal_neighbours_) {
       normals_[v] = lum::estimateNormals(*trees_[v], normal_neighbours_, threads);
       normals_k_[v] = normal_neighbours_;
     }
@@ -560,115 +570,152 @@ ParallelLUM<PointT>::computeLinkFixed(const LinkRef& link, lum::LinkAccumulator&
 
 template <typename PointT>
 void
-ParallelLUM<PointT>::compute()
+ParallelLUM<PointT>::beginCompute(Run& run, std::size_t begin, std::size_t end)
 {
   syncPoses();
-  const std::vector<LinkRef> links = collectLinks();
-  validate(links);
-  const std::size_t n = getNumVertices();
-  const bool plum = correspondence_distance_ > 0.0;
-  const unsigned threads = resolveNumberOfThreads(num_threads_);
-  if (plum) {
-    buildTrees();
-    for (const LinkRef& l : links) // create before the parallel loop: no insertion races
+  run.links = collectLinks();
+  validate(run.links, begin, end);
+  end = std::min(end, run.links.size());
+  run.plum = correspondence_distance_ > 0.0;
+  run.threads = resolveNumberOfThreads(num_threads_);
+  if (run.plum) {
+    if (begin == 0 && end == run.links.size())
+      buildTrees();
+    else {
+      std::vector<char> needed(getNumVertices(), 0);
+      for (std::size_t li = begin; li < end; ++li)
+        needed[run.links[li].source] = needed[run.links[li].target] = 1;
+      buildTrees(&needed);
+    }
+    for (const LinkRef& l : run.links) // create before the parallel loop: no insertion races
       for (int pass = 0; pass < 2; ++pass)
         hints_[HintKey(l.source, l.target, l.duplicate, pass)];
   }
-
-  std::vector<lum::LinkBlock, Eigen::aligned_allocator<lum::LinkBlock>> blocks(links.size());
-  std::vector<const char*> reasons(links.size(), nullptr);
-  std::vector<std::size_t> pair_counts(links.size(), 0);
-  std::vector<pcl::CorrespondencesPtr> link_corrs(links.size());
-  std::vector<ThreadState> states(threads); // paper Sec. IV-B/V: padded, one per thread
-  std::vector<lum::Vector6d, Eigen::aligned_allocator<lum::Vector6d>> delta;
+  const std::size_t num_links = run.links.size();
+  run.blocks.assign(num_links, lum::LinkBlock());
+  run.reasons.assign(num_links, nullptr);
+  run.pair_counts.assign(num_links, 0);
+  run.link_corrs.assign(num_links, nullptr);
+  run.states = std::vector<ThreadState>(run.threads);
   iterations_done_ = 0;
+}
 
-  for (int it = 0; it < max_iterations_; ++it) {
-    const double gate = correspondenceDistanceAt(it);
-    // Steps 1-2 for all links in parallel; each link's sums run in a fixed order.
+template <typename PointT>
+void
+ParallelLUM<PointT>::measureLinks(Run& run, int it, std::size_t begin, std::size_t end)
+{
+  const double gate = correspondenceDistanceAt(it);
+  const unsigned threads = run.threads;
+  // Steps 1-2 for the links in parallel; each link's sums run in a fixed order.
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
-    for (std::int64_t li = 0; li < static_cast<std::int64_t>(links.size()); ++li) {
-      const LinkRef& link = links[li];
-      lum::LinkBlock& b = blocks[li];
-      b.source = static_cast<std::uint32_t>(link.source);
-      b.target = static_cast<std::uint32_t>(link.target);
-      if (plum) {
-        if (!link_corrs[li])
-          link_corrs[li].reset(new pcl::Correspondences);
-        b.valid = measureLink(link,
-                              gate,
-                              states[omp_get_thread_num()],
-                              b,
-                              link_corrs[li].get(),
-                              pair_counts[li],
-                              &reasons[li]);
-        continue;
-      }
-      lum::LinkAccumulator acc;
-      computeLinkFixed(link, acc);
-      pair_counts[li] = acc.size();
-      b.valid = acc.finish(min_correspondences_, 1e-12, b.info, b.grad, nullptr, &reasons[li]);
+  for (std::int64_t li = static_cast<std::int64_t>(begin); li < static_cast<std::int64_t>(end);
+       ++li) {
+    const LinkRef& link = run.links[li];
+    lum::LinkBlock& b = run.blocks[li];
+    b.source = static_cast<std::uint32_t>(link.source);
+    b.target = static_cast<std::uint32_t>(link.target);
+    if (run.plum) {
+      if (!run.link_corrs[li])
+        run.link_corrs[li].reset(new pcl::Correspondences);
+      b.valid = measureLink(link,
+                            gate,
+                            run.states[omp_get_thread_num()],
+                            b,
+                            run.link_corrs[li].get(),
+                            run.pair_counts[li],
+                            &run.reasons[li]);
+      continue;
     }
-
-    dropped_links_ = 0;
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> valid;
-    for (std::size_t li = 0; li < links.size(); ++li) {
-      if (blocks[li].valid) {
-        valid.emplace_back(blocks[li].source, blocks[li].target);
-        continue;
-      }
-      ++dropped_links_;
-      PCL_WARN("[pcl_parallel::ParallelLUM::compute] Link %zu -> %zu dropped in iteration "
-               "%d: %s (%zu pairs).\n",
-               static_cast<std::size_t>(links[li].source),
-               static_cast<std::size_t>(links[li].target),
-               it,
-               reasons[li] ? reasons[li] : "invalid",
-               pair_counts[li]);
-    }
-    const auto unreachable = lum::unreachableFromZero(n, valid);
-    if (!unreachable.empty()) {
-      PCL_ERROR("[pcl_parallel::ParallelLUM::compute] After dropping links, %zu vertices "
-                "(first: %u) are not connected to vertex 0; stopping with the poses of "
-                "iteration %d.\n",
-                unreachable.size(),
-                unreachable.front(),
-                it);
-      break;
-    }
-    // Steps 3-4.
-    if (!solver_->solve(n, blocks, delta)) {
-      PCL_ERROR("[pcl_parallel::ParallelLUM::compute] The linear system G X = B could not "
-                "be solved in iteration %d; poses left unchanged.\n",
-                it);
-      break;
-    }
-    // Step 5.
-    double sum = 0.0;
-    for (std::size_t v = 1; v < n; ++v) {
-      lum::applyUpdate(poses_[v], delta[v]);
-      sum += delta[v].norm();
-    }
-    ++iterations_done_;
-    last_mean_update_ = sum / static_cast<double>(n - 1);
-    if (iteration_callback_) {
-      writeBackPoses();
-      iteration_callback_(it, last_mean_update_);
-    }
-    // A shrinking gate must reach its end before convergence counts.
-    if (last_mean_update_ <= convergence_threshold_ &&
-        (!plum || gate <= final_correspondence_distance_))
-      break;
+    lum::LinkAccumulator acc;
+    computeLinkFixed(link, acc);
+    run.pair_counts[li] = acc.size();
+    b.valid =
+        acc.finish(min_correspondences_, 1e-12, b.info, b.grad, nullptr, &run.reasons[li]);
   }
+}
 
-  writeBackPoses();
+template <typename PointT>
+bool
+ParallelLUM<PointT>::solveIteration(Run& run, int it)
+{
+  const std::size_t n = getNumVertices();
+  const std::vector<LinkRef>& links = run.links;
+  dropped_links_ = 0;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> valid;
   for (std::size_t li = 0; li < links.size(); ++li) {
-    EdgeProperties& ep = (*slam_graph_)[links[li].edge];
-    ep.cinv_ = blocks[li].info.template cast<float>();
-    ep.cinvd_ = blocks[li].grad.template cast<float>();
-    if (plum && link_corrs[li])
-      ep.corrs_ = link_corrs[li];
+    if (run.blocks[li].valid) {
+      valid.emplace_back(run.blocks[li].source, run.blocks[li].target);
+      continue;
+    }
+    ++dropped_links_;
+    PCL_WARN("[pcl_parallel::ParallelLUM::compute] Link %zu -> %zu dropped in iteration "
+             "%d: %s (%zu pairs).\n",
+             static_cast<std::size_t>(links[li].source),
+             static_cast<std::size_t>(links[li].target),
+             it,
+             run.reasons[li] ? run.reasons[li] : "invalid",
+             run.pair_counts[li]);
   }
+  const auto unreachable = lum::unreachableFromZero(n, valid);
+  if (!unreachable.empty()) {
+    PCL_ERROR("[pcl_parallel::ParallelLUM::compute] After dropping links, %zu vertices "
+              "(first: %u) are not connected to vertex 0; stopping with the poses of "
+              "iteration %d.\n",
+              unreachable.size(),
+              unreachable.front(),
+              it);
+    return false;
+  }
+  // Steps 3-4.
+  if (!solver_->solve(n, run.blocks, run.delta)) {
+    PCL_ERROR("[pcl_parallel::ParallelLUM::compute] The linear system G X = B could not "
+              "be solved in iteration %d; poses left unchanged.\n",
+              it);
+    return false;
+  }
+  // Step 5.
+  double sum = 0.0;
+  for (std::size_t v = 1; v < n; ++v) {
+    lum::applyUpdate(poses_[v], run.delta[v]);
+    sum += run.delta[v].norm();
+  }
+  ++iterations_done_;
+  last_mean_update_ = sum / static_cast<double>(n - 1);
+  if (iteration_callback_) {
+    writeBackPoses();
+    iteration_callback_(it, last_mean_update_);
+  }
+  // A shrinking gate must reach its end before convergence counts.
+  return !(last_mean_update_ <= convergence_threshold_ &&
+           (!run.plum || correspondenceDistanceAt(it) <= final_correspondence_distance_));
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::endCompute(Run& run)
+{
+  writeBackPoses();
+  for (std::size_t li = 0; li < run.links.size(); ++li) {
+    EdgeProperties& ep = (*slam_graph_)[run.links[li].edge];
+    ep.cinv_ = run.blocks[li].info.template cast<float>();
+    ep.cinvd_ = run.blocks[li].grad.template cast<float>();
+    if (run.plum && run.link_corrs[li])
+      ep.corrs_ = run.link_corrs[li];
+  }
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::compute()
+{
+  Run run;
+  beginCompute(run, 0, std::numeric_limits<std::size_t>::max());
+  for (int it = 0; it < max_iterations_; ++it) {
+    measureLinks(run, it, 0, run.links.size());
+    if (!solveIteration(run, it))
+      break;
+  }
+  endCompute(run);
 }
 
 template <typename PointT>

@@ -1,0 +1,155 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/registration/lum.h>
+
+#include <cstdint>
+#include <functional>
+// MPI's C API only: Open MPI's and MPICH's deprecated C++ bindings would need their C++
+// library (libmpi_cxx) too.
+#ifndef OMPI_SKIP_MPICXX
+#define OMPI_SKIP_MPICXX 1
+#endif
+#ifndef MPICH_SKIP_MPICXX
+#define MPICH_SKIP_MPICXX 1
+#endif
+#include <mpi.h>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace pcl_parallel {
+namespace mpi {
+
+/** Links [first, second) of `num_links` owned by `rank` of `size`: contiguous blocks, the
+ *  first num_links % size ranks one link more. */
+std::pair<std::size_t, std::size_t>
+linkRange(std::size_t num_links, int rank, int size);
+
+/** Collective: if any rank's `error` is non-empty, every rank throws std::runtime_error
+ *  with one message composed on rank 0 ("rank r of N: error", for each failed rank). */
+void
+throwIfAnyFailed(MPI_Comm comm, const std::string& error);
+
+/**
+ * \brief pLUM (ParallelLUM in pLUM mode) over the ranks of an MPI communicator, with poses
+ * bit-identical to one ParallelLUM on the same input for any rank and thread count.
+ *
+ * The links, in ParallelLUM's order (sorted by (source, target)), are split over the
+ * ranks in contiguous blocks (linkRange). A rank loads and keeps only the clouds of the
+ * vertices of its links, and builds only their trees. Per iteration each rank computes
+ * its links' blocks (paper steps 1-2, with ParallelLUM's own code and OpenMP threads);
+ * the blocks go to rank 0 in link order (a gather, not a floating-point MPI_Reduce, so
+ * the system is assembled in the same order as in one process); rank 0 solves and updates
+ * the poses (steps 3-5, ParallelLUM's code) and broadcasts them. All calls are collective.
+ *
+ * Errors (a cloud that cannot be loaded, an invalid graph, options that differ between
+ * ranks) are agreed on by all ranks: each throws the same std::runtime_error, composed
+ * on rank 0 and naming the failing ranks, instead of one rank hanging in a collective.
+ */
+template <typename PointT>
+class DistributedLUM {
+public:
+  using Lum = ParallelLUM<PointT>;
+  using PointCloudPtr = typename Lum::PointCloudPtr;
+  /** Returns the scan of a vertex (e.g. read from its file); throws on failure. */
+  using CloudLoader = std::function<PointCloudPtr(std::size_t vertex)>;
+
+  explicit DistributedLUM(MPI_Comm comm = MPI_COMM_WORLD);
+
+  /** The options of the relaxation (pLUM mode is required: setCorrespondenceDistance or
+   *  setCorrespondenceDistanceSchedule). Set them the same on every rank, except the
+   *  number of threads; compute() checks. The iteration callback runs on rank 0. */
+  Lum&
+  lum()
+  {
+    return lum_;
+  }
+
+  /** Collective. The graph: start poses (rank 0's are used) and links (i, j), the same on
+   *  every rank; then this rank's clouds through `loader`, called for the vertices of
+   *  the links it owns only, in increasing order. */
+  void
+  setGraph(const std::vector<Eigen::Matrix4d>& poses,
+           const std::vector<std::pair<std::size_t, std::size_t>>& links,
+           const CloudLoader& loader);
+
+  /** Collective: runs lum().getMaxIterations() iterations at most, as ParallelLUM. */
+  void
+  compute();
+
+  /** The pose of any vertex, the same on every rank after compute(). */
+  Eigen::Matrix4d
+  getPoseMatrix(std::size_t vertex) const
+  {
+    return lum_.getPoseMatrix(vertex);
+  }
+  std::size_t
+  getNumVertices() const
+  {
+    return lum_.getNumVertices();
+  }
+  /** This rank's links, as indices into ParallelLUM's link order. */
+  std::pair<std::size_t, std::size_t>
+  getOwnedLinks() const
+  {
+    return owned_;
+  }
+  /** The vertices whose clouds this rank loaded. */
+  const std::vector<std::size_t>&
+  getLoadedVertices() const
+  {
+    return loaded_;
+  }
+  /** Payload bytes sent per iteration by all ranks together: the blocks of the links of
+   *  ranks 1..N-1 to rank 0 and the poses from rank 0 to the N-1 others. */
+  std::uint64_t
+  getBytesPerIteration() const;
+  int
+  getRank() const
+  {
+    return rank_;
+  }
+  int
+  getSize() const
+  {
+    return size_;
+  }
+
+private:
+  /** A link's block as sent to rank 0 (plain bytes; the reason a link was dropped travels
+   *  as text because ParallelLUM keeps it as a pointer). */
+  struct WireLink {
+    double info[36];
+    double grad[6];
+    std::uint64_t pairs;
+    std::uint32_t source, target;
+    std::int32_t valid;
+    char reason[84];
+  };
+
+  /** Hash of the graph and of the options that change the result. */
+  std::uint64_t
+  configHash() const;
+  void
+  broadcastPoses(std::vector<double>& buffer, double* control, int num_control);
+
+  MPI_Comm comm_;
+  int rank_ = 0;
+  int size_ = 1;
+  Lum lum_;
+  std::size_t num_links_ = 0;
+  std::pair<std::size_t, std::size_t> owned_{0, 0};
+  std::vector<std::size_t> loaded_;
+  std::vector<std::string> remote_reasons_;
+};
+
+} // namespace mpi
+} // namespace pcl_parallel
+
+#ifdef PCL_NO_PRECOMPILE
+#include <pcl_parallel/mpi/impl/distributed_lum.hpp>
+#endif
