@@ -157,11 +157,13 @@ LoopCloser::detect()
 }
 
 int
-LoopCloser::relax()
+LoopCloser::relax(int max_iterations)
 {
   auto& lum = impl_->lum;
   if (poses_.size() < 2)
     return 0;
+  lum.setMaxIterations(max_iterations > 0 ? std::min(max_iterations, params_.lum_iterations)
+                                          : params_.lum_iterations);
   for (std::size_t v = 0; v < poses_.size(); ++v)
     lum.setPoseMatrix(v, poses_[v]);
   const std::size_t mean = impl_->points / poses_.size();

@@ -157,7 +157,7 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
       last_loop_scan_ = index;
       stage = Clock::now();
       if (new_loop && visible && params_.relax_each_loop) {
-        report.lum_iterations = loops_->relax();
+        report.lum_iterations = loops_->relax(params_.lum_iterations_per_loop);
         ++relaxations_;
       }
       front_end_->setLastPose(loops_->poses().back());

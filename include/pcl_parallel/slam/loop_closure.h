@@ -75,9 +75,10 @@ public:
   std::vector<LoopCandidate>
   detect();
 
-  /** pLUM over the whole graph from the current poses; returns its iterations. */
+  /** pLUM over the whole graph from the current poses, at most max_iterations (<= 0:
+   *  lum_iterations) iterations; returns the iterations run. */
   int
-  relax();
+  relax(int max_iterations = 0);
 
   std::size_t
   size() const

@@ -45,7 +45,11 @@ struct Parameters {
   int lum_iterations = 20;         ///< [-I]
   double lum_epsilon = 0.0; ///< [--epsSLAM] mean pose update that ends pLUM; auto voxel / 100
   bool relax_each_loop = true; ///< pLUM when a loop is found (the paper), not only at the end
-  unsigned num_threads = 0;    ///< 0: all cores
+  /** At most this many pLUM iterations when a loop closes during the run (it keeps the map
+   *  consistent for the front end; finish() converges, up to lum_iterations): bounds what
+   *  a scanner that keeps revisiting costs. <= 0: lum_iterations. */
+  int lum_iterations_per_loop = 5;
+  unsigned num_threads = 0; ///< 0: all cores
 };
 
 /** Median distance of the finite points from the scanner (0 for an empty scan). */
