@@ -134,10 +134,11 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   for (std::int64_t i = 0; i < n; ++i)
     if (valid[i]) {
       const auto k = static_cast<std::uint32_t>(i);
-      keyed.push_back({bits <= 64 ? (offset(k, 0) << (width[1] + width[2])) |
-                                        (offset(k, 1) << width[2]) | offset(k, 2)
-                                  : offset(k, 2),
-                       k});
+      // (A shift by 64 would be undefined; x's width is 0 then, so x adds nothing.)
+      const int shift_x = width[1] + width[2];
+      const std::uint64_t x = shift_x < 64 ? offset(k, 0) << shift_x : 0;
+      keyed.push_back(
+          {bits <= 64 ? x | (offset(k, 1) << width[2]) | offset(k, 2) : offset(k, 2), k});
     }
   radixSort(keyed, bits <= 64 ? bits : width[2]);
   if (bits > 64) {
