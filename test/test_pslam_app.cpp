@@ -10,6 +10,7 @@
 #include "options.h"
 #include "outputs.h"
 
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/uos.h>
 
 #include <pcl/io/pcd_io.h>
@@ -193,7 +194,7 @@ TEST(PslamOutputs, TumRoundTrip)
                                   somePose(-3.1, 1.5, 3.1, {1e3, 2e3, -3})};
   const std::vector<double> stamps = {1565943983.5248752, 1565943989.0262754, 1565943991.5};
   const std::string path = (dir / "poses_tum.txt").string();
-  pcl_pslam::writeTumPoses(path, poses, stamps);
+  pcl_parallel::io::writeTumTrajectory(path, poses, stamps);
   std::ifstream in(path);
   std::string header;
   ASSERT_TRUE(std::getline(in, header)); // "# timestamp tx ty tz qx qy qz qw"
@@ -318,9 +319,9 @@ TEST(PslamOutputs, FullDiskIsAnErrorNamingTheFileAndLeavesNoFile)
        [&](const std::string& p) {
          pcl_pslam::writeFrames(p, poses[1], poses[2], poses[3], false, 0.01);
        }},
-      {"poses.txt", [&](const std::string& p) { pcl_pslam::writeKittiPoses(p, poses); }},
+      {"poses.txt", [&](const std::string& p) { pcl_parallel::io::writeKittiPoses(p, poses); }},
       {"poses_tum.txt",
-       [&](const std::string& p) { pcl_pslam::writeTumPoses(p, poses, stamps); }},
+       [&](const std::string& p) { pcl_parallel::io::writeTumTrajectory(p, poses, stamps); }},
       {"map.pcd", [&](const std::string& p) { pcl_pslam::writeMapPcd(p, map); }},
       {"map.ply", [&](const std::string& p) { pcl_pslam::writeMapPly(p, map); }},
       {"map.png", [&](const std::string& p) {

@@ -213,18 +213,6 @@ writeFrames(const std::string& path,
   });
 }
 
-void
-writeTumPoses(const std::string& path, const Poses& poses, const std::vector<double>& stamps)
-{
-  pcl_parallel::io::writeTumTrajectory(path, poses, stamps); // atomic: temp name, rename
-}
-
-void
-writeKittiPoses(const std::string& path, const Poses& poses)
-{
-  pcl_parallel::io::writeKittiPoses(path, poses); // atomic: temp name, rename
-}
-
 Cloud::Ptr
 buildMap(const Input& in,
          const Poses& poses,
@@ -329,10 +317,12 @@ writeOutputs(const Options& o,
     progress.update("write", 0, 1); // a signal stops between two complete files
   }
   written.push_back("scanNNN.frames");
-  writeKittiPoses(join(o.out, "poses.txt"), r.final);
-  writeKittiPoses(join(o.out, "poses_icp.txt"), r.icp);
-  writeTumPoses(join(o.out, "poses_tum.txt"), r.final, in.stamps);
-  writeTumPoses(join(o.out, "poses_icp_tum.txt"), r.icp, in.stamps);
+  // The io writers are atomic (temporary name, rename) and name the file on failure.
+  namespace io = pcl_parallel::io;
+  io::writeKittiPoses(join(o.out, "poses.txt"), r.final);
+  io::writeKittiPoses(join(o.out, "poses_icp.txt"), r.icp);
+  io::writeTumTrajectory(join(o.out, "poses_tum.txt"), r.final, in.stamps);
+  io::writeTumTrajectory(join(o.out, "poses_icp_tum.txt"), r.icp, in.stamps);
   written.insert(written.end(),
                  {"poses.txt", "poses_icp.txt", "poses_tum.txt", "poses_icp_tum.txt"});
   progress.update("write", 1, 1);

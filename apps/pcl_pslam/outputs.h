@@ -58,15 +58,6 @@ writeFrames(const std::string& path,
             bool fixed,
             double scale);
 
-/** TUM trajectory format: "timestamp tx ty tz qx qy qz qw" per pose (as evo reads it;
- *  io::writeTumTrajectory), atomically. */
-void
-writeTumPoses(const std::string& path, const Poses& poses, const std::vector<double>& stamps);
-
-/** KITTI poses (io::writeKittiPoses), atomically. */
-void
-writeKittiPoses(const std::string& path, const Poses& poses);
-
 /** The merged map: every scan of `in`, read again one at a time at full resolution and
  *  moved by its pose, one centroid per voxel of voxel_size (filters::VoxelCentroidMap:
  *  memory per voxel, not per point; no int32 voxel-index overflow). voxel_size <= 0 keeps
