@@ -35,9 +35,7 @@ estimateNormals(const KdTreeIndex& tree,
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
       const float* p = tree.point(static_cast<std::uint32_t>(i));
       const std::size_t found = tree.knn(p, k, pos.data(), d2.data());
-      if (found < 3)
-        continue;
-      Eigen::Vector3d nrm, ev;
+      Eigen::Vector3d nrm, ev; // neighbourhoodNormal: false below 3 neighbours
       if (!neighbourhoodNormal(tree, pos.data(), found, p, nrm, ev) || !(ev.sum() > 0.0))
         continue; // all neighbours coincide
       // PCL's flipNormalTowardsViewpoint: n · (vp - p) >= 0.

@@ -202,8 +202,6 @@ estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
       const std::uint32_t p = static_cast<std::uint32_t>(i);
       const std::size_t got = tree.knn(tree.point(p), k, pos.data(), sqr.data());
-      if (got < 3)
-        continue;
       Eigen::Vector3d normal, ev;
       // A plane needs two clearly non-zero spreads; the normal's must be the smallest.
       if (!neighbourhoodNormal(tree, pos.data(), got, tree.point(p), normal, ev) ||

@@ -53,9 +53,7 @@ withNormals(const Cloud& reduced, const Cloud& full, unsigned num_threads)
     for (std::int64_t i = 0; i < n; ++i) {
       const Eigen::Vector3f q = reduced[i].getVector3fMap();
       const std::size_t got = tree.knn(q.data(), k, pos, sqr);
-      if (got < 3)
-        continue;
-      Eigen::Vector3d normal, ev;
+      Eigen::Vector3d normal, ev; // neighbourhoodNormal: false below 3 neighbours
       if (neighbourhoodNormal(tree, pos, got, q.data(), normal, ev) &&
           ev(1) > 1e-12) // a plane needs two spreads
         normals[i] = normal.cast<float>();
