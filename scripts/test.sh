@@ -11,7 +11,7 @@
 #   tsan     build-tsan/  ThreadSanitizer (clang-14, LLVM libomp + Archer, -O1 -g), only
 #                         the tests labelled "tsan" in test/CMakeLists.txt
 #   fuzz     build-fuzz/  libFuzzer + ASan/UBSan (clang-14) on every file reader
-#                         (test/fuzz), FUZZ_SECONDS (default 25) each, nproc at a time,
+#                         (test/fuzz), FUZZ_SECONDS (default 15) each, nproc at a time,
 #                         from seeds written by test/fuzz/write_fuzz_seeds; a finding
 #                         fails the stage and leaves its input in build-fuzz/crashes/
 # Prints the time of each stage at the end. Dependencies: scripts/install-deps.sh.
@@ -70,7 +70,7 @@ tsan() {
 }
 
 fuzz() {
-  local dir=build-fuzz bin=build-fuzz/test/fuzz secs=${FUZZ_SECONDS:-25}
+  local dir=build-fuzz bin=build-fuzz/test/fuzz secs=${FUZZ_SECONDS:-15}
   local targets=(uos_scan uos_pose frames xyz kitti_scan kitti_poses stanford_conf pcd ply
     kitti_times tum frames_history trajectory frames_dir evaluate)
   export CC=clang-14 CXX=clang++-14

@@ -26,6 +26,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <vector>
 
 namespace pcl_parallel {
 namespace io {
@@ -186,6 +187,67 @@ guardAllocation(const std::string& path, F&& f) -> decltype(f())
   catch (const std::length_error&) {
     fail(path, 0, "point count too large to hold in memory (a corrupt header?)");
   }
+}
+
+/** A binary number as PCD and PLY describe one: kind 'I' (signed integer), 'U' (unsigned)
+ *  or 'F' (IEEE 754), of 1, 2, 4 or 8 bytes (F: 4 or 8). */
+struct BinaryType {
+  char kind = 'F';
+  std::size_t size = 4;
+
+  bool
+  valid() const
+  {
+    return ((kind == 'I' || kind == 'U') &&
+            (size == 1 || size == 2 || size == 4 || size == 8)) ||
+           (kind == 'F' && (size == 4 || size == 8));
+  }
+};
+
+/** The value of a binary number in little- or big-endian byte order, assembled byte by
+ *  byte so the readers are right on a host of either order. */
+inline double
+binaryValue(const unsigned char* bytes, BinaryType type, bool big_endian = false)
+{
+  static_assert(std::numeric_limits<float>::is_iec559 && std::numeric_limits<double>::is_iec559,
+                "PCD, PLY and KITTI store IEEE 754 floats");
+  std::uint64_t u = 0;
+  for (std::size_t i = 0; i < type.size; ++i)
+    u |= static_cast<std::uint64_t>(bytes[big_endian ? type.size - 1 - i : i]) << (8 * i);
+  if (type.kind == 'F' && type.size == 4) {
+    const auto v = static_cast<std::uint32_t>(u);
+    float f;
+    std::memcpy(&f, &v, sizeof f);
+    return f;
+  }
+  if (type.kind == 'F') {
+    double d;
+    std::memcpy(&d, &u, sizeof d);
+    return d;
+  }
+  if (type.kind == 'I' && type.size < 8) { // sign-extend
+    const std::uint64_t sign = std::uint64_t{1} << (8 * type.size - 1);
+    return static_cast<double>(static_cast<std::int64_t>((u ^ sign) - sign));
+  }
+  return type.kind == 'I' ? static_cast<double>(static_cast<std::int64_t>(u))
+                          : static_cast<double>(u);
+}
+
+/** The rest of an open file, from its read position to its end (a binary body). */
+inline std::vector<unsigned char>
+readRest(const std::string& path, std::ifstream& in)
+{
+  const std::streamoff at = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff end = in.tellg();
+  in.seekg(at);
+  if (!in || at < 0 || end < at)
+    fail(path, 0, "cannot determine the file size");
+  std::vector<unsigned char> rest(static_cast<std::size_t>(end - at));
+  if (!rest.empty() &&
+      !in.read(reinterpret_cast<char*>(rest.data()), static_cast<std::streamsize>(rest.size())))
+    fail(path, 0, "read error");
+  return rest;
 }
 
 /** Calls f(line, line_no) for every line of a text file that holds more than white space,

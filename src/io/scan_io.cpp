@@ -7,13 +7,6 @@
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/uos.h>
 
-#include <pcl/PCLPointCloud2.h>
-#include <pcl/common/io.h>
-#include <pcl/conversions.h>
-#include <pcl/exceptions.h>
-#include <pcl/io/pcd_io.h>
-#include <pcl/io/ply_io.h>
-
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -61,21 +54,6 @@ requireRegularFile(const std::string& path)
     fail(path, 0, "not a regular file");
 }
 
-/** KITTI stores float32 little-endian; assembling the bytes keeps the reader correct on a
- *  big-endian host too (compilers turn this into one load on little-endian ones). */
-float
-floatLittleEndian(const unsigned char* b)
-{
-  static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559,
-                "KITTI scans are IEEE 754 float32");
-  const std::uint32_t u =
-      static_cast<std::uint32_t>(b[0]) | static_cast<std::uint32_t>(b[1]) << 8 |
-      static_cast<std::uint32_t>(b[2]) << 16 | static_cast<std::uint32_t>(b[3]) << 24;
-  float f;
-  std::memcpy(&f, &u, sizeof f);
-  return f;
-}
-
 enum class Format { Uos, Xyz, Kitti, Pcd, Ply };
 
 struct Extension {
@@ -109,198 +87,6 @@ findExtension(const std::string& path)
     if (ext == e.name)
       return &e;
   return nullptr;
-}
-
-/** Bytes in the file, or fails. */
-std::uintmax_t
-fileSize(const std::string& path)
-{
-  std::error_code ec;
-  const std::uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec)
-    fail(path, 0, "cannot determine the file size: " + ec.message());
-  return size;
-}
-
-/** A PLY header's element counts against the file size, before PCL allocates for them:
- *  every element with properties takes at least one byte, so a count above the file size
- *  is a corrupt header (PCL would try to allocate it: std::bad_alloc or the OOM killer).
- *  An element without properties takes none, but PCL's parser still loops over its count
- *  (8e18 of them: a hang, found by the fuzz stage), so its count is bounded alike. */
-void
-checkPlyHeader(const std::string& path)
-{
-  const std::uintmax_t size = fileSize(path);
-  std::ifstream in = detail::openOrThrow(path, std::ios::in | std::ios::binary);
-  std::string line;
-  double count = 0;
-  auto checkElement = [&] {
-    if (count > static_cast<double>(size)) {
-      char claimed[32];
-      std::snprintf(claimed, sizeof claimed, "%.0f", count);
-      fail(path,
-           0,
-           std::string("PLY header claims ") + claimed + " elements, more than the file's " +
-               std::to_string(size) + " bytes");
-    }
-  };
-  for (std::size_t n = 0; std::getline(in, line) && n < 10000; ++n) {
-    Fields fields(line);
-    std::string_view word, name, value;
-    if (!fields.next(word))
-      continue;
-    if (word == "end_header")
-      break;
-    if (word != "element")
-      continue;
-    checkElement();
-    if (!fields.next(name) || !fields.next(value) || !parseNumber(value, count) ||
-        !(count >= 0))
-      fail(path, 0, "PLY header: malformed element line " + inQuotes(line));
-  }
-  checkElement();
-}
-
-/** A PCD header's point count against the file size (see checkPlyHeader), read by us
- *  because PCL's readHeader already allocates for it: ASCII takes at least one byte a
- *  point, binary the sum of SIZE x COUNT, binary_compressed at least 1/100 of that (LZF's
- *  back-references expand 3 bytes to at most 264, 88x). Malformed headers are left to
- *  PCL's reader, which rejects them. */
-void
-checkPcdHeader(const std::string& path)
-{
-  const std::uintmax_t size = fileSize(path);
-  std::ifstream in = detail::openOrThrow(path, std::ios::in | std::ios::binary);
-  std::string line;
-  double width = 1, height = 1, points = -1, step = 0;
-  std::vector<double> sizes, counts;
-  std::string data;
-  std::uintmax_t header_bytes = 0;
-  for (std::size_t n = 0; n < 1000 && std::getline(in, line); ++n) {
-    header_bytes += line.size() + 1;
-    Fields fields(line);
-    std::string_view key, value;
-    if (!fields.next(key))
-      continue;
-    std::vector<double> values;
-    while (fields.next(value)) {
-      double v;
-      if (key == "DATA")
-        data = std::string(value);
-      else if (parseNumber(value, v))
-        values.push_back(v);
-    }
-    if (key == "WIDTH" && !values.empty())
-      width = values[0];
-    else if (key == "HEIGHT" && !values.empty())
-      height = values[0];
-    else if (key == "POINTS" && !values.empty())
-      points = values[0];
-    else if (key == "SIZE")
-      sizes = values;
-    else if (key == "COUNT")
-      counts = values;
-    else if (key == "DATA")
-      break;
-  }
-  for (std::size_t i = 0; i < sizes.size(); ++i)
-    step += sizes[i] * (i < counts.size() ? counts[i] : 1.0);
-  const double claimed = std::max(points, width * height);
-  const double body = size > header_bytes ? static_cast<double>(size - header_bytes) : 0.0;
-  const double bytes = data == "ascii" ? claimed : claimed * std::max(step, 1.0);
-  const double limit = data == "binary_compressed" ? 100.0 * body : body;
-  if (bytes > limit) {
-    char msg[160];
-    std::snprintf(msg,
-                  sizeof msg,
-                  "PCD header claims %.0f points, more than the file's %ju bytes hold",
-                  claimed,
-                  size);
-    fail(path, 0, msg);
-  }
-  if (data != "binary_compressed")
-    return;
-  // PCL allocates the uncompressed size stored in the body (found by the fuzz stage):
-  // it must be the header's points x point size, and the compressed size must fit.
-  unsigned char words[8];
-  if (!in.read(reinterpret_cast<char*>(words), sizeof words))
-    fail(path, 0, "binary_compressed PCD without its size words");
-  auto u32 = [&](int at) {
-    return static_cast<std::uint32_t>(words[at]) |
-           static_cast<std::uint32_t>(words[at + 1]) << 8 |
-           static_cast<std::uint32_t>(words[at + 2]) << 16 |
-           static_cast<std::uint32_t>(words[at + 3]) << 24;
-  };
-  if (u32(0) > body || static_cast<double>(u32(4)) != bytes)
-    fail(path,
-         0,
-         "binary_compressed sizes (" + std::to_string(u32(0)) + " compressed, " +
-             std::to_string(u32(4)) + " uncompressed) disagree with the header");
-}
-
-/** PCD and PLY through PCL. Its readers print and return < 0 on most errors but throw
- *  pcl::PCLException on some; both become our std::runtime_error, as does an allocation
- *  failure. The header is read and checked first: PCL 1.13's PCD reader dereferences the
- *  first field of a header that has none (an empty or non-PCD file: PCL issue #5854, fixed
- *  in 1.14), and a point count beyond the file size is rejected before PCL allocates for
- *  it. Read as a PCLPointCloud2 because pcl::fromPCLPointCloud2 only warns about a
- *  missing or differently typed x, y or z field and leaves the coordinates at 0: every
- *  point would sit at the origin. */
-pcl::PointCloud<pcl::PointXYZ>::Ptr
-loadPclScan(const std::string& path, Format format, double min_range, double max_range)
-{
-  const std::string cannot =
-      std::string("PCL cannot read it as ") + (format == Format::Pcd ? "PCD" : "PLY");
-  pcl::PCLPointCloud2 blob;
-  int rc = -1;
-  try {
-    if (format == Format::Pcd) {
-      checkPcdHeader(path);
-      if (pcl::PCDReader().readHeader(path, blob) < 0)
-        fail(path, 0, cannot + " (PCL printed the reason)");
-      if (blob.fields.empty())
-        fail(path, 0, cannot + ": no FIELDS in the header");
-      rc = pcl::io::loadPCDFile(path, blob);
-    }
-    else {
-      checkPlyHeader(path);
-      rc = pcl::io::loadPLYFile(path, blob);
-    }
-  }
-  catch (const pcl::PCLException& e) {
-    fail(path, 0, cannot + ": " + e.what());
-  }
-  if (rc < 0)
-    fail(path, 0, cannot + " (PCL printed the reason)");
-  for (const char* name : {"x", "y", "z"}) {
-    const int i = pcl::getFieldIndex(blob, name);
-    if (i < 0)
-      fail(path, 0, std::string("no field \"") + name + "\"");
-    const pcl::PCLPointField& f = blob.fields[static_cast<std::size_t>(i)];
-    if (f.datatype != pcl::PCLPointField::FLOAT32 || f.count != 1)
-      fail(path, 0, std::string("field \"") + name + "\" is not a single float32");
-  }
-  // pcl::fromPCLPointCloud2 trusts the blob's layout; a reader that parsed a damaged file
-  // can return fewer bytes than width x height points, and for no points it takes
-  // &cloud[0] of an empty vector (UB; both found by the fuzz stage).
-  const std::size_t points = static_cast<std::size_t>(blob.width) * blob.height;
-  detail::RangeFilteredCloud cloud(path, min_range, max_range);
-  if (points == 0)
-    return cloud.finish();
-  for (const char* name : {"x", "y", "z"}) {
-    const auto& f = blob.fields[static_cast<std::size_t>(pcl::getFieldIndex(blob, name))];
-    if (std::size_t{f.offset} + 4 > blob.point_step)
-      fail(path, 0, cannot + ": field offsets beyond the point size");
-  }
-  if (std::size_t{blob.point_step} * blob.width > blob.row_step ||
-      std::size_t{blob.row_step} * blob.height > blob.data.size())
-    fail(path, 0, cannot + ": fewer data bytes than the header's points");
-  pcl::PointCloud<pcl::PointXYZ> raw;
-  pcl::fromPCLPointCloud2(blob, raw);
-  cloud.reserve(raw.size());
-  for (std::size_t i = 0; i < raw.size(); ++i)
-    cloud.add(raw[i].x, raw[i].y, raw[i].z, i + 1);
-  return cloud.finish();
 }
 
 /** KITTI plausibility (the format has no header or magic number, so only the values can
@@ -379,7 +165,7 @@ loadKittiScan(const std::string& path, double min_range, double max_range)
     const unsigned char* record = bytes.data() + i * kRecordBytes;
     float v[4];
     for (int a = 0; a < 4; ++a) {
-      v[a] = floatLittleEndian(record + 4 * a);
+      v[a] = static_cast<float>(detail::binaryValue(record + 4 * a, {'F', 4})); // little-endian
       if (std::isinf(v[a]) || std::abs(v[a]) > kKittiMaxValue)
         fail(path,
              0,
@@ -450,8 +236,9 @@ loadScan(const std::string& path, double min_range, double max_range)
     case Format::Kitti:
       return loadKittiScan(path, min_range, max_range);
     case Format::Pcd:
+      return loadPcdScan(path, min_range, max_range);
     case Format::Ply:
-      return loadPclScan(path, ext->format, min_range, max_range);
+      return loadPlyScan(path, min_range, max_range);
     }
     fail(path, 0, "internal error: unhandled scan format"); // unreachable: the switch is total
   });

@@ -7,7 +7,6 @@
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
 
-#include <pcl/io/ply_io.h>
 
 #include <Eigen/Geometry>
 
@@ -78,8 +77,7 @@ stanfordPose(const std::vector<StanfordConfEntry>& entries, const std::string& f
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadStanfordScan(const std::string& path)
 {
-  // The checked PLY reader of loadScan (header validated, PCL's exceptions and
-  // allocation failures turned into our error naming the file).
+  // loadScan: the file checks and allocation guard around loadPlyScan.
   const pcl::PointCloud<pcl::PointXYZ>::Ptr out = loadScan(path);
   if (out->empty())
     detail::fail(path, 0, "no finite points");

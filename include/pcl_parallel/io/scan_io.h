@@ -53,6 +53,35 @@ loadKittiScan(const std::string& path,
               double min_range = 0.0,
               double max_range = std::numeric_limits<double>::infinity());
 
+/** Reads a PCD scan (.pcd; PCD v0.7 as pcl::PCDWriter writes it, and v0.5's FIELDS-only
+ *  headers): DATA ascii, binary or binary_compressed, the x, y, z fields as float32 or
+ *  float64, other fields skipped. Parsed by us rather than by pcl::PCDReader, which trusts
+ *  damaged headers (see src/io/pcd.cpp). Range filter and non-finite points as
+ *  loadXyzScan; the VIEWPOINT is not applied (neither does PCL). Throws
+ *  std::runtime_error naming the file, and the line for text, when the header is not a
+ *  valid PCD header (a keyword twice or unknown, SIZE/TYPE/COUNT not one value a field,
+ *  an invalid type, POINTS against WIDTH x HEIGHT), x, y or z is missing or not a single
+ *  float, an ASCII line has another number of values than the fields take, or the body
+ *  holds fewer points than the header (or, compressed, does not decompress to them). */
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+loadPcdScan(const std::string& path,
+            double min_range = 0.0,
+            double max_range = std::numeric_limits<double>::infinity());
+
+/** Reads a PLY scan (.ply; ascii, binary_little_endian or binary_big_endian): the vertex
+ *  element's x, y, z (float or double), other properties and elements skipped by their
+ *  declared layout. Parsed by us rather than by pcl::PLYReader, which asserts or loops on
+ *  damaged headers (see src/io/ply.cpp). Range filter and non-finite points as
+ *  loadXyzScan. Throws std::runtime_error naming the file, and the line for text, when
+ *  the header is not a valid PLY header (no "ply" line, a format other than 1.0, an
+ *  unknown keyword or type, element counts beyond the file size, no vertex element with
+ *  x, y, z as single floats), or the data ends before the vertices do or does not match
+ *  the declared properties. */
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+loadPlyScan(const std::string& path,
+            double min_range = 0.0,
+            double max_range = std::numeric_limits<double>::infinity());
+
 /** Reads a KITTI odometry poses file (poses/NN.txt): one pose a line, 12 numbers, the
  *  first three rows of [R|t] in row-major order, p_world = R·p + t (the left camera's
  *  frame at the first scan is the world frame; the poses are of that camera, so a
@@ -64,14 +93,14 @@ std::vector<Eigen::Matrix4d>
 loadKittiPoses(const std::string& path);
 
 /** Reads a scan in any supported format, chosen by the extension (case-insensitive):
- *  .3d (loadUosScan), .xyz and .txt (loadXyzScan), .bin (loadKittiScan), .pcd and .ply
- *  (PCL's readers; the x, y, z fields are read, other fields ignored). Every format gets
+ *  .3d (loadUosScan), .xyz and .txt (loadXyzScan), .bin (loadKittiScan), .pcd
+ *  (loadPcdScan) and .ply (loadPlyScan). Every format gets
  *  the same treatment: non-finite points dropped, the range filter applied, an unorganised
  *  dense cloud returned. Throws std::invalid_argument for an unsupported extension (the
  *  message lists the supported ones), std::runtime_error naming the file when it does not
- *  exist, is not a regular file, or cannot be parsed (also where PCL's readers only print
- *  and return an error, and for PCD/PLY files without x, y, z fields), when a PCD/PLY
- *  header claims more points than the file size can hold, and when memory runs out (no
+ *  exist, is not a regular file, or cannot be parsed (also for PCD/PLY files without x, y,
+ *  z fields), when a PCD/PLY header claims more points than the file size can hold, and
+ *  when memory runs out (no
  *  bare std::bad_alloc). */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadScan(const std::string& path,
