@@ -570,6 +570,56 @@ TEST_F(QuietPcl, PlumBidirectionalAndDuplicateLinksAreDeterministic)
 }
 
 // The gate schedule, the option setters' validation and the iteration callback.
+// Normals given with setPointNormals (by point index) are what pLUM would estimate itself
+// when they are the same numbers: bit-identical poses, so they reach each tree position
+// of the right point. Other normals change the result; a wrong count is an error.
+TEST_F(QuietPcl, PlumTakesGivenNormals)
+{
+  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
+                       makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
+                       makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
+  const PlumScene s = plumScene(truth, 61);
+  const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 62);
+  enum class Normals { kEstimated, kGiven, kZero };
+  auto run = [&](Normals mode) {
+    ParallelLUM<pcl::PointXYZ> lum;
+    for (std::size_t v = 0; v < s.clouds.size(); ++v)
+      lum.addPointCloud(s.clouds[v], Eigen::Matrix4f(start[v].cast<float>()));
+    lum.addLink(0, 1);
+    lum.addLink(1, 2);
+    lum.addLink(0, 2);
+    lum.setPointToPlane(true);
+    lum.setCorrespondenceDistance(0.05);
+    lum.setMaxIterations(3);
+    for (std::size_t v = 0; mode != Normals::kEstimated && v < s.clouds.size(); ++v) {
+      std::vector<Eigen::Vector3f> given(s.clouds[v]->size(), Eigen::Vector3f::Zero());
+      if (mode == Normals::kGiven) {
+        const pcl_parallel::KdTreeIndex& tree =
+            *lum.getSearchTree(v); // its normals: by tree position
+        const auto by_position = pcl_parallel::lum::estimateNormals(tree, 10, 1);
+        for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
+          given[tree.id(pos)] = by_position[pos];
+      }
+      lum.setPointNormals(v, given);
+    }
+    lum.compute();
+    Poses out;
+    for (std::size_t v = 0; v < s.clouds.size(); ++v)
+      out.push_back(lum.getPoseMatrix(v));
+    return out;
+  };
+  const Poses estimated = run(Normals::kEstimated), given = run(Normals::kGiven),
+              zero = run(Normals::kZero);
+  for (std::size_t v = 1; v < estimated.size(); ++v) {
+    EXPECT_EQ(given[v], estimated[v]) << "vertex " << v;
+    EXPECT_NE(zero[v], estimated[v]) << "vertex " << v;
+  }
+  ParallelLUM<pcl::PointXYZ> lum;
+  lum.addPointCloud(s.clouds[0]);
+  EXPECT_THROW(lum.setPointNormals(0, std::vector<Eigen::Vector3f>(3)), std::invalid_argument);
+  EXPECT_THROW(lum.setPointNormals(1, {}), std::out_of_range); // no such vertex
+}
+
 TEST_F(QuietPcl, PlumOptions)
 {
   ParallelLUM<pcl::PointXYZ> lum;

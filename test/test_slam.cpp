@@ -228,6 +228,49 @@ TEST(LoopCloser, LingeringScannerMakesALinearGraph)
   EXPECT_LE(loops, (n - p.min_separation) / (p.min_separation / 2) + 1);
 }
 
+// A loop's error is spread along it only when it shows in the map (above the overlap
+// distance): on the truth poses the accepted loops leave every pose where it was (so the
+// front end's map stays put); with 0.35 m of drift over the lap one loop moves them, and
+// moves the newest scan towards the truth.
+TEST(LoopCloser, SpreadsOnlyAVisibleLoopError)
+{
+  const auto& set = corridorSet();
+  const std::size_t n = set.scans.size();
+  for (const double drift : {0.0, 0.35}) {
+    SCOPED_TRACE("drift " + std::to_string(drift));
+    slam::LoopClosureParameters p;
+    p.overlap_distance = 0.2;
+    p.num_threads = 2;
+    slam::LoopCloser closer(p);
+    std::size_t accepted = 0, distributed = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      Pose pose = set.truth[i];
+      pose(0, 3) += drift * double(i) / double(n);
+      closer.addScan(set.scans[i], pose);
+      const Poses before = closer.poses();
+      for (const auto& c : closer.detect()) {
+        accepted += c.accepted;
+        distributed += c.distributed;
+        if (c.distributed) { // the newest scan moves towards the truth
+          EXPECT_GT(c.error, p.overlap_distance);
+          const auto offset = [&](const Pose& a) {
+            return (a - set.truth[i]).topRightCorner(3, 1).norm();
+          };
+          EXPECT_LT(offset(closer.poses()[i]), 0.5 * offset(before[i]));
+        }
+        else
+          for (std::size_t k = 0; k <= i; ++k)
+            ASSERT_EQ(closer.poses()[k], before[k]) << "scan " << k;
+      }
+    }
+    EXPECT_GE(accepted, 2u);
+    if (drift > 0.0)
+      EXPECT_GE(distributed, 1u);
+    else
+      EXPECT_EQ(distributed, 0u);
+  }
+}
+
 TEST(LoopCloser, CandidatesByDistanceAndSeparation)
 {
   Poses poses;

@@ -4,10 +4,10 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/kdtree.h>
-#include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
+#include <pcl_parallel/registration/lum_solver.h>
 #include <pcl_parallel/slam/front_end.h>
 #include <pcl_parallel/slam/preprocess.h>
 
@@ -27,41 +27,37 @@ struct FrontEnd::Registration {
 
 namespace {
 
-/** The reduced points with their normals: PCA of each one's 10 nearest neighbours among
- *  the scan's full-resolution points (denser than the reduced ones, so sparse scanners
- *  still get local planes). Points whose neighbourhood is degenerate are left out. */
+/** The reduced points' normals (scanner frame): PCA of each one's 10 nearest reduced
+ *  points, zero where the neighbourhood is degenerate. Reduced, not raw, neighbours: on a
+ *  spinning LiDAR the nearest raw points lie along one ring, a nearly linear neighbourhood
+ *  whose normal is poorly determined (docs/design.md, "Normals once per scan"). */
+std::vector<Eigen::Vector3f>
+reducedNormals(const Cloud& reduced, unsigned num_threads)
+{
+  std::vector<Eigen::Vector3f> normals(reduced.size(), Eigen::Vector3f::Zero());
+  if (reduced.empty())
+    return normals;
+  KdTreeIndex tree;
+  tree.build(reduced.front().data,
+             reduced.size(),
+             sizeof(PointT) / sizeof(float),
+             nullptr,
+             num_threads);
+  // pLUM's estimator (the normals go to pLUM too), by tree position: back to point order.
+  const std::vector<Eigen::Vector3f> by_position = lum::estimateNormals(tree, 10, num_threads);
+  for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
+    normals[tree.id(pos)] = by_position[pos];
+  return normals;
+}
+
+/** The reduced points that have a normal, with it: what goes into the local map. */
 MapCloud::Ptr
-withNormals(const Cloud& reduced, const Cloud& full, unsigned num_threads)
+withNormals(const Cloud& reduced, const std::vector<Eigen::Vector3f>& normals)
 {
   MapCloud::Ptr out(new MapCloud);
-  if (reduced.empty() || full.empty())
-    return out;
-  // The tree holds ~10x more points than it answers queries for, so its build dominates:
-  // buckets of 32 build ~30% faster than the default 12 at a small cost per query.
-  KdTreeIndex tree;
-  tree.build(
-      full.front().data, full.size(), sizeof(PointT) / sizeof(float), nullptr, num_threads, 32);
-  constexpr std::size_t k = 10;
-  const std::int64_t n = static_cast<std::int64_t>(reduced.size());
-  std::vector<Eigen::Vector3f> normals(reduced.size(), Eigen::Vector3f::Constant(NAN));
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel num_threads(threads) if (threads > 1 && n > 2000)
-  {
-    std::uint32_t pos[k];
-    float sqr[k];
-#pragma omp for schedule(static)
-    for (std::int64_t i = 0; i < n; ++i) {
-      const Eigen::Vector3f q = reduced[i].getVector3fMap();
-      const std::size_t got = tree.knn(q.data(), k, pos, sqr);
-      Eigen::Vector3d normal, ev; // neighbourhoodNormal: false below 3 neighbours
-      if (neighbourhoodNormal(tree, pos, got, q.data(), normal, ev) &&
-          ev(1) > 1e-12) // a plane needs two spreads
-        normals[i] = normal.cast<float>();
-    }
-  }
   out->reserve(reduced.size());
   for (std::size_t i = 0; i < reduced.size(); ++i) {
-    if (!normals[i].allFinite())
+    if (normals[i] == Eigen::Vector3f::Zero())
       continue;
     MapPoint p;
     p.getVector3fMap() = reduced[i].getVector3fMap();
@@ -147,8 +143,9 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);
   pose_ = r.pose;
 
-  // The scan's normals, once (from its full-resolution points), then into the world.
-  const MapCloud::Ptr world = withNormals(*r.reduced, *frame, params_.num_threads);
+  // The scan's normals, once, then into the world.
+  r.normals = reducedNormals(*r.reduced, params_.num_threads);
+  const MapCloud::Ptr world = withNormals(*r.reduced, r.normals);
   pcl::transformPointCloudWithNormals(*world, *world, pose_);
   if (to_map)
     map_.update(*world, pose_.topRightCorner<3, 1>());

@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
@@ -57,7 +58,7 @@ LoopCloser::LoopCloser(const LoopClosureParameters& params)
   impl_->icp.setNumberOfThreads(params.num_threads);
   impl_->icp.setMaxCorrespondenceDistance(params.icp_distance);
   impl_->icp.setMaximumIterations(params.icp_iterations);
-  impl_->icp.setTransformationEpsilon(1e-10);
+  impl_->icp.setTransformationEpsilon(params.icp_epsilon);
   auto& lum = impl_->lum;
   lum.setNumberOfThreads(params.num_threads);
   lum.setCorrespondenceDistanceSchedule(
@@ -71,12 +72,16 @@ LoopCloser::LoopCloser(const LoopClosureParameters& params)
 LoopCloser::~LoopCloser() = default;
 
 void
-LoopCloser::addScan(const Cloud::ConstPtr& scan, const Pose& pose)
+LoopCloser::addScan(const Cloud::ConstPtr& scan,
+                    const Pose& pose,
+                    std::vector<Eigen::Vector3f> normals)
 {
   // ParallelLUM takes PCL's non-const pointer; it never modifies the cloud.
   const auto v = impl_->lum.addPointCloud(std::const_pointer_cast<Cloud>(scan),
                                           Eigen::Matrix4f(pose.cast<float>()));
   impl_->lum.setPoseMatrix(v, pose); // keep the double pose
+  if (params_.lum_point_to_plane && !normals.empty())
+    impl_->lum.setPointNormals(v, std::move(normals));
   impl_->points += scan->size();
   impl_->trees.push_back(impl_->lum.getSearchTree(v));
   scans_.push_back(scan);
@@ -128,7 +133,10 @@ LoopCloser::detect()
   }
   const std::uint32_t i = best_i;
   auto& icp = impl_->icp;
-  icp.setInputSource(scans_[j]);
+  icp.setInputSource(
+      params_.icp_source_voxel_size > 0.0
+          ? filters::voxelCentroid(scan, params_.icp_source_voxel_size, params_.num_threads)
+          : scans_[j]);
   icp.setInputTarget(scans_[i]);
   Cloud aligned;
   icp.align(aligned, Pose(poses_[i].inverse() * poses_[j]));
@@ -146,7 +154,8 @@ LoopCloser::detect()
                  c.error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path);
   }
   if (c.accepted) {
-    if (params_.distribute_error)
+    c.distributed = params_.distribute_error && c.error > params_.overlap_distance;
+    if (c.distributed)
       distributeLoopError(poses_, i, j, measured);
     links_.push_back(c.link);
     loop_sources_.push_back(static_cast<std::uint32_t>(j));

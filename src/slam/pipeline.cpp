@@ -81,6 +81,8 @@ loopClosureParameters(const Parameters& p, double r)
   l.min_separation = p.loop_size;
   l.icp_distance = orAuto(p.icp_distance, 10.0 * voxel);
   l.icp_iterations = std::max(p.icp_iterations, 50);
+  l.icp_epsilon = p.icp_epsilon;
+  l.icp_source_voxel_size = 3.0 * voxel; // as frontEndParameters' source_voxel_size
   l.overlap_distance = 2.0 * voxel;
   l.min_overlap = p.min_overlap;
   l.lum_distance = orAuto(p.lum_distance, 10.0 * voxel);
@@ -129,7 +131,7 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
   // Front end: predict, deskew, reduce, match (paper Sec. II; KISS-ICP Sec. III).
   auto stage = Clock::now();
   const Pose before = front_end_->lastPose(); // after any loop correction
-  const FrontEndResult fe = front_end_->track(*cropped, odometry);
+  FrontEndResult fe = front_end_->track(*cropped, odometry);
   // The front end's own trajectory: its matched steps, chained without the corrections.
   front_end_poses_.push_back(
       index == 0 ? fe.pose : Pose(front_end_poses_.back() * before.inverse() * fe.pose));
@@ -141,7 +143,7 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
   stage = Clock::now();
-  loops_->addScan(fe.reduced, fe.pose);
+  loops_->addScan(fe.reduced, fe.pose, std::move(fe.normals));
   if (params_.close_loops) {
     report.loops = loops_->detect();
     const auto found = std::find_if(
@@ -156,11 +158,13 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
       const bool visible = found->error > loop_params_.overlap_distance;
       last_loop_scan_ = index;
       stage = Clock::now();
-      if (new_loop && visible && params_.relax_each_loop) {
+      const bool relax = new_loop && visible && params_.relax_each_loop;
+      if (relax) {
         report.lum_iterations = loops_->relax(params_.lum_iterations_per_loop);
         ++relaxations_;
       }
-      front_end_->setLastPose(loops_->poses().back());
+      if (relax || found->distributed) // the front end continues from the moved pose
+        front_end_->setLastPose(loops_->poses().back());
       times_.loop_closing += seconds(stage);
     }
   }

@@ -249,6 +249,13 @@ public:
   {
     return normal_neighbours_;
   }
+  /** Point-to-plane mode: a vertex's normals given rather than estimated, one per point
+   *  of its cloud in the cloud's frame (unit length, or zero where a point has none), for
+   *  a caller that has them already (a front end that estimated them on denser data).
+   *  They hold until the cloud changes; empty returns to estimating. Throws
+   *  std::invalid_argument for a size other than the cloud's. */
+  void
+  setPointNormals(const Vertex& vertex, std::vector<Eigen::Vector3f> normals);
   /** pLUM mode: pairing steps per link and iteration (default 1, the paper's step 1).
    *  With k > 1 each link first aligns its two scans by up to k - 1 steps of pairwise
    *  ICP (re-pairing each time, poses of the graph unchanged), and its measurement D-bar
@@ -469,7 +476,10 @@ private:
   // Point-to-plane mode: per-vertex normals by tree position, computed with neighbours k
   // (0 = not computed), in the scan's own frame.
   std::vector<std::vector<Eigen::Vector3f>> normals_;
-  std::vector<std::size_t> normals_k_;
+  std::vector<std::size_t> normals_k_; ///< or kGivenNormals: from given_normals_
+  /// setPointNormals' normals by point index, until buildTrees maps them to tree positions
+  std::vector<std::vector<Eigen::Vector3f>> given_normals_;
+  static constexpr std::size_t kGivenNormals = static_cast<std::size_t>(-1);
   // Warm-start hints (last iteration's matches), one vector per link and search direction:
   // a reversed (b -> a) or repeated link has its own, so no two threads share one.
   std::map<HintKey, std::vector<std::uint32_t>> hints_;

@@ -33,7 +33,7 @@ struct FrontEndParameters {
   /** Point-to-plane pICP instead of point-to-point. */
   bool point_to_plane = true;
   /** Point-to-plane normals: false (default) estimates them once per scan from its
-   *  full-resolution points and carries them in the map (fast; right for scanners that
+   *  reduced points and carries them in the map (fast; right for scanners that
    *  sample surfaces densely in one scan: spinning, tilting, terrestrial); true estimates
    *  them on the local map after each refresh (slower on large maps; better for sparse,
    *  non-repetitive patterns such as Livox's, measured on fastlio_quick_shack). */
@@ -51,6 +51,9 @@ struct FrontEndResult {
   Pose pose;          ///< matched pose (world)
   Pose prediction;    ///< where the motion prior put it
   Cloud::Ptr reduced; ///< deskewed, reduced at voxel_size, scanner frame
+  /** The reduced points' normals (scanner frame, from their 10 nearest reduced points),
+   *  zero where a neighbourhood is no plane: pLUM takes them (LoopCloser::addScan). */
+  std::vector<Eigen::Vector3f> normals;
   std::size_t source_points = 0;
   bool converged = true; ///< false: pICP failed and the prediction was kept
   double fitness = 0.0;  ///< mean squared distance of matched pairs (pICP's fitness)

@@ -18,6 +18,11 @@ struct LoopClosureParameters {
   int min_separation = 5;    ///< loopsize: ... if at least this many scans apart
   double icp_distance = 1.0; ///< pICP gate when a loop pair is matched
   int icp_iterations = 50;
+  double icp_epsilon = 1e-8; ///< stop when the transform changes by less (as the front end)
+  /** The newer scan of a loop pair is matched as a voxel sample this coarse (0: as kept),
+   *  as the front end registers its source: the match only decides whether the link is
+   *  kept, pLUM then pairs all points. */
+  double icp_source_voxel_size = 0.0;
   double overlap_distance = 0.2; ///< a point overlaps if its partner is this close ...
   double min_overlap = 0.3;      ///< ... and a loop link needs this fraction of overlap
   int max_candidates = 16;       ///< nearest candidates looked at per scan; the best is matched
@@ -26,7 +31,10 @@ struct LoopClosureParameters {
    *  rotation times the median range), or 2 overlap distances. A larger correction is a
    *  false match (two similar rooms, a scanner turning in place) and is rejected. */
   double max_drift = 0.05;
-  bool distribute_error = true; ///< spread a loop's error along it before pLUM (ELCH's idea)
+  /** Spread a loop's error along it before pLUM (ELCH's idea), when the error exceeds
+   *  overlap_distance: a smaller one is within what pICP can tell on reduced scans and
+   *  well inside pLUM's gate, and moving the poses would move the front end's map. */
+  bool distribute_error = true;
   // pLUM (Sec. III, V): pairs within a gate shrinking from lum_distance to
   // lum_final_distance (x0.7 per iteration), point-to-plane, up to lum_iterations,
   // stopped once the mean pose update is below lum_epsilon (3DTK's --epsSLAM).
@@ -49,6 +57,7 @@ struct LoopCandidate {
   /** How far matching moved the newer scan from where its pose put it: translation plus
    *  the rotation's displacement at the scans' median range (KISS-ICP's model error). */
   double error = 0.0;
+  bool distributed = false; ///< the error was spread along the loop (the poses moved)
 };
 
 /**
@@ -65,13 +74,17 @@ public:
   explicit LoopCloser(const LoopClosureParameters& params = LoopClosureParameters());
   ~LoopCloser();
 
-  /** Adds the next scan (reduced, scanner frame) at its front-end pose. */
+  /** Adds the next scan (reduced, scanner frame) at its front-end pose, with its points'
+   *  normals if the front end has them (FrontEndResult::normals; pLUM estimates them
+   *  otherwise, from the reduced points). */
   void
-  addScan(const Cloud::ConstPtr& scan, const Pose& pose);
+  addScan(const Cloud::ConstPtr& scan,
+          const Pose& pose,
+          std::vector<Eigen::Vector3f> normals = {});
 
   /** Looks for loop links of the newest scan; adds the accepted ones to the graph and,
-   *  with distribute_error, moves the poses since the loop's start to close it. Returns
-   *  every pair tried. */
+   *  with distribute_error and an error above overlap_distance, moves the poses since
+   *  the loop's start to close it. Returns every pair tried. */
   std::vector<LoopCandidate>
   detect();
 

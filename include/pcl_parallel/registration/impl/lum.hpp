@@ -321,6 +321,22 @@ ParallelLUM<PointT>::setNormalNeighbours(std::size_t k)
 
 template <typename PointT>
 void
+ParallelLUM<PointT>::setPointNormals(const Vertex& vertex, std::vector<Eigen::Vector3f> normals)
+{
+  checkVertex(vertex, "setPointNormals");
+  const PointCloudPtr& cloud = (*slam_graph_)[vertex].cloud_;
+  if (!normals.empty() && (!cloud || normals.size() != cloud->size()))
+    throw std::invalid_argument("[pcl_parallel::ParallelLUM::setPointNormals] " +
+                                std::to_string(normals.size()) + " normals for a cloud of " +
+                                std::to_string(cloud ? cloud->size() : 0) + " points");
+  given_normals_.resize(getNumVertices());
+  normals_k_.resize(getNumVertices(), 0);
+  given_normals_[vertex] = std::move(normals);
+  normals_k_[vertex] = 0; // mapped to tree positions (or estimated) by buildTrees
+}
+
+template <typename PointT>
+void
 ParallelLUM<PointT>::setLinkIterations(int iterations)
 {
   if (iterations < 1)
@@ -433,11 +449,26 @@ ParallelLUM<PointT>::buildTrees(const std::vector<char>* needed)
   }
   if (!point_to_plane_)
     return;
-  for (std::size_t v = 0; v < n; ++v)
-    if (trees_[v] && normals_k_[v] != normal_neighbours_) {
+  given_normals_.resize(n);
+  for (std::size_t v = 0; v < n; ++v) {
+    if (!trees_[v])
+      continue;
+    std::vector<Eigen::Vector3f>& given = given_normals_[v];
+    if (!given.empty()) { // by tree position (the tree reorders points), then released
+      const KdTreeIndex& tree = *trees_[v];
+      if (given.size() == tree_source_[v].second) { // else the cloud changed: estimate
+        normals_[v].resize(tree.size());
+        for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
+          normals_[v][pos] = given[tree.id(pos)];
+        normals_k_[v] = kGivenNormals;
+      }
+      std::vector<Eigen::Vector3f>().swap(given);
+    }
+    if (normals_k_[v] != kGivenNormals && normals_k_[v] != normal_neighbours_) {
       normals_[v] = lum::estimateNormals(*trees_[v], normal_neighbours_, threads);
       normals_k_[v] = normal_neighbours_;
     }
+  }
 }
 
 template <typename PointT>
