@@ -8,6 +8,7 @@
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
 
+#include <pcl/io/auto_io.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 
@@ -380,12 +381,13 @@ TEST_F(TempFiles, LoadScanErrors)
                std::runtime_error);
 }
 
-/** PCL's reading of a PCD file (x, y, z, finite points only), to compare ours against. */
+/** PCL's reading of a PCD or PLY file (pcl::io::load picks the reader by the extension;
+ *  x, y, z of the finite points), to compare ours against. */
 std::vector<Eigen::Vector3f>
-pclPcdPoints(const std::string& path)
+pclPoints(const std::string& path)
 {
   pcl::PointCloud<pcl::PointXYZ> cloud;
-  EXPECT_EQ(pcl::io::loadPCDFile(path, cloud), 0) << path;
+  EXPECT_EQ(pcl::io::load(path, cloud), 0) << path;
   std::vector<Eigen::Vector3f> points;
   for (const auto& p : cloud)
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
@@ -451,7 +453,7 @@ TEST_F(TempFiles, PcdReaderMatchesPclOnWhatPclWrites)
       ASSERT_EQ(writer.writeBinaryCompressed(plain_path, plain), 0);
     }
     for (const auto& path : {rich_path, plain_path}) {
-      const auto expected = pclPcdPoints(path);
+      const auto expected = pclPoints(path);
       ASSERT_GT(expected.size(), 40u) << path;
       expectSamePoints(*loadScan(path), expected, path);
     }
@@ -467,23 +469,10 @@ TEST(PcdReader, MatchesPclOnPclsTestClouds)
                            "pcl_test/milk_color.pcd",
                            "pcl_test/office1_keypoints.pcd"}) {
     PCL_PARALLEL_REQUIRE_DATA(path, name);
-    const auto expected = pclPcdPoints(path);
+    const auto expected = pclPoints(path);
     ASSERT_GT(expected.size(), 100u) << path;
     expectSamePoints(*loadScan(path), expected, path);
   }
-}
-
-/** PCL's reading of a PLY file, as pclPcdPoints. */
-std::vector<Eigen::Vector3f>
-pclPlyPoints(const std::string& path)
-{
-  pcl::PointCloud<pcl::PointXYZ> cloud;
-  EXPECT_EQ(pcl::io::loadPLYFile(path, cloud), 0) << path;
-  std::vector<Eigen::Vector3f> points;
-  for (const auto& p : cloud)
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-      points.push_back(p.getVector3fMap());
-  return points;
 }
 
 // Our PLY reader against PCL's on what pcl::PLYWriter writes (ascii and binary, further
@@ -506,12 +495,12 @@ TEST_F(TempFiles, PlyReaderMatchesPclOnWhatPclWritesAndTheBunny)
   for (bool binary : {false, true}) {
     const auto path = (dir_ / (binary ? "rich_binary.ply" : "rich_ascii.ply")).string();
     ASSERT_EQ(pcl::io::savePLYFile(path, rich, binary), 0);
-    const auto expected = pclPlyPoints(path);
+    const auto expected = pclPoints(path);
     ASSERT_EQ(expected.size(), 59u) << path;
     expectSamePoints(*loadScan(path), expected, path);
   }
   PCL_PARALLEL_REQUIRE_DATA(bunny, "stanford_bunny/bun000.ply");
-  const auto expected = pclPlyPoints(bunny);
+  const auto expected = pclPoints(bunny);
   ASSERT_GT(expected.size(), 40000u);
   expectSamePoints(*loadScan(bunny), expected, bunny);
 }

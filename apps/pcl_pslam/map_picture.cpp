@@ -158,6 +158,40 @@ makeView(int up)
   return View{up, (up + 1) % 3, (up + 2) % 3, 1.0};
 }
 
+/** `text` broken at spaces into lines at most `width` wide in cr's font; a word wider
+ *  than that stays whole on its own line. */
+std::vector<std::string>
+wrapText(cairo_t* cr, const std::string& text, double width)
+{
+  std::vector<std::string> out;
+  std::string line;
+  for (std::size_t pos = 0; pos <= text.size();) {
+    const std::size_t end = std::min(text.find(' ', pos), text.size());
+    const std::string word = text.substr(pos, end - pos);
+    const std::string longer = line.empty() ? word : line + " " + word;
+    cairo_text_extents_t ext;
+    cairo_text_extents(cr, longer.c_str(), &ext);
+    if (!line.empty() && ext.x_advance > width) {
+      out.push_back(line);
+      line = word;
+    }
+    else
+      line = longer;
+    pos = end + 1;
+  }
+  if (!line.empty())
+    out.push_back(line);
+  return out;
+}
+
+/** The caption's font, the same for measuring and drawing. */
+void
+captionFont(cairo_t* cr)
+{
+  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(cr, 14);
+}
+
 } // namespace
 
 Extent
@@ -307,10 +341,29 @@ writeMapPicture(const std::string& path,
       hi = lo + 0.5;
   }
 
-  // Canvas: the map, then a band for the caption and legend.
-  const int pad = 20, line_h = 20;
-  const int band = 30 + line_h * static_cast<int>(opt.caption.size() + 1);
-  const int W = std::max(w + 2 * pad, 700), H = h + 2 * pad + band;
+  // Canvas: the map, then a band with the legend's row and the caption, wrapped to the
+  // canvas width (a tall, narrow map would cut long lines off).
+  const int pad = 20, line_h = 20, legend_h = 34;
+  const int W = std::max(w + 2 * pad, 700);
+  const char* axes[] = {"x", "y", "z"};
+  std::vector<std::string> lines;
+  {
+    std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> probe(
+        cairo_image_surface_create(CAIRO_FORMAT_RGB24, 1, 1), cairo_surface_destroy);
+    std::unique_ptr<cairo_t, decltype(&cairo_destroy)> measure(cairo_create(probe.get()),
+                                                               cairo_destroy);
+    captionFont(measure.get());
+    std::vector<std::string> text = opt.caption;
+    text.push_back("top view along " + std::string(axes[opt.up]) + "; right: " + axes[view.u] +
+                   ", up: " + (view.flip < 0 ? "-" : "") + axes[view.v] +
+                   "; trajectory from the green disc to the black ring; blue dashes: loop "
+                   "links");
+    for (const auto& t : text)
+      for (auto& l : wrapText(measure.get(), t, W - 2.0 * pad))
+        lines.push_back(std::move(l));
+  }
+  const int band = legend_h + line_h * static_cast<int>(lines.size()) + 10;
+  const int H = h + 2 * pad + band;
   std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
       cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
   if (cairo_surface_status(surface.get()) != CAIRO_STATUS_SUCCESS)
@@ -433,22 +486,16 @@ writeMapPicture(const std::string& path,
   cairo_move_to(cr, bx + bar_px + 8, by + 5);
   cairo_show_text(cr, formatLength(bar_m).c_str());
 
-  // Caption and legend.
-  double y = pad + h + 28;
-  const char* axes[] = {"x", "y", "z"};
-  std::string view_line =
-      "top view along " + std::string(axes[opt.up]) + "; right: " + axes[view.u] +
-      ", up: " + (view.flip < 0 ? "-" : "") + axes[view.v] +
-      "; trajectory from the green disc to the black ring; blue dashes: loop links";
-  std::vector<std::string> lines = opt.caption;
-  lines.push_back(view_line);
+  // Caption, below the legend's row.
+  captionFont(cr);
+  double y = pad + h + legend_h + 14;
   for (const auto& l : lines) {
     cairo_move_to(cr, pad, y);
     cairo_show_text(cr, l.c_str());
     y += line_h;
   }
   if (style != "floorplan") { // colour bar of the height above the trajectory
-    const double lw = 160, lx = W - pad - lw, ly = pad + h + 10;
+    const double lw = 160, lx = W - pad - lw, ly = pad + h + 8;
     for (int i = 0; i < static_cast<int>(lw); ++i) {
       const auto c = heightColour(i / (lw - 1));
       cairo_set_source_rgb(cr, c[0], c[1], c[2]);
@@ -466,12 +513,14 @@ writeMapPicture(const std::string& path,
     cairo_text_extents(cr, label, &ext);
     cairo_move_to(cr, lx + lw - ext.width, ly + 24);
     cairo_show_text(cr, label);
-    cairo_move_to(cr, lx - 150, ly + 9);
-    cairo_show_text(cr, "height above trajectory");
+    const char* title = "height above trajectory";
+    cairo_text_extents(cr, title, &ext);
+    cairo_move_to(cr, lx - 10 - ext.x_advance, ly + 10);
+    cairo_show_text(cr, title);
   }
   else {
     cairo_set_font_size(cr, 12);
-    cairo_move_to(cr, W - pad - 300, pad + h + 20);
+    cairo_move_to(cr, W - pad - 300, pad + h + 22);
     cairo_show_text(cr, "dark: walls and objects, grey: floor/ceiling");
   }
   cairo_surface_flush(surface.get());
