@@ -9,11 +9,14 @@
  */
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/evaluation/trajectory_error.h>
+#include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/sim/simulated_scans.h>
 #include <pcl_parallel/slam/local_map.h>
 #include <pcl_parallel/slam/loop_closure.h>
 #include <pcl_parallel/slam/pipeline.h>
 #include <pcl_parallel/slam/preprocess.h>
+
+#include <pcl/common/transforms.h>
 
 #include <Eigen/Geometry>
 
@@ -187,6 +190,35 @@ TEST(Pipeline, RelaxEachLoopMatchesRelaxAtEnd)
     EXPECT_LT(e.distance, 0.02) << i;
     EXPECT_LT(e.angle, 0.1 * kDeg) << i;
   }
+}
+
+// The map is the kept scans at the final poses: with a voxel size, what voxelCentroid
+// gives for all of them moved and put together (bit for bit, though built scan by scan);
+// without, every kept point.
+TEST(Pipeline, MapIsTheKeptScansAtTheirPoses)
+{
+  const auto& set = corridorSet();
+  slam::Parameters p;
+  p.num_threads = 2;
+  slam::Pipeline pipeline(p);
+  for (std::size_t i = 0; i < 6; ++i)
+    pipeline.addScan(*set.scans[i], set.odometry[i]);
+  pipeline.finish();
+  pcl::PointCloud<pcl::PointXYZ> all;
+  for (std::size_t i = 0; i < pipeline.size(); ++i) {
+    pcl::PointCloud<pcl::PointXYZ> moved;
+    pcl::transformPointCloud(*pipeline.reducedScan(i), moved, pipeline.poses()[i]);
+    all += moved;
+  }
+  const auto expected = filters::voxelCentroid(all, 0.3, 1);
+  const auto map = pipeline.map(0.3);
+  ASSERT_GT(map->size(), 100u);
+  ASSERT_EQ(map->size(), expected->size());
+  for (std::size_t k = 0; k < map->size(); ++k)
+    ASSERT_EQ((*map)[k].getVector3fMap(), (*expected)[k].getVector3fMap()) << k;
+  const auto raw = pipeline.map(0.0);
+  ASSERT_EQ(raw->size(), all.size());
+  EXPECT_EQ((*raw)[all.size() - 1].getVector3fMap(), all[all.size() - 1].getVector3fMap());
 }
 
 TEST(Pipeline, BadInputIsAClearError)

@@ -213,13 +213,20 @@ Pipeline::reducedScan(std::size_t i) const
 Cloud::Ptr
 Pipeline::map(double voxel_size) const
 {
-  Cloud all;
-  for (std::size_t i = 0; i < size(); ++i) {
-    Cloud moved;
-    pcl::transformPointCloud(*loops_->scan(i), moved, poses()[i]);
-    all += moved;
+  if (!(voxel_size > 0.0)) { // every kept point, moved
+    Cloud::Ptr all(new Cloud);
+    for (std::size_t i = 0; i < size(); ++i) {
+      Cloud moved;
+      pcl::transformPointCloud(*loops_->scan(i), moved, poses()[i]);
+      *all += moved;
+    }
+    return all;
   }
-  return filters::voxelCentroid(all, voxel_size, params_.num_threads);
+  // Scan by scan into the voxels: no copy of all points (as the app's second pass).
+  filters::VoxelCentroidMap map(voxel_size, params_.num_threads);
+  for (std::size_t i = 0; i < size(); ++i)
+    map.add(*loops_->scan(i), poses()[i]);
+  return map.centroids();
 }
 
 std::size_t
