@@ -221,6 +221,31 @@ TEST(Pipeline, MapIsTheKeptScansAtTheirPoses)
   EXPECT_EQ((*raw)[all.size() - 1].getVector3fMap(), all[all.size() - 1].getVector3fMap());
 }
 
+// The per-scan report says how far pICP moved each scan from its prior and with which
+// gate: from the true poses as odometry the corrections stay at the matching noise, and
+// the gate never exceeds the configured maximum.
+TEST(Pipeline, ReportsCorrectionAndGate)
+{
+  const auto& set = corridorSet();
+  slam::Parameters p;
+  p.num_threads = 2;
+  p.close_loops = false;
+  slam::Pipeline pipeline(p);
+  for (std::size_t i = 0; i < 10; ++i)
+    pipeline.addScan(*set.scans[i], set.truth[i]);
+  const auto& reports = pipeline.reports();
+  ASSERT_EQ(reports.size(), 10u);
+  double largest = 0.0;
+  for (std::size_t i = 1; i < reports.size(); ++i) {
+    largest = std::max(largest, reports[i].correction);
+    EXPECT_GT(reports[i].gate, 0.0) << i;
+    EXPECT_LE(reports[i].gate, pipeline.frontEndParameters().max_correspondence_distance) << i;
+    EXPECT_GE(reports[i].correction, 0.0) << i;
+    EXPECT_LT(reports[i].correction, 0.05) << i; // metres (rotation at the median range)
+  }
+  EXPECT_GT(largest, 1e-5); // pICP did move the scans (noise in the simulated points)
+}
+
 TEST(Pipeline, BadInputIsAClearError)
 {
   slam::Pipeline pipeline;

@@ -463,6 +463,8 @@ writeOutputs(const Options& o,
       const auto& rep = r.reports[i];
       s["icp_converged"] = rep.converged;
       s["icp_fitness"] = rep.fitness;
+      s["icp_gate"] = rep.gate;
+      s["icp_correction"] = rep.correction;
       s["icp_source_points"] = rep.source_points;
       s["seconds"] = rep.seconds;
       s["lum_iterations"] = rep.lum_iterations;

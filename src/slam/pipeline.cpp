@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/slam/pipeline.h>
 #include <pcl_parallel/slam/preprocess.h>
 
@@ -139,6 +140,9 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
   report.source_points = fe.source_points;
   report.converged = fe.converged;
   report.fitness = fe.fitness;
+  report.gate = fe.gate;
+  report.correction = registration::motionDisplacement(fe.prediction.inverse() * fe.pose,
+                                                       loop_params_.median_range);
   times_.front_end += seconds(stage);
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).

@@ -65,11 +65,15 @@ loopClosureParameters(const Parameters& p, double median_range);
 
 /** What happened to one scan. */
 struct ScanReport {
-  std::size_t points = 0;           ///< read
-  std::size_t reduced_points = 0;   ///< kept (after crop, deskew and reduction)
-  std::size_t source_points = 0;    ///< registered against the map
-  bool converged = true;            ///< pICP; false: the prediction was kept
-  double fitness = 0.0;             ///< pICP's mean squared pair distance
+  std::size_t points = 0;         ///< read
+  std::size_t reduced_points = 0; ///< kept (after crop, deskew and reduction)
+  std::size_t source_points = 0;  ///< registered against the map
+  bool converged = true;          ///< pICP; false: the prediction was kept
+  double fitness = 0.0;           ///< pICP's mean squared pair distance
+  double gate = 0.0;              ///< pICP's correspondence distance (adaptive)
+  /** How far pICP moved the scan from the motion prior (translation plus rotation at the
+   *  median range, as the adaptive gate measures it). */
+  double correction = 0.0;
   double seconds = 0.0;             ///< all stages for this scan
   std::vector<LoopCandidate> loops; ///< loop pairs tried
   int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
