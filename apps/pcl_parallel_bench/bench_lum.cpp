@@ -9,7 +9,7 @@
  *     LUM::compute with one iteration).
  *  2. The whole pLUM relaxation of the bunny: the paper's (50 iterations, gate 10 mm ->
  *     2 mm) and with point-to-plane pairs and 5 pairing steps per link (to convergence).
- *  3. Solve-step scaling on synthetic graphs (chain + loop links) of 100-2000 poses.
+ *  3. Solve-step scaling on synthetic graphs (chain + loop links) of 100-10,000 poses.
  */
 #include "bench_common.h"
 #include "synthetic_graph.h"
@@ -299,9 +299,11 @@ runBunny(const Options& opt)
   return 0;
 }
 
-/** Two laps of a circle (radius 20 m) at heights 0 and 1 m: chain links plus one loop
- *  link per pose of the second lap (poses closer than 1.5 m, >= 10 apart), 20 exact
- *  pairs per link with 1 mm noise. Start poses: truth with 1 deg / 0.1 m noise. */
+/** Two laps of a circle (radius 20 m, or `radius`) at heights 0 and 1 m: chain links
+ *  plus loop links between the laps (poses closer than 1.5 m, >= 10 apart), 20 exact
+ *  pairs per link with 1 mm noise. Start poses: truth with 1 deg / 0.1 m noise. At 20 m
+ *  and 2000 poses the laps link every pose to ~20 others (a dense revisit); with the
+ *  radius grown to keep poses 1 m apart, ~3 links a pose (a survey's sparse loops). */
 struct SyntheticScaling {
   std::vector<Cloud::Ptr> clouds;
   Poses truth, start;
@@ -309,7 +311,7 @@ struct SyntheticScaling {
 };
 
 SyntheticScaling
-scalingGraph(int n)
+scalingGraph(int n, double radius = 20.0)
 {
   SyntheticScaling g;
   std::mt19937 rng(static_cast<std::uint32_t>(n));
@@ -317,8 +319,8 @@ scalingGraph(int n)
     const double a = 4.0 * M_PI * i / n;
     Eigen::Matrix4d p = Eigen::Matrix4d::Identity();
     p.topLeftCorner<3, 3>() = Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    p.topRightCorner<3, 1>() =
-        Eigen::Vector3d(20.0 * std::sin(a), 20.0 * (1.0 - std::cos(a)), i < n / 2 ? 0.0 : 1.0);
+    p.topRightCorner<3, 1>() = Eigen::Vector3d(
+        radius * std::sin(a), radius * (1.0 - std::cos(a)), i < n / 2 ? 0.0 : 1.0);
     g.truth.push_back(p);
   }
   g.start = g.truth;
@@ -343,6 +345,7 @@ runScaling(const Options& opt)
               "size). Ours: median of %d; 'solve' = assembly + SimplicialLDLT alone.\n\n",
               opt.repeats);
   Table t({"poses",
+           "radius [m]",
            "links",
            "PCL LUM 1 iteration [s]",
            "ours 1 iteration [s]",
@@ -351,8 +354,15 @@ runScaling(const Options& opt)
            "speed-up"});
   double pcl_prev = 0.0;
   int n_prev = 0;
-  for (int n : {100, 500, 2000}) {
-    const SyntheticScaling g = scalingGraph(n);
+  // Dense revisits on a 20 m circle, then survey-like graphs (poses 1 m apart, ~3 links
+  // a pose) up to the 10,000 scans of issue 12's model.
+  const std::pair<int, double> sizes[] = {{100, 20.0},
+                                          {500, 20.0},
+                                          {2000, 20.0},
+                                          {2000, 2000 / (4 * M_PI)},
+                                          {10000, 10000 / (4 * M_PI)}};
+  for (const auto& [n, radius] : sizes) {
+    const SyntheticScaling g = scalingGraph(n, radius);
     // PCL, unless the O(n^3) extrapolation says more than a minute.
     double pcl_s = -1.0;
     const double predicted =
@@ -414,6 +424,7 @@ runScaling(const Options& opt)
     double r, tr;
     maxError(got, g.truth, r, tr);
     t.addRow({fmt("%d", n),
+              fmt("%.0f", radius),
               fmt("%zu", g.links.size()),
               pcl_s >= 0 ? fmt("%.3f", pcl_s) : fmt("skipped (~%.0f s predicted)", predicted),
               fmt("%.4f", ours),
