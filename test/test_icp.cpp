@@ -916,6 +916,44 @@ TEST(ParallelIcpPointToPlane, SingularSystemIsReported)
     EXPECT_TRUE(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z));
 }
 
+// A motion prior (MAP ICP): a plane constrains only height, roll and pitch, so without a
+// prior the system is singular (above); with one the data set the height and the prior
+// the in-plane position and heading. Zero weights are plain ICP, bad weights an error.
+TEST(ParallelIcpPointToPlane, MotionPriorHoldsWhatThePairsLeaveOpen)
+{
+  PointCloud<PointXYZ>::Ptr plane(new PointCloud<PointXYZ>);
+  for (int i = 0; i < 40; ++i)
+    for (int j = 0; j < 40; ++j)
+      plane->push_back(PointXYZ(0.05f * i, 0.05f * j, 0.0f));
+  const auto source = moved(*plane, rigid(0.01, {0, 0, 1}, {0.01, 0.0, 0.02}));
+  const Eigen::Matrix4d prior = rigid(0.03, {0, 0, 1}, {0.05, -0.04, 0.1});
+  PIcp icp;
+  icp.setUsePointToPlane(true);
+  icp.setMaxCorrespondenceDistance(0.5);
+  icp.setMaximumIterations(50);
+  icp.setTransformationEpsilon(1e-12);
+  icp.setInputSource(source);
+  icp.setInputTarget(plane);
+  icp.setMotionPrior(prior, 1.0, 1.0); // 1600 pairs: the data outweigh it where they speak
+  PointCloud<PointXYZ> out;
+  icp.alignDouble(out, Eigen::Matrix4d::Identity());
+  ASSERT_TRUE(icp.hasConverged());
+  const Eigen::Matrix4d t = icp.getFinalTransformationDouble();
+  EXPECT_NEAR(t(2, 3), -0.02, 1e-3);                  // height: from the plane
+  EXPECT_LT(std::acos(std::min(1.0, t(2, 2))), 1e-3); // roll, pitch: the plane's
+  EXPECT_NEAR(t(0, 3), prior(0, 3), 1e-4);            // in-plane: from the prior
+  EXPECT_NEAR(t(1, 3), prior(1, 3), 1e-4);
+  EXPECT_NEAR(std::atan2(t(1, 0), t(0, 0)), 0.03, 1e-4); // heading: from the prior
+  for (const auto& q : out)
+    EXPECT_NEAR(q.z, 0.0f, 1e-3f);
+
+  icp.clearMotionPrior(); // back to plain ICP: singular again
+  icp.alignDouble(out, Eigen::Matrix4d::Identity());
+  EXPECT_FALSE(icp.hasConverged());
+  EXPECT_THROW(icp.setMotionPrior(prior, -1.0, 1.0), std::invalid_argument);
+  EXPECT_THROW(icp.setMotionPrior(prior, 1.0, std::nan("")), std::invalid_argument);
+}
+
 // A Huber kernel whose scale exceeds every residual weighs every pair 1: bit-identical to
 // no kernel (and so to PCL's unweighted estimators). Bad scales are refused.
 TEST(ParallelIcpRobust, WideHuberEqualsUnweighted)

@@ -154,5 +154,36 @@ PointToPlaneFactor::solve(const NormalEquations& eq, const double ref[3], Eigen:
   return true;
 }
 
+void
+PointToPlaneFactor::addPosePrior(NormalEquations& eq,
+                                 const double ref[3],
+                                 const Eigen::Matrix4d& estimate,
+                                 const Eigen::Matrix4d& prior,
+                                 double weight_translation,
+                                 double weight_rotation)
+{
+  const Eigen::AngleAxisd deviation(Eigen::Matrix3d(estimate.topLeftCorner<3, 3>() *
+                                                    prior.topLeftCorner<3, 3>().transpose()));
+  Eigen::Matrix<double, 6, 1> e;
+  e.head<3>() = deviation.angle() * deviation.axis();
+  e.tail<3>() = estimate.topRightCorner<3, 1>() - prior.topRightCorner<3, 1>();
+  // The step moves the sensor origin s (shifted by ref) by ω × s + t.
+  const Eigen::Vector3d s =
+      estimate.topRightCorner<3, 1>() - Eigen::Vector3d(ref[0], ref[1], ref[2]);
+  Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Identity();
+  a.bottomLeftCorner<3, 3>() << 0, s.z(), -s.y(), -s.z(), 0, s.x(), s.y(), -s.x(), 0; // -[s]x
+  Eigen::Matrix<double, 6, 1> w;
+  w << Eigen::Vector3d::Constant(weight_rotation),
+      Eigen::Vector3d::Constant(weight_translation);
+  const Eigen::Matrix<double, 6, 6> h = a.transpose() * w.asDiagonal() * a;
+  const Eigen::Matrix<double, 6, 1> g = a.transpose() * w.asDiagonal() * e;
+  int k = 0;
+  for (int r = 0; r < 6; ++r) {
+    eq.jtr[r] += g(r);
+    for (int c = r; c < 6; ++c)
+      eq.jtj[k++] += h(r, c);
+  }
+}
+
 } // namespace registration
 } // namespace pcl_parallel

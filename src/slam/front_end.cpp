@@ -128,8 +128,16 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
       icp.setInputTarget(target_ = target);
     r.gate = gate();
     icp.setMaxCorrespondenceDistance(r.gate);
-    if (icp_->threshold) // Geman-McClure, scale sigma / 3 (KISS-ICP)
+    if (icp_->threshold) { // Geman-McClure, scale sigma / 3 (KISS-ICP)
       icp.setRobustKernel({registration::RobustKernel::Type::kGemanMcClure, r.gate / 9.0});
+      // The prediction as a prior, with the spread the adaptive threshold measured for
+      // it: sigma in translation, sigma / max range in rotation (its model error), against
+      // residuals of the kernel's scale sigma / 3: weights (1/3)^2 and (max range / 3)^2.
+      if (params_.motion_prior) {
+        const double lever = params_.map_distance / 3.0;
+        icp.setMotionPrior(r.prediction, 1.0 / 9.0, lever * lever);
+      }
+    }
     Cloud aligned;
     icp.alignDouble(aligned, r.prediction);
     r.converged = icp.hasConverged();

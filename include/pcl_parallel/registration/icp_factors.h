@@ -146,6 +146,18 @@ struct PointToPlaneFactor {
    *  reference. False when the system is singular (e.g. all normals parallel). */
   static bool
   solve(const NormalEquations& eq, const double ref[3], Eigen::Matrix4d& step);
+
+  /** Adds a Gaussian prior on the pose to eq (ParallelIterativeClosestPoint::
+   *  setMotionPrior): residual e + A x with e = (rotation vector of R_T R_P^T, t_T - t_P)
+   *  and A the first-order effect of the step x = (ω, t) on it (the sensor origin moves
+   *  by ω × (t_T - ref) + t), weighted by w_r, w_t: H += Aᵀ W A, g += Aᵀ W e. */
+  static void
+  addPosePrior(NormalEquations& eq,
+               const double ref[3],
+               const Eigen::Matrix4d& estimate,
+               const Eigen::Matrix4d& prior,
+               double weight_translation,
+               double weight_rotation);
 };
 
 } // namespace registration

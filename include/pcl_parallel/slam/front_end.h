@@ -30,6 +30,11 @@ struct FrontEndParameters {
    *  matches moved the scans from the motion prior, Geman-McClure kernel of scale
    *  sigma / 3. Off: the fixed gate and no kernel. */
   bool adaptive_threshold = true;
+  /** With the adaptive threshold: the motion prior (odometry step or constant velocity)
+   *  enters pICP as a Gaussian prior of the spread the threshold measured
+   *  (ParallelIterativeClosestPoint::setMotionPrior), so directions a sparse or one-sided
+   *  scan leaves unconstrained stay at the prediction (docs/design.md, "Real data"). */
+  bool motion_prior = true;
   /** Point-to-plane pICP instead of point-to-point. */
   bool point_to_plane = true;
   /** Point-to-plane normals: false (default) estimates them once per scan from its

@@ -255,6 +255,21 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::updateTargetNor
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>
+void
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::setMotionPrior(
+    const Eigen::Matrix4d& prior, double weight_translation, double weight_rotation)
+{
+  if (!(weight_translation >= 0.0) || !(weight_rotation >= 0.0) ||
+      !std::isfinite(weight_translation) || !std::isfinite(weight_rotation) ||
+      !prior.allFinite())
+    throw std::invalid_argument("[pcl_parallel::ParallelIterativeClosestPoint::setMotionPrior] "
+                                "weights must be finite and >= 0, the prior finite");
+  prior_ = prior;
+  prior_weight_t_ = weight_translation;
+  prior_weight_r_ = weight_rotation;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
 bool
 ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
     const KdTreeIndex& target,
@@ -339,6 +354,16 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
   mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
   if (total.n < static_cast<double>(min_number_correspondences_))
     return true;
+  if (prior_weight_t_ > 0.0 || prior_weight_r_ > 0.0) {
+    NormalEquations with_prior = total;
+    PointToPlaneFactor::addPosePrior(with_prior,
+                                     ref,
+                                     final_transformation_double_,
+                                     prior_,
+                                     prior_weight_t_,
+                                     prior_weight_r_);
+    return PointToPlaneFactor::solve(with_prior, ref, step);
+  }
   return PointToPlaneFactor::solve(total, ref, step);
 }
 
