@@ -28,6 +28,10 @@ seconds(Clock::time_point since)
   return std::chrono::duration<double>(Clock::now() - since).count();
 }
 
+/** The registered sample's voxel, in reduction voxels: KISS-ICP registers a 1.5x coarser
+ *  sample than it keeps; ours is coarser still. The front end and the loop pICP share it. */
+constexpr double kSourceVoxels = 3.0;
+
 /** A length: the user's if set (> 0), else `automatic`. */
 double
 orAuto(double value, double automatic)
@@ -57,7 +61,7 @@ frontEndParameters(const Parameters& p, double r)
   FrontEndParameters f;
   f.target = p.match_target;
   f.voxel_size = orAuto(p.voxel_size, r / 20.0);
-  f.source_voxel_size = 3.0 * f.voxel_size; // KISS-ICP registers a 1.5x coarser sample
+  f.source_voxel_size = kSourceVoxels * f.voxel_size;
   f.map_voxel_size = 2.0 * f.voxel_size;
   f.map_points_per_voxel = 20;
   // The map reaches as far as the scans (KISS-ICP: max_range): a crop inside it cuts the
@@ -83,7 +87,7 @@ loopClosureParameters(const Parameters& p, double r)
   l.icp_distance = orAuto(p.icp_distance, 10.0 * voxel);
   l.icp_iterations = std::max(p.icp_iterations, 50);
   l.icp_epsilon = p.icp_epsilon;
-  l.icp_source_voxel_size = 3.0 * voxel; // as frontEndParameters' source_voxel_size
+  l.icp_source_voxel_size = kSourceVoxels * voxel;
   l.overlap_distance = 2.0 * voxel;
   l.min_overlap = p.min_overlap;
   l.lum_distance = orAuto(p.lum_distance, 10.0 * voxel);

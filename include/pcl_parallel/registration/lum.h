@@ -251,7 +251,8 @@ public:
   }
   /** Point-to-plane mode: a vertex's normals given rather than estimated, one per point
    *  of its cloud in the cloud's frame (unit length, or zero where a point has none), for
-   *  a caller that has them already (a front end that estimated them on denser data).
+   *  a caller that has them already (the pipeline's front end estimates them once per
+   *  scan with the same estimator).
    *  They hold until the cloud changes; empty returns to estimating. Throws
    *  std::invalid_argument for a size other than the cloud's. */
   void
