@@ -33,6 +33,7 @@
 #include <pcl/registration/transformation_estimation_point_to_plane_lls.h>
 #include <pcl/search/kdtree.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <cmath>
@@ -1273,3 +1274,74 @@ TEST(ParallelIcpDouble, AlignDouble)
 }
 
 } // namespace
+
+// getFinalHessian() against brute force: at the converged pose, every source point's
+// closest target point (exhaustive search) within the gate, with the target's own normal,
+// gives J = [p x R^T n, R^T n] for the body perturbation T Exp(w, t); H = sum J^T J.
+TEST(ParallelIcpPointToPlane, FinalHessianIsTheBodyFrameGaussNewtonMatrix)
+{
+  PointCloud<PointNormal>::Ptr target(new PointCloud<PointNormal>);
+  auto face = [&](int axis, float offset) {
+    for (int i = 0; i < 25; ++i)
+      for (int j = 0; j < 25; ++j) {
+        PointNormal p;
+        float c[3];
+        c[axis] = offset;
+        c[(axis + 1) % 3] = 0.04f * i + 0.01f;
+        c[(axis + 2) % 3] = 0.04f * j + 0.01f;
+        p.x = c[0], p.y = c[1], p.z = c[2];
+        p.normal_x = p.normal_y = p.normal_z = 0.0f;
+        (&p.normal_x)[axis] = 1.0f;
+        p.curvature = 0.0f;
+        target->push_back(p);
+      }
+  };
+  face(0, 0.0f), face(1, 0.0f), face(2, 0.0f), face(2, 1.2f);
+  PointCloud<PointXYZ>::Ptr xyz(new PointCloud<PointXYZ>);
+  pcl::copyPointCloud(*target, *xyz);
+  const Eigen::Matrix4d truth = rigid(0.05, {0.3, -0.5, 1.0}, {0.03, -0.02, 0.04});
+  const auto source = moved(*xyz, Eigen::Matrix4d(truth.inverse()));
+  pcl_parallel::registration::ParallelIterativeClosestPoint<PointXYZ, PointNormal> icp;
+  icp.setUsePointToPlane(true);
+  icp.setUseTargetNormalFields(true);
+  icp.setMaxCorrespondenceDistance(0.1);
+  icp.setMaximumIterations(50);
+  icp.setTransformationEpsilon(1e-14);
+  icp.setInputSource(source);
+  icp.setInputTarget(target);
+  PointCloud<PointXYZ> out;
+  icp.alignDouble(out, Eigen::Matrix4d::Identity());
+  ASSERT_TRUE(icp.hasConverged());
+  const Eigen::Matrix4d t = icp.getFinalTransformationDouble();
+  const Eigen::Matrix3d r = t.topLeftCorner<3, 3>();
+  Eigen::Matrix<double, 6, 6> h = Eigen::Matrix<double, 6, 6>::Zero();
+  double pairs = 0.0;
+  for (const auto& s : *source) {
+    const Eigen::Vector3d p = s.getVector3fMap().cast<double>();
+    const Eigen::Vector3d q = r * p + t.topRightCorner<3, 1>();
+    double best = 0.01; // gate 0.1, squared
+    const PointNormal* m = nullptr;
+    for (const auto& c : *target) {
+      const double d = (c.getVector3fMap().cast<double>() - q).squaredNorm();
+      if (d <= best)
+        best = d, m = &c;
+    }
+    if (!m)
+      continue;
+    const Eigen::Vector3d n = r.transpose() * m->getNormalVector3fMap().cast<double>();
+    Eigen::Matrix<double, 6, 1> j;
+    j << p.cross(n), n;
+    h += j * j.transpose();
+    pairs += 1.0;
+  }
+  ASSERT_GT(pairs, 2000.0);
+  EXPECT_EQ(icp.getFinalWeight(), pairs); // no kernel: every pair weighs 1
+  EXPECT_LT((icp.getFinalHessian() - h).norm(), 1e-6 * h.norm());
+  EXPECT_LT(icp.getFinalError(), 1e-8); // exact planes
+  // Full rank here; along a single plane it would not be.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(h);
+  EXPECT_GT(eig.eigenvalues()(0), 1.0);
+  icp.setUsePointToPlane(false); // other paths leave it zero
+  icp.alignDouble(out, Eigen::Matrix4d::Identity());
+  EXPECT_TRUE(icp.getFinalHessian().isZero());
+}

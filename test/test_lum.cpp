@@ -1149,3 +1149,113 @@ TEST_F(QuietPcl, LinkIterationsMatchOuterIterations)
 }
 
 } // namespace
+
+// Pose constraints alone (no scan links) hold each vertex where its constraint puts it: the
+// chain of the measured relative poses, far from the origin and from a start 3 degrees
+// and 5 cm off, to rounding.
+TEST_F(QuietPcl, PoseConstraintsAloneGiveTheirChain)
+{
+  const Poses truth = {makePose(1000.0, -500.0, 20.0, 0.1, -0.05, 1.0),
+                       makePose(1002.0, -499.0, 20.1, 0.12, -0.02, 1.3),
+                       makePose(1003.5, -496.0, 20.0, 0.08, -0.06, 1.9),
+                       makePose(1003.0, -494.0, 19.8, 0.1, 0.0, 2.6)};
+  const Poses start = perturbAll(truth, 3.0 * kDeg, 0.05, 71);
+  ParallelLUM<pcl::PointXYZ> lum;
+  Cloud::Ptr few(new Cloud);
+  few->push_back(pcl::PointXYZ(1.0f, 2.0f, 3.0f));
+  for (const auto& p : start)
+    lum.addPointCloud(few, Eigen::Matrix4f::Identity()), lum.setPoseMatrix(lum.getNumVertices() - 1, p);
+  pcl_parallel::lum::Matrix6d info = pcl_parallel::lum::Matrix6d::Identity();
+  info.bottomRightCorner<3, 3>() *= 100.0; // any positive definite weight
+  for (std::size_t v = 1; v < truth.size(); ++v)
+    lum.addPoseConstraint(v, v - 1, truth[v - 1].inverse() * truth[v], info);
+  EXPECT_EQ(lum.getNumPoseConstraints(), 3u);
+  lum.setCorrespondenceDistance(0.1);
+  lum.setMaxIterations(10);
+  lum.compute();
+  for (std::size_t v = 1; v < truth.size(); ++v) {
+    double angle, dist;
+    pcl_parallel::lum::poseError(lum.getPoseMatrix(v), truth[v], angle, dist);
+    EXPECT_LT(angle, 1e-9) << v;
+    EXPECT_LT(dist, 1e-8) << v;
+  }
+}
+
+// The information is in the source's frame: two constraints that differ only in
+// translation, each sure along another body axis of a source turned 90 degrees, meet
+// where sum R I_k R^T (t - t_k) = 0.
+TEST_F(QuietPcl, PoseConstraintInformationIsInTheSourceFrame)
+{
+  ParallelLUM<pcl::PointXYZ> lum;
+  Cloud::Ptr few(new Cloud);
+  few->push_back(pcl::PointXYZ(1.0f, 2.0f, 3.0f));
+  lum.addPointCloud(few);
+  lum.addPointCloud(few);
+  const Eigen::Matrix3d r = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).matrix();
+  const Eigen::Vector3d ta(1.0, 0.0, 0.0), tb(0.0, 1.0, 0.5);
+  Eigen::Matrix4d za = Eigen::Matrix4d::Identity(), zb = za;
+  za.topLeftCorner<3, 3>() = zb.topLeftCorner<3, 3>() = r;
+  za.topRightCorner<3, 1>() = ta;
+  zb.topRightCorner<3, 1>() = tb;
+  pcl_parallel::lum::Matrix6d ia = pcl_parallel::lum::Matrix6d::Identity() * 1e4, ib = ia;
+  ia.topLeftCorner<3, 3>() = Eigen::Vector3d(100.0, 1.0, 2.0).asDiagonal();
+  ib.topLeftCorner<3, 3>() = Eigen::Vector3d(1.0, 100.0, 3.0).asDiagonal();
+  lum.setPoseMatrix(1, za);
+  lum.addPoseConstraint(1, 0, za, ia);
+  lum.addPoseConstraint(1, 0, zb, ib);
+  lum.setCorrespondenceDistance(0.1);
+  lum.setMaxIterations(5);
+  lum.compute();
+  const Eigen::Matrix3d wa = r * ia.topLeftCorner<3, 3>() * r.transpose();
+  const Eigen::Matrix3d wb = r * ib.topLeftCorner<3, 3>() * r.transpose();
+  const Eigen::Vector3d expected = (wa + wb).ldlt().solve(wa * ta + wb * tb);
+  const Eigen::Matrix4d got = lum.getPoseMatrix(1);
+  EXPECT_LT((got.topRightCorner<3, 1>() - expected).norm(), 1e-9);
+  EXPECT_LT((got.topLeftCorner<3, 3>() - r).norm(), 1e-9);
+
+  EXPECT_THROW(lum.addPoseConstraint(1, 1, za, ia), std::invalid_argument);
+  EXPECT_THROW(lum.addPoseConstraint(2, 0, za, ia), std::out_of_range);
+  pcl_parallel::lum::Matrix6d bad = ia;
+  bad(0, 1) = 5.0; // not symmetric
+  EXPECT_THROW(lum.addPoseConstraint(1, 0, za, bad), std::invalid_argument);
+  bad = ia;
+  bad(2, 2) = std::nan("");
+  EXPECT_THROW(lum.addPoseConstraint(1, 0, za, bad), std::invalid_argument);
+  EXPECT_THROW(lum.addPoseConstraint(1, 0, za, ia, -1.0), std::invalid_argument);
+}
+
+// A constraint the others contradict (a triangle of right ones, one wrong by 10 cm on the
+// same pair, 100 sigma): plain least squares meets it partway; under a Cauchy kernel it yields.
+// Right constraints alone end where they are either way.
+TEST_F(QuietPcl, ContradictedPoseConstraintYieldsUnderCauchy)
+{
+  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
+                       makePose(1.0, 0.1, 0, 0.02, 0.04, 0.3),
+                       makePose(1.5, 1.0, 0.1, 0.0, -0.05, 1.0)};
+  auto run = [&](bool with_wrong, double scale) {
+    ParallelLUM<pcl::PointXYZ> lum;
+    Cloud::Ptr few(new Cloud);
+    few->push_back(pcl::PointXYZ(1.0f, 2.0f, 3.0f));
+    for (std::size_t v = 0; v < truth.size(); ++v)
+      lum.addPointCloud(few, Eigen::Matrix4f(truth[v].cast<float>()));
+    const pcl_parallel::lum::Matrix6d info = pcl_parallel::lum::Matrix6d::Identity() * 1e6;
+    for (const auto& e : {std::make_pair(1, 0), std::make_pair(2, 1), std::make_pair(2, 0)})
+      lum.addPoseConstraint(
+          e.first, e.second, truth[e.second].inverse() * truth[e.first], info, scale);
+    Eigen::Matrix4d wrong = truth[1].inverse() * truth[2];
+    wrong(0, 3) += 0.1;
+    if (with_wrong)
+      lum.addPoseConstraint(2, 1, wrong, info, scale);
+    lum.setCorrespondenceDistance(0.1);
+    lum.setMaxIterations(20);
+    lum.compute();
+    double angle, dist;
+    pcl_parallel::lum::poseError(lum.getPoseMatrix(2), truth[2], angle, dist);
+    return dist;
+  };
+  const double plain = run(true, 0.0), cauchy = run(true, 16.8);
+  EXPECT_GT(plain, 0.015); // a third of the 10 cm, shared with the two others
+  EXPECT_LT(cauchy, 0.1 * plain);
+  EXPECT_LT(run(false, 16.8), 1e-9);
+  EXPECT_LT(run(false, 0.0), 1e-9);
+}

@@ -160,6 +160,50 @@ TEST(Pipeline, LoopClosingCutsDriftAndBreaksNoLink)
   }
 }
 
+// The front end's matches as pose constraints (the default): loop closing keeps the
+// consecutive steps the front end measured (no pair worse than it left it beyond
+// 5 mm / 0.05 deg) and ends with a lower ATE than pLUM over the scan links alone.
+TEST(Pipeline, SequenceConstraintsKeepTheFrontEndsSteps)
+{
+  const auto& set = corridorSet();
+  const PipelineRun& with = defaultRun();
+  slam::Parameters p;
+  p.num_threads = 2;
+  p.sequence_constraints = false;
+  const PipelineRun without = runPipeline(set, p);
+  const auto ate = [&](const Poses& poses) {
+    return evaluation::absoluteTrajectoryError(poses, set.truth, evaluation::Alignment::SE3)
+        .translation.rmse;
+  };
+  const auto steps = [&](const Poses& poses) {
+    double sum = 0.0;
+    for (std::size_t i = 1; i < set.truth.size(); ++i)
+      sum += evaluation::poseError(poses[i - 1].inverse() * poses[i],
+                                   set.truth[i - 1].inverse() * set.truth[i])
+                 .angle;
+    return sum / static_cast<double>(set.truth.size() - 1) / kDeg;
+  };
+  std::printf("ATE rmse: front end %.4f m, pLUM %.4f m, with its matches %.4f m; mean step "
+              "rotation error %.4f / %.4f / %.4f deg\n",
+              ate(with.front_end),
+              ate(without.final),
+              ate(with.final),
+              steps(with.front_end),
+              steps(without.final),
+              steps(with.final));
+  EXPECT_LT(ate(with.final), ate(without.final));
+  EXPECT_LT(steps(with.final), steps(without.final));
+  for (std::size_t i = 1; i < set.truth.size(); ++i) {
+    const Pose truth = set.truth[i - 1].inverse() * set.truth[i];
+    const auto before =
+        evaluation::poseError(with.front_end[i - 1].inverse() * with.front_end[i], truth);
+    const auto after =
+        evaluation::poseError(with.final[i - 1].inverse() * with.final[i], truth);
+    EXPECT_LE(after.distance, before.distance + 0.005) << "pair " << i - 1 << "-" << i;
+    EXPECT_LE(after.angle, before.angle + 0.05 * kDeg) << "pair " << i - 1 << "-" << i;
+  }
+}
+
 TEST(Pipeline, SameResultForAnyThreadCount)
 {
   const auto& set = corridorSet();

@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/registration/icp_factors.h>
+#include <pcl_parallel/registration/lum_solver.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -118,16 +119,41 @@ PointToPointFactor::solve(const PointToPointMoments& mo, bool horn)
   return T;
 }
 
+Eigen::Matrix<double, 6, 6>
+NormalEquations::hessian() const
+{
+  Eigen::Matrix<double, 6, 6> h;
+  int k = 0;
+  for (int a = 0; a < 6; ++a)
+    for (int b = a; b < 6; ++b)
+      h(a, b) = h(b, a) = jtj[k++];
+  return h;
+}
+
+Eigen::Matrix<double, 6, 6>
+PointToPlaneFactor::bodyHessian(const NormalEquations& eq,
+                                const double ref[3],
+                                const Eigen::Matrix4d& estimate)
+{
+  // The step x = (ω, t) moves a target-frame point d to d + ω × (d - ref) + t. The body
+  // perturbation T Exp(ε), ε = (ω_b, t_b), moves T p to T p + R ω_b × (T p - t_T) + R t_b:
+  // ω = R ω_b, t = R t_b + ω × (ref - t_T). x = K ε, and Σ JᵀJ becomes Kᵀ (Σ JᵀJ) K.
+  const Eigen::Matrix3d R = estimate.topLeftCorner<3, 3>();
+  const Eigen::Vector3d lever =
+      Eigen::Vector3d(ref[0], ref[1], ref[2]) - estimate.topRightCorner<3, 1>();
+  Eigen::Matrix<double, 6, 6> K = Eigen::Matrix<double, 6, 6>::Zero();
+  K.topLeftCorner<3, 3>() = R;
+  K.bottomLeftCorner<3, 3>() = -lum::skew(lever) * R;
+  K.bottomRightCorner<3, 3>() = R;
+  return K.transpose() * eq.hessian() * K;
+}
+
 bool
 PointToPlaneFactor::solve(const NormalEquations& eq, const double ref[3], Eigen::Matrix4d& step)
 {
   if (!(eq.w > 0.0))
     return false;
-  Eigen::Matrix<double, 6, 6> A;
-  int k = 0;
-  for (int a = 0; a < 6; ++a)
-    for (int b = a; b < 6; ++b)
-      A(a, b) = A(b, a) = eq.jtj[k++];
+  const Eigen::Matrix<double, 6, 6> A = eq.hessian();
   const Eigen::Matrix<double, 6, 1> g = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(eq.jtr);
   // Gauss-Newton step: (Σ Jᵀ J) x = -Σ Jᵀ r. A rank-deficient system (fewer than six
   // independent constraints) has no unique step: report it instead of a wild one.

@@ -187,6 +187,35 @@ updateBetween(const Eigen::Matrix4d& before, const Eigen::Matrix4d& after)
   return delta;
 }
 
+LinkBlock
+constraintBlock(const PoseConstraint& c,
+                const Eigen::Matrix4d& source_pose,
+                const Eigen::Matrix4d& target_pose)
+{
+  LinkBlock b;
+  b.source = c.source;
+  b.target = c.target;
+  const Eigen::Matrix4d e = c.measured.inverse() * target_pose.inverse() * source_pose;
+  const Eigen::AngleAxisd aa(Eigen::Matrix3d(e.topLeftCorner<3, 3>()));
+  Vector6d e0;
+  e0.head<3>() = e.topRightCorner<3, 1>();
+  e0.tail<3>() = aa.angle() * aa.axis();
+  // Body perturbation of the source by the world update D = (t, w) (applyUpdate's model
+  // p -> p + w x p + t): rotation R^T w, translation R^T (t + w x c), c its position.
+  const Eigen::Matrix3d rt = source_pose.topLeftCorner<3, 3>().transpose();
+  Matrix6d j = Matrix6d::Zero();
+  j.topLeftCorner<3, 3>() = rt;
+  j.topRightCorner<3, 3>() = -rt * skew(source_pose.topRightCorner<3, 1>());
+  j.bottomRightCorner<3, 3>() = rt;
+  // Cauchy IRLS weight (Black and Rangarajan 1996) from the current error.
+  const double weight =
+      c.cauchy_scale > 0.0 ? 1.0 / (1.0 + e0.dot(c.information * e0) / c.cauchy_scale) : 1.0;
+  b.info = weight * (j.transpose() * c.information * j);
+  b.grad = weight * (j.transpose() * (c.information * e0));
+  b.valid = b.info.allFinite() && b.grad.allFinite();
+  return b;
+}
+
 std::vector<Eigen::Vector3f>
 estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
 {

@@ -13,6 +13,7 @@
 
 #include <pcl/common/transforms.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -66,6 +67,20 @@ withNormals(const Cloud& reduced, const std::vector<Eigen::Vector3f>& normals)
     out->push_back(p);
   }
   return out;
+}
+
+/** pICP's body-frame Hessian (rotation first) over the residual variance, in the pose
+ *  graph's order (translation first). */
+Information
+information(const Eigen::Matrix<double, 6, 6>& hessian, double error, double weight)
+{
+  if (!(weight > 6.0) || !hessian.allFinite())
+    return Information::Zero();
+  const double variance = std::max(error / weight, 1e-12);
+  Information out;
+  out << hessian.bottomRightCorner<3, 3>(), hessian.bottomLeftCorner<3, 3>(),
+      hessian.topRightCorner<3, 3>(), hessian.topLeftCorner<3, 3>();
+  return out / variance;
 }
 
 } // namespace
@@ -144,6 +159,9 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
     if (r.converged) {
       r.pose = icp.getFinalTransformationDouble();
       r.fitness = icp.getFitnessScore(r.gate);
+      r.information =
+          information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
+      r.information_pairs = icp.getFinalWeight();
       if (icp_->threshold) // how far the match moved the scan from the prior
         icp_->threshold->updateModelDeviation(r.prediction.inverse() * r.pose);
     }

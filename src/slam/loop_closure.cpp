@@ -74,7 +74,9 @@ LoopCloser::~LoopCloser() = default;
 void
 LoopCloser::addScan(const Cloud::ConstPtr& scan,
                     const Pose& pose,
-                    std::vector<Eigen::Vector3f> normals)
+                    std::vector<Eigen::Vector3f> normals,
+                    const Information& information,
+                    double information_pairs)
 {
   // ParallelLUM takes PCL's non-const pointer; it never modifies the cloud.
   const auto v = impl_->lum.addPointCloud(std::const_pointer_cast<Cloud>(scan),
@@ -90,6 +92,14 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
     const auto j = static_cast<std::uint32_t>(scans_.size() - 1);
     links_.push_back({j - 1, j, false});
     impl_->lum.addLink(j, j - 1);
+    if (params_.sequence_constraints && information_pairs > 0.0 && !information.isZero()) {
+      const double pairs = 2.0 * static_cast<double>(params_.lum_queries_per_scan);
+      impl_->lum.addPoseConstraint(j,
+                                   j - 1,
+                                   poses_[j - 1].inverse() * pose,
+                                   information * (pairs / information_pairs),
+                                   params_.sequence_cauchy_scale);
+    }
   }
 }
 

@@ -95,6 +95,7 @@ loopClosureParameters(const Parameters& p, double r)
   l.lum_iterations = p.lum_iterations;
   l.lum_epsilon = orAuto(p.lum_epsilon, 0.01 * voxel); // updates far below the sampling
   l.median_range = r;
+  l.sequence_constraints = p.sequence_constraints;
   l.num_threads = p.num_threads;
   return l;
 }
@@ -151,7 +152,8 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
   stage = Clock::now();
-  loops_->addScan(fe.reduced, fe.pose, std::move(fe.normals));
+  loops_->addScan(
+      fe.reduced, fe.pose, std::move(fe.normals), fe.information, fe.information_pairs);
   if (params_.close_loops) {
     report.loops = loops_->detect();
     const auto found = std::find_if(

@@ -269,6 +269,28 @@ public:
     return final_transformation_double_;
   }
 
+  /** Point-to-plane on the fast path: the Gauss-Newton Hessian Σ w Jᵀ J of the last
+   *  iteration's pairs (robust weights, no motion prior) for a perturbation T Exp(ε) of
+   *  the final transform T in the source frame, ε = (ω, t) rotation first, as small_gicp's
+   *  RegistrationResult::H; getFinalError() / getFinalWeight() (Σ w r² / Σ w) estimates
+   *  the residual variance, and H over it the match's information (inverse covariance).
+   *  Zero after any other align(). */
+  const Eigen::Matrix<double, 6, 6>&
+  getFinalHessian() const
+  {
+    return final_hessian_;
+  }
+  double
+  getFinalError() const
+  {
+    return final_error_;
+  }
+  double
+  getFinalWeight() const
+  {
+    return final_weight_;
+  }
+
   /** Drops the private target tree, then PCL's setInputTarget. */
   void
   setInputTarget(const PointCloudTargetConstPtr& cloud) override;
@@ -362,6 +384,8 @@ private:
   Eigen::Matrix4d final_transformation_double_ = Eigen::Matrix4d::Identity();
   Eigen::Matrix4d prior_ = Eigen::Matrix4d::Identity();
   double prior_weight_t_ = 0.0, prior_weight_r_ = 0.0;
+  Eigen::Matrix<double, 6, 6> final_hessian_ = Eigen::Matrix<double, 6, 6>::Zero();
+  double final_error_ = 0.0, final_weight_ = 0.0;
 };
 
 namespace detail {

@@ -98,6 +98,7 @@ struct NormalEquations {
   double sd[3] = {0, 0, 0}; ///< Σ w d: the rotation is applied about the weighted centroid
   double jtj[21] = {};      ///< upper triangle of Σ w Jᵀ J, row by row
   double jtr[6] = {0, 0, 0, 0, 0, 0}; ///< Σ w Jᵀ r
+  double rtr = 0.0;                    ///< Σ w r²
 
   /** Adds one pair (d, m shifted by the reference; nrm the target normal). */
   void
@@ -112,6 +113,7 @@ struct NormalEquations {
                          nrm[1],
                          nrm[2]};
     w += wt;
+    rtr += wt * r * r;
     int k = 0;
     for (int a = 0; a < 6; ++a) {
       const double wj = wt * j[a];
@@ -135,7 +137,12 @@ struct NormalEquations {
       jtj[k] += o.jtj[k];
     for (int a = 0; a < 6; ++a)
       jtr[a] += o.jtr[a];
+    rtr += o.rtr;
   }
+
+  /** Σ w Jᵀ J as a full symmetric matrix. */
+  Eigen::Matrix<double, 6, 6>
+  hessian() const;
 };
 
 /** Point-to-plane error (Chen and Medioni 1992; PCL's IterativeClosestPointWithNormals). */
@@ -146,6 +153,12 @@ struct PointToPlaneFactor {
    *  reference. False when the system is singular (e.g. all normals parallel). */
   static bool
   solve(const NormalEquations& eq, const double ref[3], Eigen::Matrix4d& step);
+
+  /** eq's Σ w Jᵀ J for a perturbation T Exp(ε) of the estimate T in the source (body)
+   *  frame, ε = (ω, t) rotation first (small_gicp's RegistrationResult::H): the
+   *  information of the match, up to the residual variance, in the sensor's frame. */
+  static Eigen::Matrix<double, 6, 6>
+  bodyHessian(const NormalEquations& eq, const double ref[3], const Eigen::Matrix4d& estimate);
 
   /** Adds a Gaussian prior on the pose to eq (ParallelIterativeClosestPoint::
    *  setMotionPrior): residual e + A x with e = (rotation vector of R_T R_P^T, t_T - t_P)

@@ -285,6 +285,29 @@ public:
    *  std::out_of_range for a missing vertex, std::invalid_argument for source == target. */
   void
   addLink(const Vertex& source_vertex, const Vertex& target_vertex);
+
+  /** A measured relative pose between two vertices besides the scan links, e.g. the
+   *  front end's odometry (a pose-graph edge, g2o's EdgeSE3): getPoseMatrix(target)^-1 *
+   *  getPoseMatrix(source) should be `relative`; `information` is the inverse covariance
+   *  of the error (translation, rotation vector) of a body-frame perturbation
+   *  source Exp(e) (lum::PoseConstraint). Each iteration adds it to G X = B after the
+   *  links, in the order added; it also connects its vertices. cauchy_scale > 0 puts a
+   *  Cauchy kernel on its squared Mahalanobis error, so that a constraint the scans
+   *  contradict yields (e.g. 16.8, chi2's 99 % quantile for 6 degrees of freedom).
+   *  Throws std::out_of_range for an unknown vertex (as addLink), std::invalid_argument
+   *  for equal vertices, a non-finite pose, a non-finite or asymmetric information or a
+   *  negative scale. */
+  void
+  addPoseConstraint(const Vertex& source_vertex,
+                    const Vertex& target_vertex,
+                    const Eigen::Matrix4d& relative,
+                    const lum::Matrix6d& information,
+                    double cauchy_scale = 0.0);
+  std::size_t
+  getNumPoseConstraints() const
+  {
+    return constraints_.size();
+  }
   /** pLUM mode: also search the target's points in the source (default true), so both
    *  scans' overlap borders contribute pairs. */
   void
@@ -476,6 +499,7 @@ private:
   std::vector<std::pair<const PointCloud*, std::size_t>> tree_source_;
   // Point-to-plane mode: per-vertex normals by tree position, computed with neighbours k
   // (0 = not computed), in the scan's own frame.
+  std::vector<lum::PoseConstraint, Eigen::aligned_allocator<lum::PoseConstraint>> constraints_;
   std::vector<std::vector<Eigen::Vector3f>> normals_;
   std::vector<std::size_t> normals_k_; ///< or kGivenNormals: from given_normals_
   /// setPointNormals' normals by point index, until buildTrees maps them to tree positions

@@ -189,6 +189,31 @@ struct LinkBlock {
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
 
+/** A measured relative pose between two vertices, besides the scan links (e.g. the front
+ *  end's odometry): target^-1 source = measured, with `information` the inverse
+ *  covariance of the error (translation, rotation vector) of a body-frame perturbation
+ *  source Exp(e) (g2o's EdgeSE3 convention). */
+struct PoseConstraint {
+  std::uint32_t source = 0;
+  std::uint32_t target = 0;
+  Eigen::Matrix4d measured = Eigen::Matrix4d::Identity();
+  Matrix6d information = Matrix6d::Zero();
+  /** > 0: a Cauchy kernel on the squared Mahalanobis error chi2 = e^T I e, the
+   *  information scaled by 1 / (1 + chi2 / cauchy_scale) at each linearisation (IRLS), so
+   *  a constraint the scans contradict yields; 0: plain least squares. */
+  double cauchy_scale = 0.0;
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+};
+
+/** The constraint's contribution to G X = B at the current poses, as a link block: its
+ *  error e0 = (t, w) of measured^-1 target^-1 source and the body Jacobian J of the
+ *  world-frame updates (applyUpdate), H = J^T I J and g = J^T I e0 (times the Cauchy
+ *  weight). */
+LinkBlock
+constraintBlock(const PoseConstraint& c,
+                const Eigen::Matrix4d& source_pose,
+                const Eigen::Matrix4d& target_pose);
+
 /**
  * \brief Assembles and solves the sparse normal equations G X = B over vertices
  * 1..n-1 (vertex 0 is the fixed reference) with Eigen's SimplicialLDLT in double

@@ -63,6 +63,11 @@ struct FrontEndResult {
   bool converged = true; ///< false: pICP failed and the prediction was kept
   double fitness = 0.0;  ///< mean squared distance of matched pairs (pICP's fitness)
   double gate = 0.0;     ///< the correspondence distance used
+  /** The match's information (point-to-plane: pICP's final Hessian over its residual
+   *  variance, without the motion prior): how well the scan's pose relative to the map,
+   *  or to the previous scan, is known. Zero when pICP did not run or failed. */
+  Information information = Information::Zero();
+  double information_pairs = 0.0; ///< ... from this many pairs (sum of robust weights)
 };
 
 /**

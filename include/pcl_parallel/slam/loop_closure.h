@@ -45,6 +45,14 @@ struct LoopClosureParameters {
   int lum_link_iterations = 1;
   bool lum_point_to_plane = true;
   std::size_t lum_queries_per_scan = 500; ///< pairs searched per scan and link direction
+  /** The front end's matches as pose constraints between consecutive scans, beside their
+   *  scan links (addScan): each weighs as much as a pLUM link (its information scaled to
+   *  2 x lum_queries_per_scan pairs, the shape and residual variance its own), under a
+   *  Cauchy kernel of this chi2 scale, so that a match the scans contradict yields
+   *  (16.8: chi2's 99 % quantile for 6 degrees of freedom). docs/design.md, "Sequence
+   *  constraints". */
+  bool sequence_constraints = true;
+  double sequence_cauchy_scale = 16.8;
   double median_range = 10.0; ///< of the scans: converts a rotation error to a displacement
   unsigned num_threads = 0;
 };
@@ -76,11 +84,15 @@ public:
 
   /** Adds the next scan (reduced, scanner frame) at its front-end pose, with its points'
    *  normals if the front end has them (FrontEndResult::normals; pLUM estimates them
-   *  otherwise, from the reduced points). */
+   *  otherwise, from the reduced points), and the information of its match from that
+   *  many pairs (FrontEndResult::information, information_pairs; zero: none), which
+   *  with sequence_constraints holds its pose relative to the previous scan. */
   void
   addScan(const Cloud::ConstPtr& scan,
           const Pose& pose,
-          std::vector<Eigen::Vector3f> normals = {});
+          std::vector<Eigen::Vector3f> normals = {},
+          const Information& information = Information::Zero(),
+          double information_pairs = 0.0);
 
   /** Looks for loop links of the newest scan; adds the accepted ones to the graph and,
    *  with distribute_error and an error above overlap_distance, moves the poses since

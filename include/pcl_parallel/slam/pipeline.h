@@ -49,6 +49,9 @@ struct Parameters {
    *  consistent for the front end; finish() converges, up to lum_iterations): bounds what
    *  a scanner that keeps revisiting costs. <= 0: lum_iterations. */
   int lum_iterations_per_loop = 5;
+  /** The front end's matches as pose constraints in pLUM (LoopClosureParameters::
+   *  sequence_constraints) */
+  bool sequence_constraints = true;
   unsigned num_threads = 0; ///< 0: all cores
 };
 

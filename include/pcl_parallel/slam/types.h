@@ -24,6 +24,9 @@ using MapCloud = pcl::PointCloud<MapPoint>;
 /** A scan's pose: p_world = pose * p_scan. */
 using Pose = Eigen::Matrix4d;
 using Poses = std::vector<Pose>;
+/** Inverse covariance of a pose error (translation, rotation vector) in the scan's frame
+ *  (lum::PoseConstraint). */
+using Information = Eigen::Matrix<double, 6, 6>;
 
 /** An edge of the pose graph: scan `target` < scan `source`; `loop` is false for the
  *  front end's consecutive pairs. */

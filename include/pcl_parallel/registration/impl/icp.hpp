@@ -211,6 +211,8 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
 {
   auto* criteria = dynamic_cast<ConvergenceCriteria*>(this->convergence_criteria_.get());
   used_fast_path_ = criteria && fastPathApplies();
+  final_hessian_.setZero();
+  final_error_ = final_weight_ = 0.0;
   if (used_fast_path_) {
     computeTransformationFused(output, guess);
     return;
@@ -354,6 +356,10 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
   mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
   if (total.n < static_cast<double>(min_number_correspondences_))
     return true;
+  // The pairs' information alone (no prior), at the estimate they were found at.
+  final_hessian_ = PointToPlaneFactor::bodyHessian(total, ref, final_transformation_double_);
+  final_error_ = total.rtr;
+  final_weight_ = total.w;
   if (prior_weight_t_ > 0.0 || prior_weight_r_ > 0.0) {
     NormalEquations with_prior = total;
     PointToPlaneFactor::addPosePrior(with_prior,

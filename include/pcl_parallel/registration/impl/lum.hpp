@@ -241,6 +241,34 @@ ParallelLUM<PointT>::addLink(const Vertex& source_vertex, const Vertex& target_v
 }
 
 template <typename PointT>
+void
+ParallelLUM<PointT>::addPoseConstraint(const Vertex& source_vertex,
+                                       const Vertex& target_vertex,
+                                       const Eigen::Matrix4d& relative,
+                                       const lum::Matrix6d& information,
+                                       double cauchy_scale)
+{
+  checkVertex(source_vertex, "addPoseConstraint");
+  checkVertex(target_vertex, "addPoseConstraint");
+  if (source_vertex == target_vertex)
+    throw std::invalid_argument("[pcl_parallel::ParallelLUM::addPoseConstraint] source == "
+                                "target");
+  if (!relative.allFinite() || !information.allFinite() ||
+      !information.isApprox(information.transpose(), 1e-9) || !(cauchy_scale >= 0.0) ||
+      !std::isfinite(cauchy_scale))
+    throw std::invalid_argument("[pcl_parallel::ParallelLUM::addPoseConstraint] the "
+                                "relative pose or the information is not finite, the "
+                                "information is not symmetric or the scale is negative");
+  lum::PoseConstraint c;
+  c.source = static_cast<std::uint32_t>(source_vertex);
+  c.target = static_cast<std::uint32_t>(target_vertex);
+  c.measured = relative;
+  c.information = information;
+  c.cauchy_scale = cauchy_scale;
+  constraints_.push_back(c);
+}
+
+template <typename PointT>
 pcl::CorrespondencesPtr
 ParallelLUM<PointT>::getCorrespondences(const Vertex& source_vertex,
                                         const Vertex& target_vertex) const
@@ -373,7 +401,7 @@ ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links,
   const std::string where = "[pcl_parallel::ParallelLUM::compute] ";
   if (n < 2)
     throw std::invalid_argument(where + "the graph needs at least 2 vertices");
-  if (links.empty())
+  if (links.empty() && constraints_.empty())
     throw std::invalid_argument(where + "the graph has no links");
   end = std::min(end, links.size());
   std::vector<char> needed(n, begin == 0 && end == links.size());
@@ -409,6 +437,8 @@ ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links,
           c.index_match < 0 || static_cast<std::size_t>(c.index_match) >= nt)
         throw std::out_of_range(where + name + " has a correspondence index out of range");
   }
+  for (const lum::PoseConstraint& c : constraints_)
+    pairs.emplace_back(c.source, c.target);
   const auto unreachable = lum::unreachableFromZero(n, pairs);
   if (!unreachable.empty())
     throw std::invalid_argument(where + std::to_string(unreachable.size()) +
@@ -686,6 +716,13 @@ ParallelLUM<PointT>::solveIteration(Run& run, int it)
              it,
              run.reasons[li] ? run.reasons[li] : "invalid",
              run.pair_counts[li]);
+  }
+  // The pose constraints after the links, in the order added (deterministic).
+  run.blocks.resize(links.size());
+  for (const lum::PoseConstraint& c : constraints_) {
+    run.blocks.push_back(lum::constraintBlock(c, poses_[c.source], poses_[c.target]));
+    if (run.blocks.back().valid)
+      valid.emplace_back(c.source, c.target);
   }
   const auto unreachable = lum::unreachableFromZero(n, valid);
   if (!unreachable.empty()) {
