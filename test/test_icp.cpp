@@ -20,6 +20,7 @@
 #include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/registration/icp.h>
+#include <pcl_parallel/slam/loop_closure.h>
 
 #include <pcl/common/io.h>
 #include <pcl/common/transforms.h>
@@ -1344,4 +1345,46 @@ TEST(ParallelIcpPointToPlane, FinalHessianIsTheBodyFrameGaussNewtonMatrix)
   icp.setUsePointToPlane(false); // other paths leave it zero
   icp.alignDouble(out, Eigen::Matrix4d::Identity());
   EXPECT_TRUE(icp.getFinalHessian().isZero());
+}
+
+// Our ELCH step against PCL's pcl::registration::ELCH where the two coincide: scans evenly
+// spaced along the loop (PCL weighs by edge count, we by path length) and the loop's end
+// at the world origin (PCL rotates about the origin, we about the end scan). Elsewhere
+// PCL's rotation about the origin would swing every scan of a loop far from it on an arc
+// (docs/design.md, "ELCH"). Here beside the test of ELCH with pICP.
+TEST(PclElch, DistributeLoopErrorIsPclsElchOnAnEvenLoopEndingAtTheOrigin)
+{
+  std::vector<Eigen::Matrix4d> poses;
+  const int n = 24;
+  for (int k = 0; k < n; ++k) { // a circle of radius 5 through the origin, ending there
+    const double a = 2.0 * M_PI * (k + 1) / n;
+    Eigen::Matrix4d p = rigid(a, {0.01 * k, 0.0, 1.0}, {0.0, 0.0, 0.0});
+    p.topRightCorner<3, 1>() = Eigen::Vector3d(5.0 * std::sin(a), 5.0 - 5.0 * std::cos(a), 0.0);
+    poses.push_back(p);
+  }
+  const Eigen::Matrix4d measured = // drift: the end sits 0.15 m / 6 degrees off where the link puts it
+      poses[0].inverse() * rigid(0.1, {0.2, 0.1, 1.0}, {-0.15, 0.03, 0.01}) * poses[n - 1];
+  std::vector<Eigen::Matrix4d> ours = poses;
+  pcl_parallel::slam::distributeLoopError(ours, 0, n - 1, measured);
+
+  pcl::registration::ELCH<pcl::PointXYZ> elch;
+  for (int k = 0; k < n; ++k) {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr c(new pcl::PointCloud<pcl::PointXYZ>);
+    c->push_back(pcl::PointXYZ(0.0f, 0.0f, 0.0f));
+    elch.addPointCloud(c); // linked to the previous one
+  }
+  elch.setLoopStart(0);
+  elch.setLoopEnd(n - 1);
+  elch.setLoopTransform(Eigen::Matrix4f(
+      (poses[0] * measured * poses[n - 1].inverse()).cast<float>())); // world frame
+  elch.compute();
+  const auto& graph = *elch.getLoopGraph();
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Matrix4d pcl_pose = graph[k].transform.matrix().cast<double>() * poses[k];
+    const auto e = pcl_parallel::evaluation::poseError(ours[k], pcl_pose);
+    EXPECT_LT(e.distance, 1e-5) << "scan " << k;
+    EXPECT_LT(e.angle, 1e-5) << "scan " << k;
+  }
+  // and it closes the loop: the end is where the link puts it
+  EXPECT_TRUE(ours[n - 1].isApprox(ours[0] * measured, 1e-9));
 }

@@ -115,6 +115,14 @@ TEST(PslamOptions, SlamSixDCommandLineInFileUnits)
   EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(m, 0.01).max_range, 30.0);
   EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(m, 0.01).min_range, 0.5);
   EXPECT_TRUE(std::isinf(pcl_pslam::toParameters(o, 0.01).max_range));
+  // slam6D's -L: 0 no loop closing before pLUM, 1-4 ELCH; ours on by default.
+  EXPECT_TRUE(pcl_pslam::toParameters(o, 1.0).elch);
+  EXPECT_FALSE(pcl_pslam::toParameters(parse({"run", "-L", "0", "d"}), 1.0).elch);
+  EXPECT_TRUE(pcl_pslam::toParameters(parse({"run", "--loop6DAlgo", "4", "d"}), 1.0).elch);
+  EXPECT_TRUE(pcl_pslam::toParameters(o, 1.0).sequence_constraints);
+  EXPECT_FALSE(
+      pcl_pslam::toParameters(parse({"run", "--no-sequence-constraints", "d"}), 1.0)
+          .sequence_constraints);
 }
 
 TEST(PslamOptions, BadUsageIsOneLine)
@@ -136,6 +144,7 @@ TEST(PslamOptions, BadUsageIsOneLine)
   EXPECT_NE(message({"run"}).find("no scan directory"), std::string::npos);
   EXPECT_NE(message({"run", "a", "b"}).find("one directory"), std::string::npos);
   EXPECT_NE(message({"frob"}).find("unknown command 'frob'"), std::string::npos);
+  EXPECT_NE(message({"run", "-L", "7", "d"}).find("-L/--loop6DAlgo"), std::string::npos);
   EXPECT_NE(message({"demo", "--reduc", "1"}).find("--reduc"),
             std::string::npos); // no guessing
   for (const std::string& m :
@@ -154,7 +163,7 @@ TEST(PslamOptions, HelpNamesEveryOption)
        {"--format", "--start",   "--end",      "--max",      "--min",    "--reduce",
         "--iter",   "--dist",    "--iterSLAM", "--distSLAM", "--cldist", "--loopsize",
         "--epsICP", "--epsSLAM", "--metascan", "--poses",    "--out",    "--threads",
-        "--quiet",  "--ply",     "--style"})
+        "--quiet",  "--ply",     "--style",    "--loop6DAlgo", "--no-sequence-constraints"})
     EXPECT_NE(h.find(name), std::string::npos) << name;
   EXPECT_NE(h.find("[default 5]"), std::string::npos); // -l (the path rule does the rest)
   EXPECT_NE(h.find("[default: auto, 10 voxels]"), std::string::npos);

@@ -107,6 +107,12 @@ struct Descriptions {
       ("map-normals", po::bool_switch(&o.map_normals),
        "point-to-plane normals from the local map instead of each scan (sparse scanners, "
        "e.g. Livox; slower on large maps)")
+      ("loop6DAlgo,L", po::value<int>(&o.elch)->value_name("NR"),
+       "3DTK's loop closing before pLUM: 0 none, 1-4 ELCH (a loop's error spread along "
+       "it by path length; 3DTK's 4, SLERP) [default 4]")
+      ("no-sequence-constraints", po::bool_switch(&o.no_sequence_constraints),
+       "pLUM without the front end's matches as constraints between consecutive scans "
+       "(only the scan pairs' links, as the paper)")
       ("no-loops", po::bool_switch(&o.no_loops), "no loop closing (front end only)");
     output.add_options()
       ("out,o", po::value<std::string>(&o.out)->value_name("DIR"),
@@ -302,6 +308,9 @@ parseCommandLine(int argc, const char* const* argv)
     throw UsageError("-I/--iterSLAM must be >= 1 (this pipeline always runs pLUM)");
   if (o.loop_size < 1)
     throw UsageError("-l/--loopsize must be >= 1");
+  if (o.elch < 0 || o.elch > 4)
+    throw UsageError("-L/--loop6DAlgo needs 0 (none) to 4 (ELCH), got " +
+                     std::to_string(o.elch));
   if (o.threads > 4096)
     throw UsageError("--threads: " + std::to_string(o.threads) + " is not a thread count");
   o.picture = vm.count("no-picture") == 0;
@@ -341,6 +350,8 @@ toParameters(const Options& o, double scale)
   p.deskew = o.deskew;
   p.normals_from_map = o.map_normals;
   p.close_loops = !o.no_loops;
+  p.elch = o.elch != 0;
+  p.sequence_constraints = !o.no_sequence_constraints;
   return p;
 }
 

@@ -95,6 +95,7 @@ loopClosureParameters(const Parameters& p, double r)
   l.lum_iterations = p.lum_iterations;
   l.lum_epsilon = orAuto(p.lum_epsilon, 0.01 * voxel); // updates far below the sampling
   l.median_range = r;
+  l.distribute_error = p.elch;
   l.sequence_constraints = p.sequence_constraints;
   l.num_threads = p.num_threads;
   return l;

@@ -49,6 +49,9 @@ struct Parameters {
    *  consistent for the front end; finish() converges, up to lum_iterations): bounds what
    *  a scanner that keeps revisiting costs. <= 0: lum_iterations. */
   int lum_iterations_per_loop = 5;
+  /** [-L] ELCH: a loop's error spread along it before pLUM (LoopClosureParameters::
+   *  distribute_error) */
+  bool elch = true;
   /** The front end's matches as pose constraints in pLUM (LoopClosureParameters::
    *  sequence_constraints) */
   bool sequence_constraints = true;
