@@ -16,7 +16,9 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -94,20 +96,28 @@ TEST(VoxelCentroid, CentroidOfEachVoxel)
 // 2e7 at 1 mm) must give exactly these, in this order.
 TEST(VoxelCentroid, KeyOrderAndCentroidsMatchBruteForce)
 {
-  for (const float extent : {5.0f, 1e4f}) {
-    SCOPED_TRACE(extent);
-    Cloud cloud = randomCloud(5000, extent, 6);
+  // Small and large clouds (the large ones take the parallel blocks of the key packing and
+  // the radix passes), with non-finite points between the blocks; extent 1e4 at 1 mm needs
+  // more than 64 key bits (two sorts).
+  for (const auto& [size, extent] :
+       {std::pair<int, float>{5000, 5.0f}, {5000, 1e4f}, {120000, 5.0f}, {120000, 1e4f}}) {
+    SCOPED_TRACE(std::to_string(size) + " points, extent " + std::to_string(extent));
+    Cloud cloud = randomCloud(size, extent, 6);
     for (int i = 0; i < 2000; ++i) // many points per voxel too
       cloud.push_back(cloud[i % 50]);
+    for (std::size_t i = 7; i < cloud.size(); i += cloud.size() / 5)
+      cloud[i].y = std::numeric_limits<float>::quiet_NaN();
     const double voxel = extent > 100.0f ? 1e-3 : 0.5;
     std::map<std::array<std::int64_t, 3>, std::array<double, 4>> voxels;
     for (const auto& p : cloud) {
+      if (!std::isfinite(p.y))
+        continue;
       auto& v = voxels[{static_cast<std::int64_t>(std::floor(p.x / voxel)),
                         static_cast<std::int64_t>(std::floor(p.y / voxel)),
                         static_cast<std::int64_t>(std::floor(p.z / voxel))}];
       v[0] += p.x, v[1] += p.y, v[2] += p.z, v[3] += 1.0;
     }
-    const auto out = pcl_parallel::filters::voxelCentroid(cloud, voxel);
+    const auto out = pcl_parallel::filters::voxelCentroid(cloud, voxel, 2);
     ASSERT_EQ(out->size(), voxels.size());
     std::size_t i = 0;
     for (const auto& [key, v] : voxels) {
