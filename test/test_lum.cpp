@@ -1226,12 +1226,14 @@ TEST_F(QuietPcl, PoseConstraintInformationIsInTheSourceFrame)
 
 // A constraint the others contradict (a triangle of right ones, one wrong by 10 cm on the
 // same pair, 100 sigma): plain least squares meets it partway; under a Cauchy kernel it yields.
-// Right constraints alone end where they are either way.
+// Right constraints alone end where they are either way. getPoseConstraintChi2 tells the
+// wrong one from the right ones.
 TEST_F(QuietPcl, ContradictedPoseConstraintYieldsUnderCauchy)
 {
   const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
                        makePose(1.0, 0.1, 0, 0.02, 0.04, 0.3),
                        makePose(1.5, 1.0, 0.1, 0.0, -0.05, 1.0)};
+  std::vector<double> chi2;
   auto run = [&](bool with_wrong, double scale) {
     ParallelLUM<pcl::PointXYZ> lum;
     Cloud::Ptr few(new Cloud);
@@ -1249,11 +1251,19 @@ TEST_F(QuietPcl, ContradictedPoseConstraintYieldsUnderCauchy)
     lum.setCorrespondenceDistance(0.1);
     lum.setMaxIterations(20);
     lum.compute();
+    chi2.clear();
+    for (std::size_t k = 0; k < lum.getNumPoseConstraints(); ++k)
+      chi2.push_back(lum.getPoseConstraintChi2(k));
+    EXPECT_THROW(lum.getPoseConstraintChi2(lum.getNumPoseConstraints()), std::out_of_range);
     double angle, dist;
     pcl_parallel::lum::poseError(lum.getPoseMatrix(2), truth[2], angle, dist);
     return dist;
   };
   const double plain = run(true, 0.0), cauchy = run(true, 16.8);
+  ASSERT_EQ(chi2.size(), 4u);
+  EXPECT_GT(chi2[3], 0.9e4); // (0.1 m / 1 mm)^2 = 1e4: nearly all of it is left
+  for (int k = 0; k < 3; ++k)
+    EXPECT_LT(chi2[k], 16.8) << k;
   EXPECT_GT(plain, 0.015); // a third of the 10 cm, shared with the two others
   EXPECT_LT(cauchy, 0.1 * plain);
   EXPECT_LT(run(false, 16.8), 1e-9);

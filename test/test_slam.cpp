@@ -62,6 +62,7 @@ corridorSet()
 struct PipelineRun {
   Poses front_end, final;
   std::vector<slam::Link> links;
+  std::vector<slam::ScanReport> reports;
 };
 
 PipelineRun
@@ -72,7 +73,7 @@ runPipeline(const sim::SimulatedScanSet& set, slam::Parameters p, bool odometry 
     pipeline.addScan(*set.scans[i],
                      odometry ? std::optional<Pose>(set.odometry[i]) : std::nullopt);
   pipeline.finish();
-  return {pipeline.frontEndPoses(), pipeline.poses(), pipeline.links()};
+  return {pipeline.frontEndPoses(), pipeline.poses(), pipeline.links(), pipeline.reports()};
 }
 
 /** The default pipeline on the corridor set, 2 threads: shared by the tests. */
@@ -193,6 +194,14 @@ TEST(Pipeline, SequenceConstraintsKeepTheFrontEndsSteps)
               steps(with.final));
   EXPECT_LT(ate(with.final), ate(without.final));
   EXPECT_LT(steps(with.final), steps(without.final));
+  // Each step's constraint reports its final disagreement; none without constraints.
+  ASSERT_EQ(with.reports.size(), set.truth.size());
+  EXPECT_EQ(with.reports[0].sequence_chi2, -1.0);
+  for (std::size_t i = 1; i < with.reports.size(); ++i) {
+    EXPECT_GE(with.reports[i].sequence_chi2, 0.0) << i;
+    EXPECT_TRUE(std::isfinite(with.reports[i].sequence_chi2)) << i;
+    EXPECT_EQ(without.reports[i].sequence_chi2, -1.0) << i;
+  }
   for (std::size_t i = 1; i < set.truth.size(); ++i) {
     const Pose truth = set.truth[i - 1].inverse() * set.truth[i];
     const auto before =

@@ -18,13 +18,17 @@
 
 #include <pcl/console/print.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <unistd.h>
+#include <utility>
+#include <vector>
 
 namespace {
 
@@ -143,6 +147,22 @@ runCommand(int argc, char** argv)
                   r.icp_failures,
                   in.size() - 1);
     std::printf("pLUM: %zu links, %d iterations\n", r.links.size(), r.lum_iterations);
+    // Where the relaxation and the front end disagree most (the Cauchy kernel let the
+    // front end's match yield): the first places to look at in a map.
+    std::vector<std::pair<double, std::size_t>> chi2;
+    for (std::size_t i = 0; i < r.reports.size(); ++i)
+      if (r.reports[i].sequence_chi2 > r.loop_closure.sequence_cauchy_scale)
+        chi2.emplace_back(r.reports[i].sequence_chi2, i);
+    std::sort(chi2.rbegin(), chi2.rend());
+    if (!chi2.empty()) {
+      std::string worst;
+      for (std::size_t k = 0; k < chi2.size() && k < 3; ++k)
+        worst += (k ? ", " : "") + std::to_string(in.numbers[chi2[k].second]) + " (chi2 " +
+                 std::to_string(static_cast<long long>(std::lround(chi2[k].first))) + ")";
+      std::printf("loop closing disagreed most with the front end's steps to scans %s; "
+                  "report.json: sequence_chi2\n",
+                  worst.c_str());
+    }
     if (!o.quiet) {
       const auto& t = r.times;
       std::printf("stage times: front end %.2f s, loop detection %.2f s, loop closing %.2f s "

@@ -470,6 +470,8 @@ writeOutputs(const Options& o,
       s["icp_source_points"] = rep.source_points;
       s["seconds"] = rep.seconds;
       s["lum_iterations"] = rep.lum_iterations;
+      if (rep.sequence_chi2 >= 0.0) // the front end's step against the final poses
+        s["sequence_chi2"] = rep.sequence_chi2;
       nlohmann::json tried = nlohmann::json::array();
       for (const auto& c : rep.loops)
         tried.push_back({{"target", c.link.target},

@@ -187,6 +187,33 @@ updateBetween(const Eigen::Matrix4d& before, const Eigen::Matrix4d& after)
   return delta;
 }
 
+namespace {
+
+/** (t, rotation vector) of measured^-1 target^-1 source. */
+Vector6d
+constraintError(const PoseConstraint& c,
+                const Eigen::Matrix4d& source_pose,
+                const Eigen::Matrix4d& target_pose)
+{
+  const Eigen::Matrix4d e = c.measured.inverse() * target_pose.inverse() * source_pose;
+  const Eigen::AngleAxisd aa(Eigen::Matrix3d(e.topLeftCorner<3, 3>()));
+  Vector6d e0;
+  e0.head<3>() = e.topRightCorner<3, 1>();
+  e0.tail<3>() = aa.angle() * aa.axis();
+  return e0;
+}
+
+} // namespace
+
+double
+constraintChi2(const PoseConstraint& c,
+               const Eigen::Matrix4d& source_pose,
+               const Eigen::Matrix4d& target_pose)
+{
+  const Vector6d e0 = constraintError(c, source_pose, target_pose);
+  return e0.dot(c.information * e0);
+}
+
 LinkBlock
 constraintBlock(const PoseConstraint& c,
                 const Eigen::Matrix4d& source_pose,
@@ -195,11 +222,7 @@ constraintBlock(const PoseConstraint& c,
   LinkBlock b;
   b.source = c.source;
   b.target = c.target;
-  const Eigen::Matrix4d e = c.measured.inverse() * target_pose.inverse() * source_pose;
-  const Eigen::AngleAxisd aa(Eigen::Matrix3d(e.topLeftCorner<3, 3>()));
-  Vector6d e0;
-  e0.head<3>() = e.topRightCorner<3, 1>();
-  e0.tail<3>() = aa.angle() * aa.axis();
+  const Vector6d e0 = constraintError(c, source_pose, target_pose);
   // Body perturbation of the source by the world update D = (t, w) (applyUpdate's model
   // p -> p + w x p + t): rotation R^T w, translation R^T (t + w x c), c its position.
   const Eigen::Matrix3d rt = source_pose.topLeftCorner<3, 3>().transpose();

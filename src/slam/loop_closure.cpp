@@ -99,6 +99,7 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
                                    poses_[j - 1].inverse() * pose,
                                    information * (pairs / information_pairs),
                                    params_.sequence_cauchy_scale);
+      constrained_.push_back(j);
     }
   }
 }
@@ -192,6 +193,15 @@ LoopCloser::relax(int max_iterations)
   for (std::size_t v = 0; v < poses_.size(); ++v)
     poses_[v] = lum.getPoseMatrix(v);
   return lum.getNumIterationsDone();
+}
+
+std::vector<double>
+LoopCloser::sequenceChi2() const
+{
+  std::vector<double> chi2(scans_.size(), -1.0);
+  for (std::size_t k = 0; k < constrained_.size(); ++k)
+    chi2[constrained_[k]] = impl_->lum.getPoseConstraintChi2(k);
+  return chi2;
 }
 
 std::size_t

@@ -191,14 +191,17 @@ Pipeline::finish()
     return;
   const bool any_loop = std::any_of(
       loops_->links().begin(), loops_->links().end(), [](const Link& l) { return l.loop; });
-  if (!any_loop)
-    return;
-  const auto stage = Clock::now();
-  const int iterations = loops_->relax();
-  ++relaxations_;
-  if (!reports_.empty())
-    reports_.back().lum_iterations += iterations;
-  times_.loop_closing += seconds(stage);
+  if (any_loop) {
+    const auto stage = Clock::now();
+    const int iterations = loops_->relax();
+    ++relaxations_;
+    if (!reports_.empty())
+      reports_.back().lum_iterations += iterations;
+    times_.loop_closing += seconds(stage);
+  }
+  const std::vector<double> chi2 = loops_->sequenceChi2();
+  for (std::size_t i = 0; i < reports_.size() && i < chi2.size(); ++i)
+    reports_[i].sequence_chi2 = chi2[i];
 }
 
 const Poses&

@@ -5,7 +5,8 @@
 # '|' separates list items (ctest would split ';'). INTERRUPT_AFTER sends SIGINT after S
 # seconds (coreutils timeout). FILE_SIZE_LIMIT: files limited to BLOCKS x 512 bytes, as on
 # a full disk (file_size_limit.sh). STDOUT: standard output goes there (e.g. /dev/full), not
-# into the checked output. CHECK_REPORT: OUT_DIR/report.json parses and holds a time for
+# into the checked output. CHECK_REPORT: OUT_DIR/report.json parses, has scan 1's
+# sequence_chi2 and holds a time for
 # each pipeline stage. Every output in OUT_DIR must be complete: no temporary left.
 cmake_minimum_required(VERSION 3.19) # string(JSON), IN_LIST
 string(REPLACE "|" ";" cmd "${CMD}")
@@ -78,6 +79,11 @@ if(CHECK_REPORT)
   endforeach()
   string(JSON scans LENGTH "${json}" scans)
   string(JSON points GET "${json}" scans 0 points_reduced)
+  # the front end's step to scan 1 against the final poses (a pose constraint's chi2)
+  string(JSON chi2 GET "${json}" scans 1 sequence_chi2)
+  if(NOT chi2 MATCHES "^[0-9.eE+-]+$")
+    message(FATAL_ERROR "report.json: scan 1's sequence_chi2 is '${chi2}'")
+  endif()
   string(JSON threads GET "${json}" threads)
   message(STATUS "report.json: ${n} stages (${names}), ${scans} scans, ${threads} threads")
 endif()

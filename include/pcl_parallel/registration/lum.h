@@ -308,6 +308,11 @@ public:
   {
     return constraints_.size();
   }
+  /** Constraint k's squared Mahalanobis error at getPoseMatrix()'s poses (after compute():
+   *  how far the relaxation moved its vertices from what it measured). Throws
+   *  std::out_of_range for k >= getNumPoseConstraints(). */
+  double
+  getPoseConstraintChi2(std::size_t k) const;
   /** pLUM mode: also search the target's points in the source (default true), so both
    *  scans' overlap borders contribute pairs. */
   void

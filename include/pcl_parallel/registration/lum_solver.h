@@ -214,6 +214,12 @@ constraintBlock(const PoseConstraint& c,
                 const Eigen::Matrix4d& source_pose,
                 const Eigen::Matrix4d& target_pose);
 
+/** The constraint's squared Mahalanobis error e0^T I e0 at the given poses. */
+double
+constraintChi2(const PoseConstraint& c,
+               const Eigen::Matrix4d& source_pose,
+               const Eigen::Matrix4d& target_pose);
+
 /**
  * \brief Assembles and solves the sparse normal equations G X = B over vertices
  * 1..n-1 (vertex 0 is the fixed reference) with Eigen's SimplicialLDLT in double

@@ -125,6 +125,12 @@ public:
   {
     return scans_[i];
   }
+  /** Per scan, the squared Mahalanobis error of its sequence constraint at the current
+   *  poses (after relax(): above sequence_cauchy_scale, the scans overruled the front
+   *  end's step there); -1 where it has none (the first scan, a failed match). */
+  std::vector<double>
+  sequenceChi2() const;
+
   /** Bytes held per scan on average (reduced points and their k-d tree). */
   std::size_t
   bytesPerScan() const;
@@ -138,6 +144,7 @@ private:
   Poses poses_;
   std::vector<Link> links_;
   std::vector<std::uint32_t> loop_sources_; ///< source scan of each loop link
+  std::vector<std::uint32_t> constrained_;  ///< scan of each sequence constraint
 };
 
 /** Candidates for loop links of scan j, nearest first: scans i <= j - min_separation

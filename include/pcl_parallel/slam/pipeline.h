@@ -83,6 +83,8 @@ struct ScanReport {
   double seconds = 0.0;             ///< all stages for this scan
   std::vector<LoopCandidate> loops; ///< loop pairs tried
   int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
+  /** After finish(): LoopCloser::sequenceChi2() of this scan (-1: no constraint). */
+  double sequence_chi2 = -1.0;
 };
 
 /** Seconds spent per stage. */

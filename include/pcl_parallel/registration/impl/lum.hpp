@@ -269,6 +269,14 @@ ParallelLUM<PointT>::addPoseConstraint(const Vertex& source_vertex,
 }
 
 template <typename PointT>
+double
+ParallelLUM<PointT>::getPoseConstraintChi2(std::size_t k) const
+{
+  const lum::PoseConstraint& c = constraints_.at(k);
+  return lum::constraintChi2(c, getPoseMatrix(c.source), getPoseMatrix(c.target));
+}
+
+template <typename PointT>
 pcl::CorrespondencesPtr
 ParallelLUM<PointT>::getCorrespondences(const Vertex& source_vertex,
                                         const Vertex& target_vertex) const
