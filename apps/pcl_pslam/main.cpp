@@ -146,7 +146,10 @@ runCommand(int argc, char** argv)
       std::printf("pICP: %d of %zu matches did not converge; their initial steps were kept\n",
                   r.icp_failures,
                   in.size() - 1);
-    std::printf("pLUM: %zu links, %d iterations\n", r.links.size(), r.lum_iterations);
+    std::printf("pLUM: %zu loop links beside the %zu consecutive ones, %d iterations\n",
+                r.links.size(),
+                in.size() - 1,
+                r.lum_iterations);
     // Where the relaxation and the front end disagree most (the Cauchy kernel let the
     // front end's match yield): the first places to look at in a map.
     std::vector<std::pair<double, std::size_t>> chi2;
