@@ -1362,7 +1362,8 @@ TEST(PclElch, DistributeLoopErrorIsPclsElchOnAnEvenLoopEndingAtTheOrigin)
     p.topRightCorner<3, 1>() = Eigen::Vector3d(5.0 * std::sin(a), 5.0 - 5.0 * std::cos(a), 0.0);
     poses.push_back(p);
   }
-  const Eigen::Matrix4d measured = // drift: the end sits 0.15 m / 6 degrees off where the link puts it
+  // Drift: the end sits 0.15 m / 6 degrees off where the link puts it.
+  const Eigen::Matrix4d measured =
       poses[0].inverse() * rigid(0.1, {0.2, 0.1, 1.0}, {-0.15, 0.03, 0.01}) * poses[n - 1];
   std::vector<Eigen::Matrix4d> ours = poses;
   pcl_parallel::slam::distributeLoopError(ours, 0, n - 1, measured);

@@ -1164,7 +1164,7 @@ TEST_F(QuietPcl, PoseConstraintsAloneGiveTheirChain)
   Cloud::Ptr few(new Cloud);
   few->push_back(pcl::PointXYZ(1.0f, 2.0f, 3.0f));
   for (const auto& p : start)
-    lum.addPointCloud(few, Eigen::Matrix4f::Identity()), lum.setPoseMatrix(lum.getNumVertices() - 1, p);
+    lum.setPoseMatrix(lum.addPointCloud(few, Eigen::Matrix4f::Identity()), p);
   pcl_parallel::lum::Matrix6d info = pcl_parallel::lum::Matrix6d::Identity();
   info.bottomRightCorner<3, 3>() *= 100.0; // any positive definite weight
   for (std::size_t v = 1; v < truth.size(); ++v)

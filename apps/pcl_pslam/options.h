@@ -58,7 +58,7 @@ struct Options {
   bool deskew = false;
   bool map_normals = false; ///< point-to-plane normals on the local map (sparse scanners)
   bool no_loops = false;
-  int elch = 4;                      ///< [-L] 3DTK's loop closing algorithm: 0 none, else ELCH
+  int elch = 4; ///< [-L] 3DTK's loop closing algorithm: 0 none, else ELCH
   bool no_sequence_constraints = false;
   unsigned threads = 0;
   bool quiet = false;

@@ -98,7 +98,7 @@ struct NormalEquations {
   double sd[3] = {0, 0, 0}; ///< Σ w d: the rotation is applied about the weighted centroid
   double jtj[21] = {};      ///< upper triangle of Σ w Jᵀ J, row by row
   double jtr[6] = {0, 0, 0, 0, 0, 0}; ///< Σ w Jᵀ r
-  double rtr = 0.0;                    ///< Σ w r²
+  double rtr = 0.0;                   ///< Σ w r²
 
   /** Adds one pair (d, m shifted by the reference; nrm the target normal). */
   void
