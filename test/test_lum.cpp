@@ -1222,6 +1222,11 @@ TEST_F(QuietPcl, PoseConstraintInformationIsInTheSourceFrame)
   bad(2, 2) = std::nan("");
   EXPECT_THROW(lum.addPoseConstraint(1, 0, za, bad), std::invalid_argument);
   EXPECT_THROW(lum.addPoseConstraint(1, 0, za, ia, -1.0), std::invalid_argument);
+  // A new graph drops the constraints on the old one's vertices.
+  EXPECT_EQ(lum.getNumPoseConstraints(), 2u);
+  lum.setLoopGraph(
+      ParallelLUM<pcl::PointXYZ>::SLAMGraphPtr(new ParallelLUM<pcl::PointXYZ>::SLAMGraph));
+  EXPECT_EQ(lum.getNumPoseConstraints(), 0u);
 }
 
 // A constraint the others contradict (a triangle of right ones, one wrong by 10 cm on the

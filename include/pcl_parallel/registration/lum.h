@@ -90,6 +90,8 @@ public:
   ~ParallelLUM();
 
   // ---- pcl::registration::LUM API ------------------------------------------------
+  /** As PCL; also drops the pose constraints (addPoseConstraint), which name vertices of
+   *  the graph it replaces. */
   void
   setLoopGraph(const SLAMGraphPtr& slam_graph);
   SLAMGraphPtr

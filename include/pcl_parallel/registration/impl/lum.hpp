@@ -40,6 +40,7 @@ ParallelLUM<PointT>::setLoopGraph(const SLAMGraphPtr& slam_graph)
   poses_.clear();
   mirrors_.clear();
   hints_.clear();
+  constraints_.clear(); // they name the old graph's vertices
 }
 
 template <typename PointT>
