@@ -197,7 +197,7 @@ PointToPlaneFactor::addPosePrior(NormalEquations& eq,
   const Eigen::Vector3d s =
       estimate.topRightCorner<3, 1>() - Eigen::Vector3d(ref[0], ref[1], ref[2]);
   Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Identity();
-  a.bottomLeftCorner<3, 3>() << 0, s.z(), -s.y(), -s.z(), 0, s.x(), s.y(), -s.x(), 0; // -[s]x
+  a.bottomLeftCorner<3, 3>() = -lum::skew(s);
   Eigen::Matrix<double, 6, 1> w;
   w << Eigen::Vector3d::Constant(weight_rotation),
       Eigen::Vector3d::Constant(weight_translation);

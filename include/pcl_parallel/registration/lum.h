@@ -504,9 +504,10 @@ private:
   // Per-vertex k-d trees in the scan's own frame, rebuilt when the cloud changes.
   std::vector<std::shared_ptr<KdTreeIndex>> trees_;
   std::vector<std::pair<const PointCloud*, std::size_t>> tree_source_;
+  /// addPoseConstraint's measurements, added to G X = B after the links in this order
+  std::vector<lum::PoseConstraint, Eigen::aligned_allocator<lum::PoseConstraint>> constraints_;
   // Point-to-plane mode: per-vertex normals by tree position, computed with neighbours k
   // (0 = not computed), in the scan's own frame.
-  std::vector<lum::PoseConstraint, Eigen::aligned_allocator<lum::PoseConstraint>> constraints_;
   std::vector<std::vector<Eigen::Vector3f>> normals_;
   std::vector<std::size_t> normals_k_; ///< or kGivenNormals: from given_normals_
   /// setPointNormals' normals by point index, until buildTrees maps them to tree positions
