@@ -11,6 +11,7 @@
 #include "options.h"
 #include "outputs.h"
 #include "progress.h"
+#include "ranks.h"
 #include "simulate_command.h"
 #include "slam_pipeline.h"
 
@@ -45,10 +46,14 @@ struct RemoveDirectory {
   }
 };
 
+/** Rank 0 speaks for all (the others' failures reach it through Ranks::agree). */
+bool quiet_rank = false;
+
 int
 fail(int status, const std::string& what)
 {
-  std::fprintf(stderr, "pcl_pslam: %s\n", what.c_str());
+  if (!quiet_rank)
+    std::fprintf(stderr, "pcl_pslam: %s\n", what.c_str());
   return status;
 }
 
@@ -64,8 +69,9 @@ removeIfEmpty(bool created, const std::string& dir)
 } // namespace
 
 int
-runCommand(int argc, char** argv)
+runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
 {
+  quiet_rank = ranks.rank() != 0;
   pcl_pslam::Options o;
   try {
     o = pcl_pslam::parseCommandLine(argc, argv);
@@ -77,10 +83,12 @@ runCommand(int argc, char** argv)
     std::fputs(pcl_pslam::helpText(o.command).c_str(), stdout);
     return 0;
   }
-  if (o.command == "evaluate")
-    return pcl_pslam::evaluateCommand(o.rest, std::cout, std::cerr);
-  if (o.command == "simulate")
-    return pcl_pslam::simulateCommand(o.rest, std::cout, std::cerr);
+  if (o.command == "evaluate" || o.command == "simulate") {
+    if (ranks.rank() != 0) // one rank does it (the others would write the same files)
+      return 0;
+    return o.command == "evaluate" ? pcl_pslam::evaluateCommand(o.rest, std::cout, std::cerr)
+                                   : pcl_pslam::simulateCommand(o.rest, std::cout, std::cerr);
+  }
 
   // PCL's own warnings stay visible (e.g. a reader's complaint), on stderr.
   pcl::console::setVerbosityLevel(pcl::console::L_WARN);
@@ -90,16 +98,19 @@ runCommand(int argc, char** argv)
     command_line += (i ? " " : "") + std::string(argv[i]);
   bool created_out = false;
   try {
-    created_out = pcl_pslam::prepareOutputDirectory(o.out); // before any work
+    ranks.agree([&] { // before any work; by rank 0, for all
+      if (ranks.rank() == 0)
+        created_out = pcl_pslam::prepareOutputDirectory(o.out);
+    });
     if (created_out)
       pcl_pslam::removeIfEmptyOnSignal(o.out);
-    pcl_pslam::ProgressReporter progress(o.quiet, ::isatty(2) != 0, true);
+    pcl_pslam::ProgressReporter progress(o.quiet || quiet_rank, ::isatty(2) != 0, true);
     pcl_parallel::slam::Poses truth;
     std::string demo_dir;
     RemoveDirectory cleanup;
     if (o.command == "demo") { // a preset, written and read back as `run` reads a directory
       progress.update("simulate", 0, 1);
-      demo_dir = pcl_pslam::simulateDemo(o);
+      ranks.agree([&] { demo_dir = pcl_pslam::simulateDemo(o); }); // each rank its own copy
       progress.update("simulate", 1, 1);
       truth = pcl_parallel::io::loadKittiPoses(demo_dir + "/ground_truth.txt");
     }
@@ -108,7 +119,8 @@ runCommand(int argc, char** argv)
       o.poses_file = (fs::path(o.dir) / "odometry.txt").string(); // as `simulate` writes it
       progress.note("odometry from " + o.poses_file);
     }
-    pcl_pslam::Input in = pcl_pslam::openDirectory(o);
+    pcl_pslam::Input in;
+    ranks.agree([&] { in = pcl_pslam::openDirectory(o); });
     in.truth = truth;
     if (o.keep.empty())
       cleanup.dir = demo_dir; // the temporary scans go when main returns
@@ -116,6 +128,7 @@ runCommand(int argc, char** argv)
                   (in.odometry ? "" : "; no initial poses: constant-velocity guesses"));
     pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);
     params.odometry = in.odometry;
+    params.mpi = ranks.size() > 1;
     // Streamed: each scan is read when the pipeline takes it, and dropped after.
     auto read = [&](std::size_t k) {
       const auto start = std::chrono::steady_clock::now();
@@ -140,6 +153,11 @@ runCommand(int argc, char** argv)
     progress.note(std::to_string(points) + " points read in " +
                   std::to_string(in.read_seconds).substr(0, 4) + " s");
     pcl_pslam::setWritingOutputs(true);
+    if (r.ranks > 1) { // every rank its part of the map, then rank 0 the rest
+      ranks.agree([&] { pcl_pslam::writeMapTile(o, in, r, progress); });
+      if (ranks.rank() != 0)
+        return 0;
+    }
     const auto written = pcl_pslam::writeOutputs(o, in, r, progress, command_line);
 
     if (r.icp_failures > 0)
@@ -204,7 +222,8 @@ runCommand(int argc, char** argv)
 int
 main(int argc, char** argv)
 {
-  const int status = runCommand(argc, argv);
+  const pcl_pslam::Ranks ranks(argc, argv); // MPI, when started by a launcher
+  const int status = runCommand(argc, argv, ranks);
   std::cout.flush();
   errno = 0;
   if (std::fflush(stdout) != 0 || std::ferror(stdout) || !std::cout) {

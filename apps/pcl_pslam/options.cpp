@@ -131,6 +131,14 @@ struct Descriptions {
        "demo: write the simulated scans to DIR and keep them [default: a temporary folder]")
       ("threads,t", po::value<unsigned>(&o.threads)->value_name("N"),
        "threads, 0 = all cores [default 0]")
+      ("segment-size", po::value<std::size_t>()->value_name("NR"),
+       "match the sequence in segments of NR scans, each with a front end of its own "
+       "(spread over the ranks under mpirun), then close loops over the whole; the poses "
+       "are the same for any number of ranks [default: one segment per rank under mpirun, "
+       "else 0 = one front end]")
+      ("segment-overlap", po::value<std::size_t>(&o.segment_overlap)->value_name("NR"),
+       "scans a segment's front end matches before its own first scan, shared with the "
+       "previous segment [default 5]")
       ("quiet,q", po::bool_switch(&o.quiet), "no progress, only errors and the summary")
       ("help,h", po::bool_switch(&o.help), "this help");
     hidden.add_options()
@@ -313,6 +321,11 @@ parseCommandLine(int argc, const char* const* argv)
                      std::to_string(o.elch));
   if (o.threads > 4096)
     throw UsageError("--threads: " + std::to_string(o.threads) + " is not a thread count");
+  if (vm.count("segment-size"))
+    o.segment_size = vm["segment-size"].as<std::size_t>();
+  if (o.segment_overlap > 100000) // a negative number wrapped around
+    throw UsageError("--segment-overlap: " + std::to_string(o.segment_overlap) +
+                     " is not a scan count");
   o.picture = vm.count("no-picture") == 0;
   o.style = lowerCase(o.style);
   if (o.style != "auto" && o.style != "height" && o.style != "floorplan")
@@ -352,6 +365,8 @@ toParameters(const Options& o, double scale)
   p.close_loops = !o.no_loops;
   p.elch = o.elch != 0;
   p.sequence_constraints = !o.no_sequence_constraints;
+  p.segment_size = o.segment_size.value_or(0);
+  p.segment_overlap = o.segment_overlap;
   return p;
 }
 

@@ -61,6 +61,10 @@ struct Options {
   int elch = 4; ///< [-L] 3DTK's loop closing algorithm: 0 none, else ELCH
   bool no_sequence_constraints = false;
   unsigned threads = 0;
+  /** Scans per segment of the segmented front end (0: one front end over the sequence;
+   *  under mpirun with several ranks, unset means one segment per rank) */
+  std::optional<std::size_t> segment_size;
+  std::size_t segment_overlap = 5; ///< scans each segment shares with the previous one
   bool quiet = false;
   bool ply = false;                ///< also write map.ply
   bool picture = true;             ///< write map.png

@@ -8,6 +8,7 @@
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/io/pose_files.h>
+#include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/parallel.h>
 
 #include <pcl/common/transforms.h>
@@ -218,27 +219,56 @@ buildMap(const Input& in,
          const Poses& poses,
          double voxel_size,
          unsigned num_threads,
-         const std::function<void(int, int)>& step)
+         const std::function<void(int, int)>& step,
+         std::size_t begin,
+         std::size_t end)
 {
-  const int n = static_cast<int>(in.size());
+  end = std::min(end, in.size());
+  const int n = static_cast<int>(end > begin ? end - begin : 0);
   if (!(voxel_size > 0.0)) { // every point, as asked
     Cloud::Ptr map(new Cloud);
-    for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < n; ++k) {
       Cloud moved;
-      pcl::transformPointCloud(*readScan(in, i), moved, poses[i]);
+      pcl::transformPointCloud(*readScan(in, begin + k), moved, poses[begin + k]);
       *map += moved;
       if (step)
-        step(i + 1, n);
+        step(k + 1, n);
     }
     return map;
   }
   pcl_parallel::filters::VoxelCentroidMap map(voxel_size, num_threads);
-  for (int i = 0; i < n; ++i) {
-    map.add(*readScan(in, i), poses[i]);
+  for (int k = 0; k < n; ++k) {
+    map.add(*readScan(in, begin + k), poses[begin + k]);
     if (step)
-      step(i + 1, n);
+      step(k + 1, n);
   }
   return map.centroids();
+}
+
+std::string
+mapTileName(int rank, const char* extension)
+{
+  return "map_rank" + std::to_string(rank) + extension;
+}
+
+std::vector<std::string>
+writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress)
+{
+  const Cloud::Ptr map = buildMap(
+      in,
+      r.final,
+      mapVoxel(o, in.scale),
+      o.threads,
+      [&](int done, int total) { progress.update("map", done, total); },
+      r.own_begin,
+      r.own_end);
+  std::vector<std::string> written{mapTileName(r.rank, ".pcd")};
+  writeMapPcd(join(o.out, written.back()), *map);
+  if (o.ply) {
+    written.push_back(mapTileName(r.rank, ".ply"));
+    writeMapPly(join(o.out, written.back()), *map);
+  }
+  return written;
 }
 
 double
@@ -327,20 +357,33 @@ writeOutputs(const Options& o,
                  {"poses.txt", "poses_icp.txt", "poses_tum.txt", "poses_icp_tum.txt"});
   progress.update("write", 1, 1);
 
-  progress.update("map", 0, 1);
   const double map_voxel = mapVoxel(o, in.scale);
-  const Cloud::Ptr map = buildMap(in, r.final, map_voxel, o.threads, [&](int done, int total) {
-    progress.update("map", done, total);
-  });
-  progress.update("save", 0, 1);
-  writeMapPcd(join(o.out, "map.pcd"), *map);
-  written.push_back("map.pcd");
-  if (o.ply) {
-    progress.update("save", 0, 1);
-    writeMapPly(join(o.out, "map.ply"), *map);
-    written.push_back("map.ply");
+  Cloud::Ptr map(new Cloud);
+  if (r.ranks > 1) { // the tiles every rank wrote (writeMapTile), read back for map.png
+    for (int k = 0; k < r.ranks; ++k) {
+      progress.update("tiles", k, r.ranks);
+      *map += *pcl_parallel::io::loadPcdScan(join(o.out, mapTileName(k, ".pcd")));
+    }
+    written.push_back(mapTileName(0, ".pcd") + ".." + mapTileName(r.ranks - 1, ".pcd"));
+    if (o.ply)
+      written.push_back(mapTileName(0, ".ply") + ".." + mapTileName(r.ranks - 1, ".ply"));
+    progress.update("tiles", r.ranks, r.ranks);
   }
-  progress.update("save", 1, 1);
+  else {
+    progress.update("map", 0, 1);
+    map = buildMap(in, r.final, map_voxel, o.threads, [&](int done, int total) {
+      progress.update("map", done, total);
+    });
+    progress.update("save", 0, 1);
+    writeMapPcd(join(o.out, "map.pcd"), *map);
+    written.push_back("map.pcd");
+    if (o.ply) {
+      progress.update("save", 0, 1);
+      writeMapPly(join(o.out, "map.ply"), *map);
+      written.push_back("map.ply");
+    }
+    progress.update("save", 1, 1);
+  }
 
   std::string style;
   double rmse = -1.0;
@@ -448,6 +491,13 @@ writeOutputs(const Options& o,
                            {"loop_detection", r.times.loop_detection},
                            {"loop_closing", r.times.loop_closing}};
   j["bytes_kept_per_scan"] = r.bytes_per_scan;
+  if (r.segments > 0)
+    j["segments"] = {{"segments", r.segments},
+                     {"segment_size", r.segment_size},
+                     {"overlap", params.segment_overlap},
+                     {"ranks", r.ranks},
+                     {"rank0_wait_seconds", r.wait_seconds},
+                     {"bytes_shared", r.bytes_shared}};
   j["relaxations"] = r.relaxations;
   nlohmann::json stages = nlohmann::json::array();
   for (const auto& s : progress.stages())

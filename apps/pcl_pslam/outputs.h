@@ -67,7 +67,19 @@ buildMap(const Input& in,
          const Poses& poses,
          double voxel_size,
          unsigned num_threads,
-         const std::function<void(int, int)>& step = {});
+         const std::function<void(int, int)>& step = {},
+         std::size_t begin = 0,
+         std::size_t end = std::size_t(-1));
+
+/** A rank's part of the map under MPI: "map_rank<rank><extension>". */
+std::string
+mapTileName(int rank, const char* extension);
+
+/** Under MPI, every rank's part of the map: the scans it matched (Result::own_begin,
+ *  own_end), read again, as map_rank<rank>.pcd (and .ply with --ply) in o.out. Returns
+ *  the names written. writeOutputs then reads all tiles back for map.png. */
+std::vector<std::string>
+writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress);
 
 /** Everything a run writes into o.out, in order, with a progress update (and so a check
  *  for SIGINT/SIGTERM) between files. Returns the names written. `pipeline_result`

@@ -5,10 +5,16 @@
 #include "slam_pipeline.h"
 
 #include <pcl_parallel/slam/pipeline.h>
+#include <pcl_parallel/slam/segments.h>
+#ifdef PCL_PARALLEL_WITH_MPI
+#include <pcl_parallel/mpi/pipeline.h>
+#endif
 
+#include <memory>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 
 namespace pcl_pslam {
 
@@ -24,18 +30,64 @@ run(const ScanReader& read,
   if (initial.size() != n)
     throw std::invalid_argument("pcl_pslam: " + std::to_string(initial.size()) +
                                 " initial poses for " + std::to_string(n) + " scans");
-  pcl_parallel::slam::Pipeline pipeline(params);
-  for (std::size_t i = 0; i < n; ++i) {
-    const Cloud::Ptr scan = read(i);
-    if (!scan || scan->empty())
-      throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
-    pipeline.addScan(
-        *scan, params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
-    if (progress)
-      progress("icp", static_cast<int>(i + 1), static_cast<int>(n));
-  }
-  pipeline.finish();
+  namespace slam = pcl_parallel::slam;
   Result result;
+  result.own_end = n;
+  std::unique_ptr<slam::Pipeline> owned;
+  if (params.mpi || params.segment_size > 0) {
+    const slam::ScanSource source = [&](std::size_t i) {
+      const Cloud::Ptr scan = read(i);
+      if (!scan || scan->empty())
+        throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
+      return std::make_pair(scan,
+                            params.odometry ? std::optional<Eigen::Matrix4d>(initial[i])
+                                            : std::nullopt);
+    };
+    const slam::SegmentProgress step = [&](const char* stage, std::size_t done,
+                                           std::size_t total) {
+      if (progress)
+        progress(stage, static_cast<int>(done), static_cast<int>(total));
+    };
+#ifdef PCL_PARALLEL_WITH_MPI
+    if (params.mpi) {
+      MPI_Comm_rank(MPI_COMM_WORLD, &result.rank);
+      MPI_Comm_size(MPI_COMM_WORLD, &result.ranks);
+      const std::size_t size =
+          params.segment_size > 0
+              ? params.segment_size
+              : (n + static_cast<std::size_t>(result.ranks) - 1) / result.ranks;
+      pcl_parallel::mpi::SegmentsReport report;
+      owned = pcl_parallel::mpi::mapSegments(
+          MPI_COMM_WORLD, params, n, size, params.segment_overlap, source, &report, step);
+      result.segments = report.segments;
+      result.segment_size = size;
+      std::tie(result.own_begin, result.own_end) =
+          pcl_parallel::mpi::scansOfRank(n, size, result.rank, result.ranks);
+      result.wait_seconds = report.wait_seconds;
+      result.bytes_shared = report.bytes_shared;
+    }
+#endif
+    if (!owned) {
+      owned = slam::mapSegments(
+          params, n, params.segment_size, params.segment_overlap, source, step);
+      result.segments = (n + params.segment_size - 1) / params.segment_size;
+      result.segment_size = params.segment_size;
+    }
+  }
+  else {
+    owned.reset(new slam::Pipeline(params));
+    for (std::size_t i = 0; i < n; ++i) {
+      const Cloud::Ptr scan = read(i);
+      if (!scan || scan->empty())
+        throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
+      owned->addScan(
+          *scan, params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
+      if (progress)
+        progress("icp", static_cast<int>(i + 1), static_cast<int>(n));
+    }
+  }
+  slam::Pipeline& pipeline = *owned;
+  pipeline.finish();
   result.icp = pipeline.frontEndPoses();
   result.final = pipeline.poses();
   for (const auto& l : pipeline.links())

@@ -33,6 +33,12 @@ struct Parameters : pcl_parallel::slam::Parameters {
   /** true: the initial poses are odometry, each pICP starts from its step. false: they
    *  carry no motion; the front end predicts by constant velocity from the identity. */
   bool odometry = true;
+  /** Scans per segment (slam::mapSegments); 0: one front end over the sequence. */
+  std::size_t segment_size = 0;
+  std::size_t segment_overlap = 5;
+  /** Spread the segments and pLUM over the ranks of MPI_COMM_WORLD (mpi::mapSegments);
+   *  MPI must be initialised. */
+  bool mpi = false;
 };
 
 /** Progress: a stage name ("reduce", "icp", "lum"), steps done, steps in all. */
@@ -50,6 +56,12 @@ struct Result {
   std::size_t bytes_per_scan = 0;                         ///< kept by the pipeline
   pcl_parallel::slam::FrontEndParameters front_end;       ///< as resolved (lengths in m)
   pcl_parallel::slam::LoopClosureParameters loop_closure; ///< likewise
+  /** Segmented runs: the segments, and the scans [own_begin, own_end) this rank matched
+   *  (all of them in one process) */
+  std::size_t segments = 0, segment_size = 0, own_begin = 0, own_end = 0;
+  int rank = 0, ranks = 1;
+  double wait_seconds = 0.0;      ///< MPI: waiting for the other ranks' front ends
+  std::uint64_t bytes_shared = 0; ///< MPI: matched scans sent between ranks
 };
 
 /** Scan k (0-based), read when the pipeline needs it. */

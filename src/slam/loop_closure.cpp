@@ -189,7 +189,10 @@ LoopCloser::relax(int max_iterations)
   const std::size_t mean = impl_->points / poses_.size();
   const std::size_t per_scan = std::max<std::size_t>(1, params_.lum_queries_per_scan);
   lum.setQueryStep(std::max<std::size_t>(1, mean / per_scan));
-  lum.compute();
+  if (relaxation_)
+    relaxation_(lum);
+  else
+    lum.compute();
   for (std::size_t v = 0; v < poses_.size(); ++v)
     poses_[v] = lum.getPoseMatrix(v);
   return lum.getNumIterationsDone();

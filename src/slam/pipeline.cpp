@@ -105,43 +105,75 @@ Pipeline::Pipeline(const Parameters& params)
     : params_(params)
 {}
 
+Pipeline::Pipeline(const Parameters& params, double median_range, std::size_t first_index)
+    : params_(params)
+    , first_index_(first_index)
+{
+  start(median_range);
+}
+
 Pipeline::~Pipeline() = default;
+
+void
+Pipeline::start(double median_range)
+{
+  front_end_params_ = slam::frontEndParameters(params_, median_range);
+  loop_params_ = slam::loopClosureParameters(params_, median_range);
+  front_end_.reset(new FrontEnd(front_end_params_));
+  loops_.reset(new LoopCloser(loop_params_));
+  loops_->setRelaxation(relaxation_);
+}
+
+void
+Pipeline::setRelaxation(Relaxation relaxation)
+{
+  relaxation_ = std::move(relaxation);
+  if (loops_)
+    loops_->setRelaxation(relaxation_);
+}
 
 std::size_t
 Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
 {
   const auto start = Clock::now();
-  const std::size_t index = size();
+  MatchedScan matched = track(scan, odometry);
+  const Pose pose = matched.front_end.pose;
+  const std::size_t index = addToGraph(std::move(matched), pose);
+  reports_.back().seconds = seconds(start);
+  return index;
+}
+
+MatchedScan
+Pipeline::track(const Cloud& scan, const std::optional<Pose>& odometry)
+{
+  const auto start = Clock::now();
+  const std::size_t index = first_index_ + tracked_;
   if (odometry && !odometry->allFinite())
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 ": odometry pose is not finite");
-  if (index > 0 && odometry.has_value() != has_odometry_)
+  if (tracked_ > 0 && odometry.has_value() != has_odometry_)
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 ": odometry given for some scans but not for others");
   has_odometry_ = odometry.has_value();
 
-  ScanReport report;
+  MatchedScan out;
+  ScanReport& report = out.report;
   report.points = scan.size();
   const Cloud::Ptr cropped = cropRange(scan, params_.min_range, params_.max_range);
   if (cropped->empty())
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 " has no finite points in range");
-  if (!front_end_) { // lengths from the first scan
-    const double r = medianRange(*cropped);
-    front_end_params_ = slam::frontEndParameters(params_, r);
-    loop_params_ = slam::loopClosureParameters(params_, r);
-    front_end_.reset(new FrontEnd(front_end_params_));
-    loops_.reset(new LoopCloser(loop_params_));
-  }
+  if (!front_end_) // lengths from the first scan
+    this->start(medianRange(*cropped));
   times_.preprocess += seconds(start);
 
   // Front end: predict, deskew, reduce, match (paper Sec. II; KISS-ICP Sec. III).
-  auto stage = Clock::now();
+  const auto stage = Clock::now();
   const Pose before = front_end_->lastPose(); // after any loop correction
-  FrontEndResult fe = front_end_->track(*cropped, odometry);
-  // The front end's own trajectory: its matched steps, chained without the corrections.
-  front_end_poses_.push_back(
-      index == 0 ? fe.pose : Pose(front_end_poses_.back() * before.inverse() * fe.pose));
+  out.front_end = front_end_->track(*cropped, odometry);
+  const FrontEndResult& fe = out.front_end;
+  // The front end's own step: chained without the loop closures' corrections.
+  out.step = tracked_ == 0 ? fe.pose : Pose(before.inverse() * fe.pose);
   report.reduced_points = fe.reduced->size();
   report.source_points = fe.source_points;
   report.converged = fe.converged;
@@ -150,11 +182,34 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
   report.correction = registration::motionDisplacement(fe.prediction.inverse() * fe.pose,
                                                        loop_params_.median_range);
   times_.front_end += seconds(stage);
+  report.seconds = seconds(start);
+  ++tracked_;
+  return out;
+}
+
+std::size_t
+Pipeline::addMatched(MatchedScan scan)
+{
+  if (!loops_)
+    throw std::logic_error("Pipeline::addMatched: construct with the median range");
+  const Pose pose = size() == 0 ? scan.front_end.pose : Pose(poses().back() * scan.step);
+  return addToGraph(std::move(scan), pose);
+}
+
+std::size_t
+Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
+{
+  const auto start = Clock::now();
+  const std::size_t index = size();
+  front_end_poses_.push_back(index == 0 ? scan.step
+                                        : Pose(front_end_poses_.back() * scan.step));
+  ScanReport& report = scan.report;
+  FrontEndResult& fe = scan.front_end;
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
-  stage = Clock::now();
+  auto stage = Clock::now();
   loops_->addScan(
-      fe.reduced, fe.pose, std::move(fe.normals), fe.information, fe.information_pairs);
+      fe.reduced, pose, std::move(fe.normals), fe.information, fe.information_pairs);
   if (params_.close_loops) {
     report.loops = loops_->detect();
     const auto found = std::find_if(
@@ -179,7 +234,7 @@ Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
       times_.loop_closing += seconds(stage);
     }
   }
-  report.seconds = seconds(start);
+  report.seconds += seconds(start);
   reports_.push_back(std::move(report));
   return index;
 }

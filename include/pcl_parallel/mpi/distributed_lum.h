@@ -7,6 +7,7 @@
 #include <pcl_parallel/registration/lum.h>
 
 #include <cstdint>
+#include <cstring>
 #include <functional>
 // MPI's C API only: Open MPI's and MPICH's deprecated C++ bindings would need their C++
 // library (libmpi_cxx) too.
@@ -28,6 +29,20 @@ namespace mpi {
  *  first num_links % size ranks one link more. */
 std::pair<std::size_t, std::size_t>
 linkRange(std::size_t num_links, int rank, int size);
+
+/** FNV-1a over values' bytes: compares options and graphs across ranks. */
+struct Fnv1a {
+  std::uint64_t value = 14695981039346656037ull;
+  template <typename T>
+  void
+  add(const T& v)
+  {
+    unsigned char bytes[sizeof(v)];
+    std::memcpy(bytes, &v, sizeof(v));
+    for (unsigned char b : bytes)
+      value = (value ^ b) * 1099511628211ull;
+  }
+};
 
 /** Collective: if any rank's `error` is non-empty, every rank throws std::runtime_error
  *  with one message composed on rank 0 ("rank r of N: error", for each failed rank). */
@@ -81,6 +96,13 @@ public:
   void
   compute();
 
+  /** Collective: compute() on a ParallelLUM that holds the graph and every cloud its
+   *  rank's links need (e.g. the same graph on every rank, as slam::LoopCloser builds
+   *  it); the links are split as by setGraph. `remote_reasons` keeps the texts of links
+   *  dropped on other ranks (the ParallelLUM points to them) and must outlive it. */
+  static void
+  computeOn(Lum& lum, MPI_Comm comm, std::vector<std::string>& remote_reasons);
+
   /** The pose of any vertex, the same on every rank after compute(). */
   Eigen::Matrix4d
   getPoseMatrix(std::size_t vertex) const
@@ -132,10 +154,12 @@ private:
   };
 
   /** Hash of the graph and of the options that change the result. */
-  std::uint64_t
-  configHash() const;
-  void
-  broadcastPoses(std::vector<double>& buffer, double* control, int num_control);
+  static std::uint64_t
+  configHash(const Lum& lum);
+  /** Rank 0's poses and `control` values to every rank. */
+  static void
+  broadcastPoses(
+      Lum& lum, MPI_Comm comm, std::vector<double>& buffer, double* control, int num_control);
 
   MPI_Comm comm_;
   int rank_ = 0;

@@ -6,10 +6,14 @@
 
 #include <pcl_parallel/slam/types.h>
 
+#include <functional>
 #include <memory>
 #include <vector>
 
 namespace pcl_parallel {
+template <typename PointT>
+class ParallelLUM;
+
 namespace slam {
 
 /** Loop detection and closing; lengths in the scans' units (metres for the defaults). */
@@ -79,8 +83,20 @@ struct LoopCandidate {
  */
 class LoopCloser {
 public:
+  /** Runs pLUM on the graph as relax() set it up (poses, iterations, query step): by
+   *  default ParallelLUM::compute; mpi::relaxOverRanks spreads the links over MPI ranks
+   *  with the same result. */
+  using Relaxation = std::function<void(ParallelLUM<PointT>&)>;
+
   explicit LoopCloser(const LoopClosureParameters& params = LoopClosureParameters());
   ~LoopCloser();
+
+  /** How relax() runs pLUM (empty: ParallelLUM::compute). */
+  void
+  setRelaxation(Relaxation relaxation)
+  {
+    relaxation_ = std::move(relaxation);
+  }
 
   /** Adds the next scan (reduced, scanner frame) at its front-end pose, with its points'
    *  normals if the front end has them (FrontEndResult::normals; pLUM estimates them
@@ -145,6 +161,7 @@ private:
   std::vector<Link> links_;
   std::vector<std::uint32_t> loop_sources_; ///< source scan of each loop link
   std::vector<std::uint32_t> constrained_;  ///< scan of each sequence constraint
+  Relaxation relaxation_;
 };
 
 /** Candidates for loop links of scan j, nearest first: scans i <= j - min_separation

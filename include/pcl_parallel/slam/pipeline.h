@@ -87,6 +87,16 @@ struct ScanReport {
   double sequence_chi2 = -1.0;
 };
 
+/** A scan after the front end (Pipeline::track), as the loop-closing half takes it
+ *  (Pipeline::addMatched). */
+struct MatchedScan {
+  FrontEndResult front_end;
+  /** Its pose relative to the previous scan's, as the front end matched it (the first
+   *  scan's: its pose) */
+  Pose step = Pose::Identity();
+  ScanReport report;
+};
+
 /** Seconds spent per stage. */
 struct StageTimes {
   double preprocess = 0.0, front_end = 0.0, loop_detection = 0.0, loop_closing = 0.0;
@@ -108,7 +118,14 @@ struct StageTimes {
  */
 class Pipeline {
 public:
+  /** pLUM as LoopCloser::relax runs it (LoopCloser::setRelaxation). */
+  using Relaxation = LoopCloser::Relaxation;
+
+  /** The automatic lengths come from the first scan's median range. */
   explicit Pipeline(const Parameters& params = Parameters());
+  /** Lengths from a given median range (e.g. a segment's pipeline takes the sequence's);
+   *  `first_index`: the index of the first scan, in error messages. */
+  Pipeline(const Parameters& params, double median_range, std::size_t first_index = 0);
   ~Pipeline();
 
   /** Adds the next scan (scanner frame) with its odometry pose, if known: either every
@@ -116,6 +133,23 @@ public:
    *  scan with no points left after cropping or a non-finite odometry pose. */
   std::size_t
   addScan(const Cloud& scan, const std::optional<Pose>& odometry = std::nullopt);
+
+  /** addScan's first half: crops the scan and runs the front end on it (the pose graph
+   *  is not touched). A pipeline used for this alone matches a segment of a sequence
+   *  (segments.h). Throws as addScan. */
+  MatchedScan
+  track(const Cloud& scan, const std::optional<Pose>& odometry = std::nullopt);
+
+  /** addScan's second half for a scan another pipeline's front end matched: adds it to
+   *  the pose graph at the previous scan's current pose times `scan.step` (the first
+   *  scan at its front-end pose), detects loops, relaxes. Returns the scan's index. */
+  std::size_t
+  addMatched(MatchedScan scan);
+
+  /** How pLUM runs (default: ParallelLUM::compute in this process; mpi::relaxOverRanks
+   *  spreads it over MPI ranks). */
+  void
+  setRelaxation(Relaxation relaxation);
 
   /** Final pLUM over the whole graph (when loops were found). */
   void
@@ -149,6 +183,20 @@ public:
   {
     return times_;
   }
+  /** Adds time spent on this pipeline's scans elsewhere (the segments' front ends). */
+  void
+  addTimes(const StageTimes& t)
+  {
+    times_.preprocess += t.preprocess;
+    times_.front_end += t.front_end;
+    times_.loop_detection += t.loop_detection;
+    times_.loop_closing += t.loop_closing;
+  }
+  const Parameters&
+  parameters() const
+  {
+    return params_;
+  }
   /** The resolved lengths (after the first scan). */
   const FrontEndParameters&
   frontEndParameters() const
@@ -176,6 +224,13 @@ public:
   bytesPerScan() const;
 
 private:
+  /** Resolves the lengths from the median range and creates the stages. */
+  void
+  start(double median_range);
+  /** The graph half of addScan/addMatched for a scan at `pose`. */
+  std::size_t
+  addToGraph(MatchedScan scan, const Pose& pose);
+
   Parameters params_;
   FrontEndParameters front_end_params_;
   LoopClosureParameters loop_params_;
@@ -187,6 +242,9 @@ private:
   int relaxations_ = 0;
   std::size_t last_loop_scan_ = 0;
   bool has_odometry_ = false;
+  std::size_t first_index_ = 0;
+  std::size_t tracked_ = 0; ///< scans through track()
+  Relaxation relaxation_;
 };
 
 } // namespace slam

@@ -70,52 +70,52 @@ DistributedLUM<PointT>::setGraph(const std::vector<Eigen::Matrix4d>& poses,
 
 template <typename PointT>
 std::uint64_t
-DistributedLUM<PointT>::configHash() const
+DistributedLUM<PointT>::configHash(const Lum& lum)
 {
-  std::uint64_t h = 14695981039346656037ull; // FNV-1a
-  auto add = [&h](const auto& value) {
-    unsigned char bytes[sizeof(value)];
-    std::memcpy(bytes, &value, sizeof(value));
-    for (unsigned char b : bytes)
-      h = (h ^ b) * 1099511628211ull;
-  };
-  add(static_cast<std::uint64_t>(lum_.getNumVertices()));
-  for (const auto& l : lum_.collectLinks()) {
+  Fnv1a h;
+  auto add = [&h](const auto& value) { h.add(value); };
+  add(static_cast<std::uint64_t>(lum.getNumVertices()));
+  for (const auto& l : lum.collectLinks()) {
     add(static_cast<std::uint64_t>(l.source));
     add(static_cast<std::uint64_t>(l.target));
   }
-  add(lum_.max_iterations_);
-  add(lum_.convergence_threshold_);
-  add(lum_.correspondence_distance_);
-  add(lum_.final_correspondence_distance_);
-  add(lum_.correspondence_distance_factor_);
-  add(static_cast<int>(lum_.point_to_plane_));
-  add(lum_.point_to_point_weight_);
-  add(static_cast<std::uint64_t>(lum_.normal_neighbours_));
-  add(lum_.link_iterations_);
-  add(static_cast<std::uint64_t>(lum_.min_correspondences_));
-  add(static_cast<int>(lum_.symmetric_));
-  add(static_cast<std::uint64_t>(lum_.query_step_));
-  return h;
+  add(lum.max_iterations_);
+  add(lum.convergence_threshold_);
+  add(lum.correspondence_distance_);
+  add(lum.final_correspondence_distance_);
+  add(lum.correspondence_distance_factor_);
+  add(static_cast<int>(lum.point_to_plane_));
+  add(lum.point_to_point_weight_);
+  add(static_cast<std::uint64_t>(lum.normal_neighbours_));
+  add(lum.link_iterations_);
+  add(static_cast<std::uint64_t>(lum.min_correspondences_));
+  add(static_cast<int>(lum.symmetric_));
+  add(static_cast<std::uint64_t>(lum.query_step_));
+  for (const auto& c : lum.constraints_) {
+    add(static_cast<std::uint64_t>(c.source));
+    add(static_cast<std::uint64_t>(c.target));
+  }
+  return h.value;
 }
 
 template <typename PointT>
 void
-DistributedLUM<PointT>::broadcastPoses(std::vector<double>& buffer,
-                                       double* control,
-                                       int num_control)
+DistributedLUM<PointT>::broadcastPoses(
+    Lum& lum, MPI_Comm comm, std::vector<double>& buffer, double* control, int num_control)
 {
-  const std::size_t n = lum_.poses_.size();
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  const std::size_t n = lum.poses_.size();
   buffer.resize(16 * n + static_cast<std::size_t>(num_control));
-  if (rank_ == 0) {
+  if (rank == 0) {
     for (std::size_t v = 0; v < n; ++v)
-      Eigen::Matrix4d::Map(&buffer[16 * v]) = lum_.poses_[v];
+      Eigen::Matrix4d::Map(&buffer[16 * v]) = lum.poses_[v];
     std::copy(control, control + num_control, buffer.begin() + 16 * n);
   }
-  MPI_Bcast(buffer.data(), static_cast<int>(buffer.size()), MPI_DOUBLE, 0, comm_);
-  if (rank_ != 0) {
+  MPI_Bcast(buffer.data(), static_cast<int>(buffer.size()), MPI_DOUBLE, 0, comm);
+  if (rank != 0) {
     for (std::size_t v = 0; v < n; ++v)
-      lum_.poses_[v] = Eigen::Matrix4d::Map(&buffer[16 * v]);
+      lum.poses_[v] = Eigen::Matrix4d::Map(&buffer[16 * v]);
     std::copy(buffer.begin() + 16 * n, buffer.end(), control);
   }
 }
@@ -134,48 +134,61 @@ template <typename PointT>
 void
 DistributedLUM<PointT>::compute()
 {
+  computeOn(lum_, comm_, remote_reasons_);
+}
+
+template <typename PointT>
+void
+DistributedLUM<PointT>::computeOn(Lum& lum,
+                                  MPI_Comm comm,
+                                  std::vector<std::string>& remote_reasons)
+{
   const std::string where = "[pcl_parallel::mpi::DistributedLUM::compute] ";
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
   typename Lum::Run run;
-  const auto [begin, end] = owned_;
+  const std::size_t num_links = lum.collectLinks().size();
+  const auto [begin, end] = linkRange(num_links, rank, size);
   std::string error;
   try {
-    if (!(lum_.getCorrespondenceDistance() > 0.0))
+    if (!(lum.getCorrespondenceDistance() > 0.0))
       throw std::invalid_argument(where + "needs pLUM mode (setCorrespondenceDistance)");
-    lum_.beginCompute(run, begin, end);
+    lum.beginCompute(run, begin, end);
   }
   catch (const std::exception& e) {
     error = e.what();
   }
-  throwIfAnyFailed(comm_, error);
+  throwIfAnyFailed(comm, error);
   // Every rank must run the same relaxation (only the thread count may differ).
-  const std::uint64_t hash = configHash();
+  const std::uint64_t hash = configHash(lum);
   std::uint64_t lo = 0, hi = 0;
-  MPI_Allreduce(&hash, &lo, 1, MPI_UINT64_T, MPI_MIN, comm_);
-  MPI_Allreduce(&hash, &hi, 1, MPI_UINT64_T, MPI_MAX, comm_);
+  MPI_Allreduce(&hash, &lo, 1, MPI_UINT64_T, MPI_MIN, comm);
+  MPI_Allreduce(&hash, &hi, 1, MPI_UINT64_T, MPI_MAX, comm);
   if (lo != hi)
     throw std::runtime_error(where + "the graph or the pLUM options differ between ranks");
 
   std::vector<double> buffer;
-  broadcastPoses(buffer, nullptr, 0); // rank 0's start poses
+  broadcastPoses(lum, comm, buffer, nullptr, 0); // rank 0's start poses
   // Gather layout: each rank's contiguous links, in rank order = link order.
-  std::vector<int> counts(size_), displs(size_);
-  for (int r = 0; r < size_; ++r) {
-    const auto range = linkRange(num_links_, r, size_);
+  std::vector<int> counts(size), displs(size);
+  for (int r = 0; r < size; ++r) {
+    const auto range = linkRange(num_links, r, size);
     counts[r] = static_cast<int>((range.second - range.first) * sizeof(WireLink));
     displs[r] = static_cast<int>(range.first * sizeof(WireLink));
   }
-  std::vector<WireLink> mine(end - begin), all(rank_ == 0 ? num_links_ : 0);
-  remote_reasons_.assign(num_links_, std::string());
+  std::vector<WireLink> mine(end - begin), all(rank == 0 ? num_links : 0);
+  remote_reasons.assign(num_links, std::string());
 
-  for (int it = 0; it < lum_.getMaxIterations(); ++it) {
+  for (int it = 0; it < lum.getMaxIterations(); ++it) {
     error.clear();
     try {
-      lum_.measureLinks(run, it, begin, end); // steps 1-2, this rank's links
+      lum.measureLinks(run, it, begin, end); // steps 1-2, this rank's links
     }
     catch (const std::exception& e) {
       error = e.what();
     }
-    throwIfAnyFailed(comm_, error);
+    throwIfAnyFailed(comm, error);
     for (std::size_t li = begin; li < end; ++li) {
       const lum::LinkBlock& b = run.blocks[li];
       WireLink& w = mine[li - begin];
@@ -190,19 +203,19 @@ DistributedLUM<PointT>::compute()
         std::strncpy(w.reason, run.reasons[li], sizeof(w.reason) - 1);
     }
     MPI_Gatherv(mine.data(),
-                counts[rank_],
+                counts[rank],
                 MPI_BYTE,
                 all.data(),
                 counts.data(),
                 displs.data(),
                 MPI_BYTE,
                 0,
-                comm_);
+                comm);
     // control: go on (1), stop (0) or failed on rank 0 (-1); then the counters.
     double control[4] = {0.0, 0.0, 0.0, 0.0};
-    if (rank_ == 0) {
+    if (rank == 0) {
       try {
-        for (std::size_t li = end; li < num_links_; ++li) { // rank 0 owns [0, end)
+        for (std::size_t li = end; li < num_links; ++li) { // rank 0 owns [0, end)
           const WireLink& w = all[li];
           lum::LinkBlock& b = run.blocks[li];
           b.info = Eigen::Map<const lum::Matrix6d>(w.info);
@@ -211,29 +224,29 @@ DistributedLUM<PointT>::compute()
           b.target = w.target;
           b.valid = w.valid != 0;
           run.pair_counts[li] = w.pairs;
-          remote_reasons_[li] = std::string(w.reason, strnlen(w.reason, sizeof(w.reason)));
-          run.reasons[li] = remote_reasons_[li].empty() ? nullptr : remote_reasons_[li].c_str();
+          remote_reasons[li] = std::string(w.reason, strnlen(w.reason, sizeof(w.reason)));
+          run.reasons[li] = remote_reasons[li].empty() ? nullptr : remote_reasons[li].c_str();
         }
-        control[0] = lum_.solveIteration(run, it) ? 1.0 : 0.0; // steps 3-5
-        control[1] = lum_.iterations_done_;
-        control[2] = lum_.last_mean_update_;
-        control[3] = static_cast<double>(lum_.dropped_links_);
+        control[0] = lum.solveIteration(run, it) ? 1.0 : 0.0; // steps 3-5
+        control[1] = lum.iterations_done_;
+        control[2] = lum.last_mean_update_;
+        control[3] = static_cast<double>(lum.dropped_links_);
       }
       catch (const std::exception& e) {
         error = e.what();
         control[0] = -1.0;
       }
     }
-    broadcastPoses(buffer, control, 4);
+    broadcastPoses(lum, comm, buffer, control, 4);
     if (control[0] < 0.0)
-      throwIfAnyFailed(comm_, rank_ == 0 ? error : std::string());
-    lum_.iterations_done_ = static_cast<int>(control[1]);
-    lum_.last_mean_update_ = control[2];
-    lum_.dropped_links_ = static_cast<std::size_t>(control[3]);
+      throwIfAnyFailed(comm, rank == 0 ? error : std::string());
+    lum.iterations_done_ = static_cast<int>(control[1]);
+    lum.last_mean_update_ = control[2];
+    lum.dropped_links_ = static_cast<std::size_t>(control[3]);
     if (control[0] == 0.0)
       break;
   }
-  lum_.endCompute(run);
+  lum.endCompute(run);
 }
 
 } // namespace mpi

@@ -1,0 +1,73 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include "ranks.h"
+
+#ifdef PCL_PARALLEL_WITH_MPI
+#include <pcl_parallel/mpi/distributed_lum.h>
+#endif
+
+#include <cstdlib>
+#include <exception>
+#include <stdexcept>
+#include <string>
+
+namespace pcl_pslam {
+
+Ranks::Ranks([[maybe_unused]] int& argc, [[maybe_unused]] char**& argv)
+{
+#ifdef PCL_PARALLEL_WITH_MPI
+  bool launched = false;
+  for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK"})
+    launched = launched || std::getenv(name) != nullptr;
+  if (!launched)
+    return;
+  // OpenMP threads inside a rank, MPI calls from the main thread only.
+  int provided = 0;
+  MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+  initialised_ = true;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+#endif
+}
+
+Ranks::~Ranks()
+{
+#ifdef PCL_PARALLEL_WITH_MPI
+  if (initialised_)
+    MPI_Finalize();
+#endif
+}
+
+void
+Ranks::agree(const std::function<void()>& step) const
+{
+  if (size_ == 1) {
+    step();
+    return;
+  }
+#ifdef PCL_PARALLEL_WITH_MPI
+  std::exception_ptr failure;
+  std::string message;
+  try {
+    step();
+  }
+  catch (const std::exception& e) {
+    failure = std::current_exception();
+    message = e.what();
+    if (message.empty())
+      message = "failed";
+  }
+  try {
+    pcl_parallel::mpi::throwIfAnyFailed(MPI_COMM_WORLD, message);
+  }
+  catch (const std::runtime_error&) {
+    if (failure)
+      std::rethrow_exception(failure);
+    throw;
+  }
+#endif
+}
+
+} // namespace pcl_pslam

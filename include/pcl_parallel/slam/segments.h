@@ -1,0 +1,74 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/slam/pipeline.h>
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
+
+namespace pcl_parallel {
+namespace slam {
+
+/**
+ * \brief A contiguous part of a sequence matched by a front end of its own (the
+ * segmented front end, docs/design.md "Segments"): scans [first, end) are matched,
+ * [begin, end) are its own; the `begin - first` scans before are the previous segment's
+ * last ones, matched again so that the first own scan meets a local map and a motion
+ * estimate instead of a cold start.
+ */
+struct Segment {
+  std::size_t first = 0, begin = 0, end = 0;
+};
+
+/** Segments of `segment_size` own scans (the last takes the rest), each starting
+ *  `overlap` scans before its first own one. Throws std::invalid_argument for
+ *  segment_size 0. */
+std::vector<Segment>
+splitSequence(std::size_t num_scans, std::size_t segment_size, std::size_t overlap);
+
+/** Scan i of a sequence (scanner frame) and its odometry pose, if known; throws on a
+ *  scan that cannot be read. */
+using ScanSource = std::function<std::pair<Cloud::Ptr, std::optional<Pose>>(std::size_t)>;
+
+/** The median range that sets a sequence's automatic lengths: scan 0's, after cropping
+ *  (as Pipeline::addScan takes it). Throws std::invalid_argument if none is in range. */
+double
+sequenceMedianRange(const Cloud& first_scan, const Parameters& params);
+
+/** Progress of a segmented run: stage ("match" for the front ends, "join" for loop
+ *  closing), scans done, of total. */
+using SegmentProgress = std::function<void(const char* stage, std::size_t done, std::size_t total)>;
+
+/** Runs a front end over one segment, from its first scan's odometry pose (the identity
+ *  without odometry), and returns its own scans, matched; each one's step joins it to
+ *  its predecessor, the last scan of the previous segment for the first. `matched` is
+ *  called after each scan with the scans matched so far; `times` gets the front end's
+ *  stage times added. */
+std::vector<MatchedScan>
+matchSegment(const Segment& segment,
+             const Parameters& params,
+             double median_range,
+             const ScanSource& read,
+             const std::function<void(std::size_t)>& matched = {},
+             StageTimes* times = nullptr);
+
+/** Maps scans [0, num_scans) in this process as mpi::mapSegments does over ranks: each
+ *  segment's front end in turn, then loop closing over the whole sequence (the segments
+ *  joined by their steps, Pipeline::addMatched), with the lengths from scan 0
+ *  (sequenceMedianRange). finish() is left to the caller. */
+std::unique_ptr<Pipeline>
+mapSegments(const Parameters& params,
+            std::size_t num_scans,
+            std::size_t segment_size,
+            std::size_t overlap,
+            const ScanSource& read,
+            const SegmentProgress& progress = {});
+
+} // namespace slam
+} // namespace pcl_parallel

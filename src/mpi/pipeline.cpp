@@ -1,0 +1,322 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/mpi/pipeline.h>
+
+#include <algorithm>
+#include <chrono>
+#include <climits>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+
+namespace pcl_parallel {
+namespace mpi {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double
+seconds(Clock::time_point since)
+{
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+/** Matched scans as bytes: plain values in this machine's representation (the ranks of
+ *  one job run one binary), floats and doubles bit for bit. */
+class Writer {
+public:
+  template <typename T>
+  void
+  put(const T& value)
+  {
+    static_assert(std::is_trivially_copyable<T>::value, "plain values only");
+    const char* p = reinterpret_cast<const char*>(&value);
+    bytes_.insert(bytes_.end(), p, p + sizeof(T));
+  }
+  template <typename Derived>
+  void
+  putMatrix(const Eigen::MatrixBase<Derived>& m)
+  {
+    for (Eigen::Index k = 0; k < m.size(); ++k)
+      put(m(k));
+  }
+  std::vector<char>&
+  bytes()
+  {
+    return bytes_;
+  }
+
+private:
+  std::vector<char> bytes_;
+};
+
+class Reader {
+public:
+  explicit Reader(const std::vector<char>& bytes)
+      : p_(bytes.data())
+      , end_(bytes.data() + bytes.size())
+  {}
+  template <typename T>
+  T
+  get()
+  {
+    if (static_cast<std::size_t>(end_ - p_) < sizeof(T))
+      throw std::runtime_error("mpi::mapSegments: truncated message");
+    T value;
+    std::memcpy(&value, p_, sizeof(T));
+    p_ += sizeof(T);
+    return value;
+  }
+  template <typename Derived>
+  void
+  getMatrix(Eigen::MatrixBase<Derived>& m)
+  {
+    for (Eigen::Index k = 0; k < m.size(); ++k)
+      m(k) = get<typename Derived::Scalar>();
+  }
+
+private:
+  const char* p_;
+  const char* end_;
+};
+
+void
+writeMatched(Writer& w, const slam::MatchedScan& m)
+{
+  const slam::FrontEndResult& fe = m.front_end;
+  w.put<std::uint64_t>(fe.reduced->size());
+  for (const auto& p : *fe.reduced)
+    w.put(p.x), w.put(p.y), w.put(p.z);
+  w.put<std::uint64_t>(fe.normals.size());
+  for (const auto& n : fe.normals)
+    w.putMatrix(n);
+  w.putMatrix(fe.pose);
+  w.putMatrix(fe.prediction);
+  w.putMatrix(m.step);
+  w.putMatrix(fe.information);
+  w.put(fe.information_pairs);
+  w.put<std::uint64_t>(fe.source_points);
+  w.put<std::uint8_t>(fe.converged);
+  w.put(fe.fitness);
+  w.put(fe.gate);
+  const slam::ScanReport& r = m.report;
+  w.put<std::uint64_t>(r.points);
+  w.put<std::uint64_t>(r.reduced_points);
+  w.put(r.correction);
+  w.put(r.seconds);
+}
+
+slam::MatchedScan
+readMatched(Reader& in)
+{
+  slam::MatchedScan m;
+  slam::FrontEndResult& fe = m.front_end;
+  fe.reduced.reset(new slam::Cloud);
+  fe.reduced->resize(in.get<std::uint64_t>());
+  for (auto& p : *fe.reduced) {
+    p.x = in.get<float>();
+    p.y = in.get<float>();
+    p.z = in.get<float>();
+  }
+  fe.normals.resize(in.get<std::uint64_t>());
+  for (auto& n : fe.normals)
+    in.getMatrix(n);
+  in.getMatrix(fe.pose);
+  in.getMatrix(fe.prediction);
+  in.getMatrix(m.step);
+  in.getMatrix(fe.information);
+  fe.information_pairs = in.get<double>();
+  fe.source_points = in.get<std::uint64_t>();
+  fe.converged = in.get<std::uint8_t>() != 0;
+  fe.fitness = in.get<double>();
+  fe.gate = in.get<double>();
+  slam::ScanReport& r = m.report;
+  r.points = in.get<std::uint64_t>();
+  r.reduced_points = in.get<std::uint64_t>();
+  r.source_points = fe.source_points;
+  r.converged = fe.converged;
+  r.fitness = fe.fitness;
+  r.gate = fe.gate;
+  r.correction = in.get<double>();
+  r.seconds = in.get<double>();
+  return m;
+}
+
+/** Broadcasts `bytes` from `root` (resized on the others), in pieces MPI's int counts
+ *  can hold. */
+void
+broadcastBytes(MPI_Comm comm, int root, std::vector<char>& bytes)
+{
+  std::uint64_t size = bytes.size();
+  MPI_Bcast(&size, 1, MPI_UINT64_T, root, comm);
+  bytes.resize(size);
+  constexpr std::size_t kPiece = std::size_t(1) << 30;
+  for (std::size_t at = 0; at < size; at += kPiece)
+    MPI_Bcast(bytes.data() + at,
+              static_cast<int>(std::min<std::size_t>(kPiece, size - at)),
+              MPI_BYTE,
+              root,
+              comm);
+}
+
+/** Hash of everything that must be the same on every rank (all but the thread count). */
+std::uint64_t
+inputHash(const slam::Parameters& p,
+          std::size_t num_scans,
+          std::size_t segment_size,
+          std::size_t overlap)
+{
+  Fnv1a h;
+  h.add(p.min_range), h.add(p.max_range), h.add(p.voxel_size);
+  h.add(static_cast<int>(p.match_target)), h.add(p.icp_distance), h.add(p.icp_iterations);
+  h.add(p.point_to_plane), h.add(p.normals_from_map), h.add(p.icp_epsilon), h.add(p.deskew);
+  h.add(p.close_loops), h.add(p.loop_distance), h.add(p.loop_size), h.add(p.min_overlap);
+  h.add(p.lum_distance), h.add(p.lum_final_distance), h.add(p.lum_iterations);
+  h.add(p.lum_epsilon), h.add(p.relax_each_loop), h.add(p.lum_iterations_per_loop);
+  h.add(p.elch), h.add(p.sequence_constraints);
+  h.add(static_cast<std::uint64_t>(num_scans)), h.add(static_cast<std::uint64_t>(segment_size));
+  h.add(static_cast<std::uint64_t>(overlap));
+  return h.value;
+}
+
+} // namespace
+
+std::pair<std::size_t, std::size_t>
+scansOfRank(std::size_t num_scans, std::size_t segment_size, int rank, int size)
+{
+  const auto segments = slam::splitSequence(num_scans, segment_size, 0);
+  const auto [begin, end] = linkRange(segments.size(), rank, size);
+  if (begin == end)
+    return {0, 0};
+  return {segments[begin].begin, segments[end - 1].end};
+}
+
+slam::LoopCloser::Relaxation
+relaxOverRanks(MPI_Comm comm)
+{
+  auto reasons = std::make_shared<std::vector<std::string>>();
+  return [comm, reasons](ParallelLUM<slam::PointT>& lum) {
+    DistributedLUM<slam::PointT>::computeOn(lum, comm, *reasons);
+  };
+}
+
+std::unique_ptr<slam::Pipeline>
+mapSegments(MPI_Comm comm,
+            const slam::Parameters& params,
+            std::size_t num_scans,
+            std::size_t segment_size,
+            std::size_t overlap,
+            const slam::ScanSource& read,
+            SegmentsReport* report,
+            const slam::SegmentProgress& progress)
+{
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  SegmentsReport local;
+  SegmentsReport& out = report ? *report : local;
+  out = SegmentsReport();
+
+  // Same inputs everywhere, else the ranks would map different sequences.
+  const std::uint64_t hash = inputHash(params, num_scans, segment_size, overlap);
+  std::uint64_t lo = 0, hi = 0;
+  MPI_Allreduce(&hash, &lo, 1, MPI_UINT64_T, MPI_MIN, comm);
+  MPI_Allreduce(&hash, &hi, 1, MPI_UINT64_T, MPI_MAX, comm);
+  if (lo != hi)
+    throw std::runtime_error("mpi::mapSegments: the options or the number of scans differ "
+                             "between ranks");
+
+  // The automatic lengths, from scan 0 on rank 0.
+  std::string error;
+  std::vector<slam::Segment> segments;
+  double range = 0.0;
+  try {
+    segments = slam::splitSequence(num_scans, segment_size, overlap);
+    if (num_scans == 0)
+      throw std::invalid_argument("no scans");
+    if (rank == 0) {
+      const slam::Cloud::Ptr first = read(0).first;
+      if (!first)
+        throw std::invalid_argument("scan 0 could not be read");
+      range = slam::sequenceMedianRange(*first, params);
+    }
+  }
+  catch (const std::exception& e) {
+    error = e.what();
+  }
+  throwIfAnyFailed(comm, error);
+  MPI_Bcast(&range, 1, MPI_DOUBLE, 0, comm);
+
+  // Front ends: this rank's block of segments.
+  const auto start = Clock::now();
+  const auto [own_begin, own_end] = linkRange(segments.size(), rank, size);
+  std::size_t total = 0, done = 0;
+  for (std::size_t s = own_begin; s < own_end; ++s)
+    total += segments[s].end - segments[s].first;
+  std::vector<std::vector<slam::MatchedScan>> mine;
+  slam::StageTimes times;
+  try {
+    for (std::size_t s = own_begin; s < own_end; ++s) {
+      auto step = [&](std::size_t k) {
+        if (progress)
+          progress("match", done + k, total);
+      };
+      mine.push_back(slam::matchSegment(segments[s], params, range, read, step, &times));
+      done += segments[s].end - segments[s].first;
+      out.own_scans += segments[s].end - segments[s].begin;
+    }
+  }
+  catch (const std::exception& e) {
+    error = e.what();
+  }
+  out.front_end_seconds = seconds(start);
+  const auto wait = Clock::now();
+  throwIfAnyFailed(comm, error);
+  out.wait_seconds = seconds(wait);
+  out.segments = segments.size();
+  out.own_segments = own_end - own_begin;
+
+  // Loop closing over the whole sequence, the same on every rank: each segment's matched
+  // scans from the rank that owns it, in order; pLUM over the ranks.
+  std::unique_ptr<slam::Pipeline> pipeline(new slam::Pipeline(params, range));
+  pipeline->setRelaxation(relaxOverRanks(comm));
+  for (int owner = 0; owner < size; ++owner) {
+    const auto [begin, end] = linkRange(segments.size(), owner, size);
+    for (std::size_t s = begin; s < end; ++s) {
+      std::vector<slam::MatchedScan> scans;
+      if (owner == rank) {
+        scans = std::move(mine[s - begin]);
+        if (size > 1) {
+          Writer w;
+          w.put<std::uint64_t>(scans.size());
+          for (const auto& m : scans)
+            writeMatched(w, m);
+          broadcastBytes(comm, owner, w.bytes());
+          out.bytes_shared += w.bytes().size() * static_cast<std::size_t>(size - 1);
+        }
+      }
+      else {
+        std::vector<char> bytes;
+        broadcastBytes(comm, owner, bytes);
+        Reader in(bytes);
+        scans.resize(in.get<std::uint64_t>());
+        for (auto& m : scans)
+          m = readMatched(in);
+      }
+      for (slam::MatchedScan& m : scans) {
+        pipeline->addMatched(std::move(m));
+        if (progress)
+          progress("join", pipeline->size(), num_scans);
+      }
+    }
+  }
+  pipeline->addTimes(times);
+  return pipeline;
+}
+
+} // namespace mpi
+} // namespace pcl_parallel

@@ -1,0 +1,110 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/slam/preprocess.h>
+#include <pcl_parallel/slam/segments.h>
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace pcl_parallel {
+namespace slam {
+
+std::vector<Segment>
+splitSequence(std::size_t num_scans, std::size_t segment_size, std::size_t overlap)
+{
+  if (segment_size == 0)
+    throw std::invalid_argument("splitSequence: segment size must be at least 1");
+  std::vector<Segment> out;
+  for (std::size_t begin = 0; begin < num_scans; begin += segment_size) {
+    Segment s;
+    s.begin = begin;
+    s.first = begin - std::min(begin, overlap);
+    s.end = std::min(num_scans, begin + segment_size);
+    out.push_back(s);
+  }
+  return out;
+}
+
+double
+sequenceMedianRange(const Cloud& first_scan, const Parameters& params)
+{
+  const Cloud::Ptr cropped = cropRange(first_scan, params.min_range, params.max_range);
+  if (cropped->empty())
+    throw std::invalid_argument("scan 0 has no finite points in range");
+  return medianRange(*cropped);
+}
+
+std::vector<MatchedScan>
+matchSegment(const Segment& segment,
+             const Parameters& params,
+             double median_range,
+             const ScanSource& read,
+             const std::function<void(std::size_t)>& matched,
+             StageTimes* times)
+{
+  Pipeline front_end(params, median_range, segment.first);
+  std::vector<MatchedScan> own;
+  own.reserve(segment.end - segment.begin);
+  for (std::size_t i = segment.first; i < segment.end; ++i) {
+    const auto [scan, odometry] = read(i);
+    if (!scan)
+      throw std::invalid_argument("scan " + std::to_string(i) + " could not be read");
+    MatchedScan m = front_end.track(*scan, odometry);
+    if (i >= segment.begin)
+      own.push_back(std::move(m));
+    if (matched)
+      matched(i - segment.first + 1);
+  }
+  if (times) {
+    times->preprocess += front_end.times().preprocess;
+    times->front_end += front_end.times().front_end;
+  }
+  return own;
+}
+
+std::unique_ptr<Pipeline>
+mapSegments(const Parameters& params,
+            std::size_t num_scans,
+            std::size_t segment_size,
+            std::size_t overlap,
+            const ScanSource& read,
+            const SegmentProgress& progress)
+{
+  if (num_scans == 0)
+    throw std::invalid_argument("mapSegments: no scans");
+  const Cloud::Ptr first = read(0).first;
+  if (!first)
+    throw std::invalid_argument("scan 0 could not be read");
+  const double range = sequenceMedianRange(*first, params);
+  std::unique_ptr<Pipeline> pipeline(new Pipeline(params, range));
+  // All front ends first, then loop closing: the order mpi::mapSegments has.
+  const std::vector<Segment> segments = splitSequence(num_scans, segment_size, overlap);
+  std::size_t total = 0, done = 0;
+  for (const Segment& s : segments)
+    total += s.end - s.first;
+  StageTimes times;
+  std::vector<MatchedScan> matched;
+  matched.reserve(num_scans);
+  for (const Segment& s : segments) {
+    auto step = [&](std::size_t k) {
+      if (progress)
+        progress("match", done + k, total);
+    };
+    for (MatchedScan& m : matchSegment(s, params, range, read, step, &times))
+      matched.push_back(std::move(m));
+    done += s.end - s.first;
+  }
+  for (MatchedScan& m : matched) {
+    pipeline->addMatched(std::move(m));
+    if (progress)
+      progress("join", pipeline->size(), num_scans);
+  }
+  pipeline->addTimes(times);
+  return pipeline;
+}
+
+} // namespace slam
+} // namespace pcl_parallel
