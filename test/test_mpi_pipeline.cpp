@@ -73,8 +73,8 @@ TEST(MapSegments, BitIdenticalToOneProcessForAnyRankAndThreadCount)
   for (unsigned threads : {1u, 2u}) {
     p.num_threads = (threads + static_cast<unsigned>(worldRank())) % 2 + 1; // varies by rank
     mpi::SegmentsReport report;
-    auto ranks = mpi::mapSegments(
-        MPI_COMM_WORLD, p, n, kSegmentSize, kOverlap, source(set), &report);
+    auto ranks =
+        mpi::mapSegments(MPI_COMM_WORLD, p, n, kSegmentSize, kOverlap, source(set), &report);
     ranks->finish();
     ASSERT_EQ(ranks->size(), n);
     for (std::size_t i = 0; i < n; ++i)

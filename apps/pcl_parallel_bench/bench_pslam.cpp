@@ -9,6 +9,7 @@
  * RPE) of the odometry, the front end and the final poses against the truth.
  */
 #include "bench_common.h"
+#include "preset_reader.h"
 
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/io/scan_io.h>
@@ -36,31 +37,6 @@ since(Clock::time_point t)
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-/** One scan as pcl_pslam reads it: uos .3d in cm (scaled to m) with its .pose, or KITTI
- *  .bin with a line of odometry.txt. */
-struct Reader {
-  fs::path dir;
-  bool uos;
-  std::vector<Eigen::Matrix4d> odometry; // kitti
-  slam::Cloud::Ptr
-  scan(std::size_t i, Eigen::Matrix4d& pose) const
-  {
-    char name[32];
-    if (uos) {
-      std::snprintf(name, sizeof(name), "scan%03zu", i);
-      auto cloud = io::loadUosScan((dir / (std::string(name) + ".3d")).string());
-      for (auto& p : *cloud)
-        p.getVector3fMap() *= 0.01f;
-      pose = io::loadUosPose((dir / (std::string(name) + ".pose")).string());
-      pose.topRightCorner<3, 1>() *= 0.01;
-      return cloud;
-    }
-    std::snprintf(name, sizeof(name), "%06zu.bin", i);
-    pose = odometry[i];
-    return io::loadKittiScan((dir / name).string());
-  }
-};
-
 } // namespace
 
 int
@@ -70,9 +46,7 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
   const fs::path dir = fs::temp_directory_path() / ("pcl_parallel_bench_" + preset);
   fs::remove_all(dir);
   sim::writeScanSet(set, dir.string());
-  Reader reader{dir, set.point_times.empty(), {}};
-  if (!reader.uos)
-    reader.odometry = io::loadKittiPoses((dir / "odometry.txt").string());
+  const PresetReader reader(dir.string(), set.point_times.empty());
   const auto truth = io::loadKittiPoses((dir / "ground_truth.txt").string());
   const std::size_t n = truth.size();
   std::size_t points = 0;

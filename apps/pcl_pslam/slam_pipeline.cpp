@@ -33,29 +33,27 @@ run(const ScanReader& read,
   namespace slam = pcl_parallel::slam;
   Result result;
   result.own_end = n;
+  const slam::ScanSource source = [&](std::size_t i) {
+    const Cloud::Ptr scan = read(i);
+    if (!scan || scan->empty())
+      throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
+    return std::make_pair(
+        scan, params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
+  };
   std::unique_ptr<slam::Pipeline> owned;
   if (params.mpi || params.segment_size > 0) {
-    const slam::ScanSource source = [&](std::size_t i) {
-      const Cloud::Ptr scan = read(i);
-      if (!scan || scan->empty())
-        throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
-      return std::make_pair(scan,
-                            params.odometry ? std::optional<Eigen::Matrix4d>(initial[i])
-                                            : std::nullopt);
-    };
-    const slam::SegmentProgress step = [&](const char* stage, std::size_t done,
-                                           std::size_t total) {
-      if (progress)
-        progress(stage, static_cast<int>(done), static_cast<int>(total));
-    };
+    const slam::SegmentProgress step =
+        [&](const char* stage, std::size_t done, std::size_t total) {
+          if (progress)
+            progress(stage, static_cast<int>(done), static_cast<int>(total));
+        };
 #ifdef PCL_PARALLEL_WITH_MPI
     if (params.mpi) {
       MPI_Comm_rank(MPI_COMM_WORLD, &result.rank);
       MPI_Comm_size(MPI_COMM_WORLD, &result.ranks);
+      const std::size_t ranks = static_cast<std::size_t>(result.ranks);
       const std::size_t size =
-          params.segment_size > 0
-              ? params.segment_size
-              : (n + static_cast<std::size_t>(result.ranks) - 1) / result.ranks;
+          params.segment_size > 0 ? params.segment_size : (n + ranks - 1) / ranks;
       pcl_parallel::mpi::SegmentsReport report;
       owned = pcl_parallel::mpi::mapSegments(
           MPI_COMM_WORLD, params, n, size, params.segment_overlap, source, &report, step);
@@ -74,14 +72,11 @@ run(const ScanReader& read,
       result.segment_size = params.segment_size;
     }
   }
-  else {
+  else { // the online pipeline: loop corrections feed back into the front end
     owned.reset(new slam::Pipeline(params));
     for (std::size_t i = 0; i < n; ++i) {
-      const Cloud::Ptr scan = read(i);
-      if (!scan || scan->empty())
-        throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
-      owned->addScan(
-          *scan, params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
+      const auto [scan, odometry] = source(i);
+      owned->addScan(*scan, odometry);
       if (progress)
         progress("icp", static_cast<int>(i + 1), static_cast<int>(n));
     }

@@ -129,7 +129,13 @@ public:
   /** Payload bytes sent per iteration by all ranks together: the blocks of the links of
    *  ranks 1..N-1 to rank 0 and the poses from rank 0 to the N-1 others. */
   std::uint64_t
-  getBytesPerIteration() const;
+  getBytesPerIteration() const
+  {
+    return bytesPerIteration(num_links_, lum_.getNumVertices(), size_);
+  }
+  /** ... for a graph of num_links links and num_vertices vertices over `size` ranks. */
+  static std::uint64_t
+  bytesPerIteration(std::size_t num_links, std::size_t num_vertices, int size);
   int
   getRank() const
   {

@@ -27,9 +27,9 @@ scansOfRank(std::size_t num_scans, std::size_t segment_size, int rank, int size)
 
 /** Where mapSegments spent its time on this rank, and what it sent. */
 struct SegmentsReport {
-  std::size_t segments = 0;    ///< of the sequence
-  std::size_t own_segments = 0; ///< matched on this rank
-  std::size_t own_scans = 0;    ///< ... with this many own scans (without the overlap)
+  std::size_t segments = 0;       ///< of the sequence
+  std::size_t own_segments = 0;   ///< matched on this rank
+  std::size_t own_scans = 0;      ///< ... with this many own scans (without the overlap)
   double front_end_seconds = 0.0; ///< this rank's front ends
   double wait_seconds = 0.0;      ///< waiting for the other ranks' front ends
   std::uint64_t bytes_shared = 0; ///< matched scans sent to the other ranks, all ranks

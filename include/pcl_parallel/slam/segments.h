@@ -43,7 +43,8 @@ sequenceMedianRange(const Cloud& first_scan, const Parameters& params);
 
 /** Progress of a segmented run: stage ("match" for the front ends, "join" for loop
  *  closing), scans done, of total. */
-using SegmentProgress = std::function<void(const char* stage, std::size_t done, std::size_t total)>;
+using SegmentProgress =
+    std::function<void(const char* stage, std::size_t done, std::size_t total)>;
 
 /** Runs a front end over one segment, from its first scan's odometry pose (the identity
  *  without odometry), and returns its own scans, matched; each one's step joins it to

@@ -122,12 +122,13 @@ DistributedLUM<PointT>::broadcastPoses(
 
 template <typename PointT>
 std::uint64_t
-DistributedLUM<PointT>::getBytesPerIteration() const
+DistributedLUM<PointT>::bytesPerIteration(std::size_t num_links,
+                                          std::size_t num_vertices,
+                                          int size)
 {
-  const std::size_t rank0_links = linkRange(num_links_, 0, size_).second;
-  return (num_links_ - rank0_links) * sizeof(WireLink) + static_cast<std::uint64_t>(size_ - 1) *
-                                                             (16 * lum_.getNumVertices() + 4) *
-                                                             sizeof(double);
+  const std::size_t rank0_links = linkRange(num_links, 0, size).second;
+  return (num_links - rank0_links) * sizeof(WireLink) +
+         static_cast<std::uint64_t>(size - 1) * (16 * num_vertices + 4) * sizeof(double);
 }
 
 template <typename PointT>
