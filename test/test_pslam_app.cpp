@@ -122,6 +122,11 @@ TEST(PslamOptions, SlamSixDCommandLineInFileUnits)
   EXPECT_TRUE(pcl_pslam::toParameters(o, 1.0).sequence_constraints);
   const auto no_constraints = parse({"run", "--no-sequence-constraints", "d"});
   EXPECT_FALSE(pcl_pslam::toParameters(no_constraints, 1.0).sequence_constraints);
+  // Segments: off unless asked for (one front end, loops fed back online).
+  EXPECT_EQ(pcl_pslam::toParameters(o, 1.0).segment_size, 0u);
+  const auto segmented = parse({"run", "--segment-size", "40", "--segment-overlap", "3", "d"});
+  EXPECT_EQ(pcl_pslam::toParameters(segmented, 1.0).segment_size, 40u);
+  EXPECT_EQ(pcl_pslam::toParameters(segmented, 1.0).segment_overlap, 3u);
 }
 
 TEST(PslamOptions, BadUsageIsOneLine)
@@ -144,6 +149,10 @@ TEST(PslamOptions, BadUsageIsOneLine)
   EXPECT_NE(message({"run", "a", "b"}).find("one directory"), std::string::npos);
   EXPECT_NE(message({"frob"}).find("unknown command 'frob'"), std::string::npos);
   EXPECT_NE(message({"run", "-L", "7", "d"}).find("-L/--loop6DAlgo"), std::string::npos);
+  EXPECT_NE(message({"run", "--segment-overlap", "0", "d"}).find("--segment-overlap"),
+            std::string::npos);
+  EXPECT_NE(message({"run", "--segment-overlap", "-1", "d"}).find("--segment-overlap"),
+            std::string::npos);
   EXPECT_NE(message({"demo", "--reduc", "1"}).find("--reduc"),
             std::string::npos); // no guessing
   for (const std::string& m :
@@ -164,7 +173,8 @@ TEST(PslamOptions, HelpNamesEveryOption)
         "--epsICP", "--epsSLAM", "--metascan", "--poses",    "--out",    "--threads",
         "--quiet",  "--ply",     "--style"})
     EXPECT_NE(h.find(name), std::string::npos) << name;
-  for (const char* name : {"--loop6DAlgo", "--no-sequence-constraints"})
+  for (const char* name :
+       {"--loop6DAlgo", "--no-sequence-constraints", "--segment-size", "--segment-overlap"})
     EXPECT_NE(h.find(name), std::string::npos) << name;
   EXPECT_NE(h.find("[default 5]"), std::string::npos); // -l (the path rule does the rest)
   EXPECT_NE(h.find("[default: auto, 10 voxels]"), std::string::npos);

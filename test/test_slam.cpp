@@ -144,6 +144,8 @@ TEST(Segments, SplitSequenceCoversItWithOverlap)
   EXPECT_EQ(clipped[2].begin, 4u);
   EXPECT_TRUE(slam::splitSequence(0, 3, 1).empty());
   EXPECT_THROW(slam::splitSequence(5, 0, 1), std::invalid_argument);
+  EXPECT_THROW(slam::splitSequence(5, 2, 0), std::invalid_argument); // nothing to join by
+  EXPECT_EQ(slam::splitSequence(5, 5, 0).size(), 1u);
 }
 
 /** The segmented front end (segments.h) on the corridor set, 4 segments of 10 scans with

@@ -46,17 +46,6 @@ struct RemoveDirectory {
   }
 };
 
-/** Rank 0 speaks for all (the others' failures reach it through Ranks::agree). */
-bool quiet_rank = false;
-
-int
-fail(int status, const std::string& what)
-{
-  if (!quiet_rank)
-    std::fprintf(stderr, "pcl_pslam: %s\n", what.c_str());
-  return status;
-}
-
 /** A failed run leaves no empty --out behind that it created itself. */
 void
 removeIfEmpty(bool created, const std::string& dir)
@@ -71,15 +60,20 @@ removeIfEmpty(bool created, const std::string& dir)
 int
 runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
 {
-  quiet_rank = ranks.rank() != 0;
+  const bool quiet_rank = ranks.rank() != 0; // rank 0 speaks for all
   pcl_pslam::Options o;
   try {
-    o = pcl_pslam::parseCommandLine(argc, argv);
+    ranks.agree([&] { o = pcl_pslam::parseCommandLine(argc, argv); });
   }
   catch (const pcl_pslam::UsageError& e) {
-    return fail(2, e.what());
+    return ranks.fail(2, e.what(), e);
+  }
+  catch (const std::exception& e) { // another rank's usage error
+    return ranks.fail(2, e.what(), e);
   }
   if (o.help) {
+    if (quiet_rank)
+      return 0;
     std::fputs(pcl_pslam::helpText(o.command).c_str(), stdout);
     return 0;
   }
@@ -92,7 +86,7 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
 
   // PCL's own warnings stay visible (e.g. a reader's complaint), on stderr.
   pcl::console::setVerbosityLevel(pcl::console::L_WARN);
-  pcl_pslam::installSignalHandlers();
+  pcl_pslam::installSignalHandlers(quiet_rank);
   std::string command_line;
   for (int i = 0; i < argc; ++i)
     command_line += (i ? " " : "") + std::string(argv[i]);
@@ -204,15 +198,16 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
   }
   catch (const pcl_pslam::Interrupted& e) {
     removeIfEmpty(created_out, o.out);
-    return fail(128 + e.signal, std::string(e.what()) + "; outputs are complete or absent");
+    return ranks.fail(
+        128 + e.signal, std::string(e.what()) + "; outputs are complete or absent", e);
   }
   catch (const pcl_pslam::UsageError& e) {
     removeIfEmpty(created_out, o.out);
-    return fail(2, e.what());
+    return ranks.fail(2, e.what(), e);
   }
   catch (const std::exception& e) { // DataError and the pipeline's own checks
     removeIfEmpty(created_out, o.out);
-    return fail(1, e.what());
+    return ranks.fail(1, e.what(), e);
   }
   return 0;
 }

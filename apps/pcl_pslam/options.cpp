@@ -323,9 +323,9 @@ parseCommandLine(int argc, const char* const* argv)
     throw UsageError("--threads: " + std::to_string(o.threads) + " is not a thread count");
   if (vm.count("segment-size"))
     o.segment_size = vm["segment-size"].as<std::size_t>();
-  if (o.segment_overlap > 100000) // a negative number wrapped around
-    throw UsageError("--segment-overlap: " + std::to_string(o.segment_overlap) +
-                     " is not a scan count");
+  if (o.segment_overlap < 1 || o.segment_overlap > 100000) // also a negative one, wrapped
+    throw UsageError("--segment-overlap needs a scan count >= 1 (a segment joins the one "
+                     "before through it)");
   o.picture = vm.count("no-picture") == 0;
   o.style = lowerCase(o.style);
   if (o.style != "auto" && o.style != "height" && o.style != "floorplan")

@@ -16,6 +16,7 @@ namespace {
 
 volatile std::sig_atomic_t g_signal = 0;
 volatile std::sig_atomic_t g_writing = 0;   // 1 while outputs are being written
+volatile std::sig_atomic_t g_quiet = 0;     // 1: no message (not MPI rank 0)
 volatile std::sig_atomic_t g_stderr_fd = 2; // the real stderr while PCL's is captured
 char g_remove_dir[4096] = {0};              // an --out this run created, removed if empty
 
@@ -33,7 +34,7 @@ onSignal(int s)
   std::size_t n = 0;
   while (msg[n])
     ++n;
-  if (::write(g_stderr_fd, msg, n) < 0) { /* nothing left to tell */
+  if (!g_quiet && ::write(g_stderr_fd, msg, n) < 0) { /* nothing left to tell */
   }
   if (g_remove_dir[0])
     ::rmdir(g_remove_dir); // fails, harmlessly, unless empty
@@ -48,8 +49,9 @@ Interrupted::Interrupted(int s)
 {}
 
 void
-installSignalHandlers()
+installSignalHandlers(bool quiet)
 {
+  g_quiet = quiet ? 1 : 0;
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
 }

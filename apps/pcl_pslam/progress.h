@@ -24,9 +24,10 @@ struct Interrupted : std::runtime_error {
   int signal; ///< SIGINT or SIGTERM; exit status 128 + signal
 };
 
-/** Routes SIGINT and SIGTERM to the flag checkInterrupt() reads. */
+/** Routes SIGINT and SIGTERM to the flag checkInterrupt() reads; `quiet`: without the
+ *  message (an MPI rank other than 0: the launcher signals every rank). */
 void
-installSignalHandlers();
+installSignalHandlers(bool quiet = false);
 
 /** While true, a signal stops the run at the next progress update instead of at once. */
 void

@@ -8,6 +8,8 @@
 #include <pcl_parallel/mpi/distributed_lum.h>
 #endif
 
+#include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <stdexcept>
@@ -62,12 +64,36 @@ Ranks::agree(const std::function<void()>& step) const
   try {
     pcl_parallel::mpi::throwIfAnyFailed(MPI_COMM_WORLD, message);
   }
-  catch (const std::runtime_error&) {
-    if (failure)
+  catch (const pcl_parallel::mpi::CollectiveError&) {
+    failed_together_ = true;
+    if (failure) // this rank's own error keeps its type (and so its exit status)
       std::rethrow_exception(failure);
     throw;
   }
 #endif
+}
+
+int
+Ranks::fail(int status, const std::string& message, const std::exception& error) const
+{
+  if (size_ > 1) { // the run is over: the launcher's SIGTERM to the others adds nothing
+    std::signal(SIGINT, SIG_IGN);
+    std::signal(SIGTERM, SIG_IGN);
+  }
+  if (rank_ == 0)
+    std::fprintf(stderr, "pcl_pslam: %s\n", message.c_str());
+#ifdef PCL_PARALLEL_WITH_MPI
+  const bool together =
+      failed_together_ ||
+      dynamic_cast<const pcl_parallel::mpi::CollectiveError*>(&error) != nullptr;
+  if (size_ > 1 && together) {
+    std::fflush(stderr);
+    MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD); // after rank 0 has spoken
+  }
+#else
+  (void)error;
+#endif
+  return status;
 }
 
 } // namespace pcl_pslam

@@ -4,7 +4,9 @@
  */
 #pragma once
 
+#include <exception>
 #include <functional>
+#include <string>
 
 namespace pcl_pslam {
 
@@ -40,10 +42,20 @@ public:
   void
   agree(const std::function<void()>& step) const;
 
+  /** Ends a failed run on every rank in step, if the failure was collective (thrown by
+   *  agree, or a CollectiveError of the library): rank 0 prints `message` (to stderr, as
+   *  "pcl_pslam: message") and only then do all return its `status`, so the launcher,
+   *  which ends the job at the first non-zero exit, cannot cut rank 0's message short.
+   *  A failure of this rank alone: it returns `status` at once (the launcher ends the
+   *  others). Only rank 0 ever prints. */
+  int
+  fail(int status, const std::string& message, const std::exception& error) const;
+
 private:
   int rank_ = 0;
   int size_ = 1;
   bool initialised_ = false;
+  mutable bool failed_together_ = false; ///< agree() threw
 };
 
 } // namespace pcl_pslam

@@ -61,7 +61,7 @@ throwIfAnyFailed(MPI_Comm comm, const std::string& error)
   MPI_Bcast(&message_length, 1, MPI_INT, 0, comm);
   message.resize(static_cast<std::size_t>(message_length));
   MPI_Bcast(message.data(), message_length, MPI_CHAR, 0, comm);
-  throw std::runtime_error(message);
+  throw CollectiveError(message);
 }
 
 } // namespace mpi

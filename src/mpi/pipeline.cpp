@@ -188,7 +188,7 @@ inputHash(const slam::Parameters& p,
 std::pair<std::size_t, std::size_t>
 scansOfRank(std::size_t num_scans, std::size_t segment_size, int rank, int size)
 {
-  const auto segments = slam::splitSequence(num_scans, segment_size, 0);
+  const auto segments = slam::splitSequence(num_scans, segment_size, 1); // own scans only
   const auto [begin, end] = linkRange(segments.size(), rank, size);
   if (begin == end)
     return {0, 0};

@@ -136,11 +136,16 @@ std::size_t
 Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
 {
   const auto start = Clock::now();
-  MatchedScan matched = track(scan, odometry);
-  const Pose pose = matched.front_end.pose;
-  const std::size_t index = addToGraph(std::move(matched), pose);
+  const std::size_t index = addTracked(track(scan, odometry));
   reports_.back().seconds = seconds(start);
   return index;
+}
+
+std::size_t
+Pipeline::addTracked(MatchedScan scan)
+{
+  const Pose pose = scan.front_end.pose;
+  return addToGraph(std::move(scan), pose);
 }
 
 MatchedScan

@@ -17,6 +17,8 @@ splitSequence(std::size_t num_scans, std::size_t segment_size, std::size_t overl
 {
   if (segment_size == 0)
     throw std::invalid_argument("splitSequence: segment size must be at least 1");
+  if (overlap == 0 && num_scans > segment_size) // the join is the match of the overlap
+    throw std::invalid_argument("splitSequence: segments need an overlap of at least 1 scan");
   std::vector<Segment> out;
   for (std::size_t begin = 0; begin < num_scans; begin += segment_size) {
     Segment s;
@@ -52,16 +54,17 @@ matchSegment(const Segment& segment,
     const auto [scan, odometry] = read(i);
     if (!scan)
       throw std::invalid_argument("scan " + std::to_string(i) + " could not be read");
+    // The segment is mapped as the online pipeline maps a sequence: its own loops closed
+    // as they come, the front end continuing from the corrected poses.
     MatchedScan m = front_end.track(*scan, odometry);
     if (i >= segment.begin)
-      own.push_back(std::move(m));
+      own.push_back(m);
+    front_end.addTracked(std::move(m));
     if (matched)
       matched(i - segment.first + 1);
   }
-  if (times) {
-    times->preprocess += front_end.times().preprocess;
-    times->front_end += front_end.times().front_end;
-  }
+  if (times)
+    times->add(front_end.times());
   return own;
 }
 

@@ -18,6 +18,7 @@
 #define MPICH_SKIP_MPICXX 1
 #endif
 #include <mpi.h>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -44,8 +45,14 @@ struct Fnv1a {
   }
 };
 
-/** Collective: if any rank's `error` is non-empty, every rank throws std::runtime_error
- *  with one message composed on rank 0 ("rank r of N: error", for each failed rank). */
+/** An error every rank of a communicator throws together (throwIfAnyFailed), with the
+ *  same message: a program may end all ranks in step on it. */
+struct CollectiveError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/** Collective: if any rank's `error` is non-empty, every rank throws CollectiveError with
+ *  one message composed on rank 0 ("rank r of N: error", for each failed rank). */
 void
 throwIfAnyFailed(MPI_Comm comm, const std::string& error);
 

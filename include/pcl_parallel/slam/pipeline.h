@@ -105,6 +105,14 @@ struct StageTimes {
   {
     return preprocess + front_end + loop_detection + loop_closing;
   }
+  void
+  add(const StageTimes& t)
+  {
+    preprocess += t.preprocess;
+    front_end += t.front_end;
+    loop_detection += t.loop_detection;
+    loop_closing += t.loop_closing;
+  }
 };
 
 /**
@@ -139,6 +147,12 @@ public:
    *  (segments.h). Throws as addScan. */
   MatchedScan
   track(const Cloud& scan, const std::optional<Pose>& odometry = std::nullopt);
+
+  /** addScan's second half for a scan this pipeline's track() matched: adds it to the
+   *  pose graph at its front-end pose, detects loops, relaxes, and moves the front end to
+   *  a corrected pose (so addScan(s) is addTracked(track(s))). */
+  std::size_t
+  addTracked(MatchedScan scan);
 
   /** addScan's second half for a scan another pipeline's front end matched: adds it to
    *  the pose graph at the previous scan's current pose times `scan.step` (the first
@@ -187,10 +201,7 @@ public:
   void
   addTimes(const StageTimes& t)
   {
-    times_.preprocess += t.preprocess;
-    times_.front_end += t.front_end;
-    times_.loop_detection += t.loop_detection;
-    times_.loop_closing += t.loop_closing;
+    times_.add(t);
   }
   const Parameters&
   parameters() const

@@ -28,7 +28,8 @@ struct Segment {
 
 /** Segments of `segment_size` own scans (the last takes the rest), each starting
  *  `overlap` scans before its first own one. Throws std::invalid_argument for
- *  segment_size 0. */
+ *  segment_size 0, or overlap 0 with more than one segment (a segment joins its
+ *  predecessor through the overlap). */
 std::vector<Segment>
 splitSequence(std::size_t num_scans, std::size_t segment_size, std::size_t overlap);
 
@@ -46,11 +47,12 @@ sequenceMedianRange(const Cloud& first_scan, const Parameters& params);
 using SegmentProgress =
     std::function<void(const char* stage, std::size_t done, std::size_t total)>;
 
-/** Runs a front end over one segment, from its first scan's odometry pose (the identity
- *  without odometry), and returns its own scans, matched; each one's step joins it to
- *  its predecessor, the last scan of the previous segment for the first. `matched` is
- *  called after each scan with the scans matched so far; `times` gets the front end's
- *  stage times added. */
+/** Maps one segment as Pipeline::addScan maps a sequence (its own loops closed as they
+ *  come, the front end continuing from the corrected poses), from its first scan's
+ *  odometry pose (the identity without odometry), and returns its own scans as the front
+ *  end matched them; each one's step joins it to its predecessor, the last scan of the
+ *  previous segment for the first. `matched` is called after each scan with the scans
+ *  matched so far; `times` gets the segment's stage times added. */
 std::vector<MatchedScan>
 matchSegment(const Segment& segment,
              const Parameters& params,
