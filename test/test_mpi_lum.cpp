@@ -7,6 +7,7 @@
  * only its links' scans, and bad input ending every rank with rank 0's message.
  * `test_mpi_lum --fail-load` lets such an error end the job (ctest checks the message).
  */
+#include "mpi_test.h"
 #include "synthetic_graph.h"
 #include "test_data.h"
 
@@ -33,21 +34,8 @@ using pcl_parallel::ParallelLUM;
 using DistributedLUM = pcl_parallel::mpi::DistributedLUM<pcl::PointXYZ>;
 constexpr double kDeg = M_PI / 180.0;
 
-int
-worldRank()
-{
-  int r = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &r);
-  return r;
-}
-
-int
-worldSize()
-{
-  int s = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &s);
-  return s;
-}
+using pcl_parallel::test::worldRank;
+using pcl_parallel::test::worldSize;
 
 /** A graph as every rank gets it: start poses, links, and the scans (on the ranks that
  *  load them through `load`). */

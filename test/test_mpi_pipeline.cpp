@@ -7,8 +7,10 @@
  * rank and thread count, a scan one rank cannot read ends every rank with one message,
  * options that differ between ranks are an error.
  */
+#include "corridor_set.h"
+#include "mpi_test.h"
+
 #include <pcl_parallel/mpi/pipeline.h>
-#include <pcl_parallel/sim/simulated_scans.h>
 
 #include <pcl/console/print.h>
 
@@ -20,36 +22,9 @@ namespace {
 
 using namespace pcl_parallel;
 
-int
-worldRank()
-{
-  int r = 0;
-  MPI_Comm_rank(MPI_COMM_WORLD, &r);
-  return r;
-}
-
-int
-worldSize()
-{
-  int s = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &s);
-  return s;
-}
-
-/** A 20 x 14 m corridor, 1.1 laps (~38 scans): one loop to close. */
-const sim::SimulatedScanSet&
-corridorSet()
-{
-  static const sim::SimulatedScanSet set = [] {
-    sim::SimulationParameters p;
-    p.outer_length = 20.0;
-    p.outer_width = 14.0;
-    p.scanner.azimuth_steps = 360;
-    p.scanner.elevation_steps = 48;
-    return sim::simulateScanSet(p);
-  }();
-  return set;
-}
+using test::corridorSet;
+using test::worldRank;
+using test::worldSize;
 
 slam::ScanSource
 source(const sim::SimulatedScanSet& set)

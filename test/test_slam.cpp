@@ -7,6 +7,8 @@
  * link, thread counts give identical poses, the graph stays linear where the scanner
  * lingers; and the small pieces (local map, deskew, loop candidates, loop error spread).
  */
+#include "corridor_set.h"
+
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/filters/voxel_grid.h>
@@ -45,20 +47,7 @@ makePose(double yaw, double x, double y, double z = 0.0, double roll = 0.0)
   return p;
 }
 
-/** A 20 x 14 m corridor floor, 1.1 laps (~38 scans), fewer rays than the demo. */
-const sim::SimulatedScanSet&
-corridorSet()
-{
-  static const sim::SimulatedScanSet set = [] {
-    sim::SimulationParameters p;
-    p.outer_length = 20.0;
-    p.outer_width = 14.0;
-    p.scanner.azimuth_steps = 360;
-    p.scanner.elevation_steps = 64;
-    return sim::simulateScanSet(p);
-  }();
-  return set;
-}
+using test::corridorSet;
 
 struct PipelineRun {
   Poses front_end, final;
