@@ -2,7 +2,7 @@
 # per rank alternating 1 and 2) the poses are bit-identical to `pcl_pslam run` with the
 # same --segment-size in one process without a launcher, every run exits 0, and the
 # outputs are complete: poses, frames, report.json and map.png once, the map as one tile
-# per rank (map_rank<r>.pcd) with several ranks.
+# per rank (map_rank<r>.pcd) with several ranks, an empty one for a rank without a segment.
 #   cmake -DPSLAM=exe -DMPIRUN="mpiexec|flags" -DNP_FLAG=-n -DDIR=scans -DOUT=dir -P ...
 cmake_minimum_required(VERSION 3.19)
 string(REPLACE "|" ";" mpirun "${MPIRUN}")
@@ -71,6 +71,16 @@ foreach(np 2 3)
   if(NOT ranks EQUAL np OR tiles LESS alone OR tiles GREATER most)
     message(FATAL_ERROR "np ${np}: report.json says ${ranks} ranks, ${tiles} map points "
       "in the tiles (one process: ${alone})")
+  endif()
+endforeach()
+# More ranks than segments: the rank without one writes an empty tile, and the run ends
+# as any other.
+execute_process(COMMAND ${mpirun} ${NP_FLAG} 3 ${PSLAM} run ${DIR} -q --segment-size 6 -t 1
+  --out ${OUT}/idle_rank RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+check_run("3 ranks, 2 segments" "${rc}" "${out}" "${err}")
+foreach(f map_rank0.pcd map_rank1.pcd map_rank2.pcd map.png report.json)
+  if(NOT EXISTS ${OUT}/idle_rank/${f})
+    message(FATAL_ERROR "3 ranks, 2 segments: ${f} missing")
   endif()
 endforeach()
 message(STATUS "poses bit-identical for 1, 2, 3 ranks and one process")
