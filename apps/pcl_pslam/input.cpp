@@ -198,7 +198,6 @@ openDirectory(const Options& o)
       in.initial.push_back(m);
     }
   }
-  in.points_read.assign(in.files.size(), 0);
   in.has_stamps = !all_times.empty();
   if (in.initial.empty()) { // no odometry: constant-velocity guesses
     in.initial.assign(in.files.size(), Eigen::Matrix4d::Identity());

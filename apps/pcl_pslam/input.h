@@ -27,13 +27,12 @@ struct Input {
   std::vector<int> numbers;       ///< per scan: its number (-s/-e count in these)
   std::vector<double> stamps;     ///< per scan: time (s), or the number when none given
   bool has_stamps = false;
-  std::vector<std::size_t> points_read; ///< per scan: points read (filled by the caller)
-  double read_seconds = 0.0;            ///< time spent reading scans (filled by the caller)
-  std::string format;                   ///< "3d", "bin", ...
-  double scale = 1.0;                   ///< file coordinates times scale = metres
-  int up = 2;                           ///< vertical axis
-  bool frames_3dtk = false;             ///< data in 3DTK's frame and units: .frames in those
-  double min_range = 0.0;               ///< -M, files' units
+  double read_seconds = 0.0; ///< time spent reading scans (by this rank; filled by the caller)
+  std::string format;        ///< "3d", "bin", ...
+  double scale = 1.0;        ///< file coordinates times scale = metres
+  int up = 2;                ///< vertical axis
+  bool frames_3dtk = false;  ///< data in 3DTK's frame and units: .frames in those
+  double min_range = 0.0;    ///< -M, files' units
   double max_range = std::numeric_limits<double>::infinity(); ///< -m, files' units
 
   std::size_t

@@ -127,7 +127,6 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     auto read = [&](std::size_t k) {
       const auto start = std::chrono::steady_clock::now();
       auto scan = pcl_pslam::readScan(in, k);
-      in.points_read[k] = scan->size();
       in.read_seconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       return scan;
@@ -141,11 +140,14 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
                          progress.update(stage, done, total);
                        });
     progress.finish();
-    std::size_t points = 0;
-    for (const std::size_t p : in.points_read)
-      points += p;
-    progress.note(std::to_string(points) + " points read in " +
-                  std::to_string(in.read_seconds).substr(0, 4) + " s");
+    std::size_t points = 0; // every scan's, wherever it was read
+    for (const auto& report : r.reports)
+      points += report.points;
+    const std::string read_time = std::to_string(in.read_seconds).substr(0, 4) + " s";
+    progress.note(std::to_string(points) + " points read" +
+                  (r.ranks > 1 ? " by " + std::to_string(r.ranks) + " ranks (rank 0's in " +
+                                     read_time + ")"
+                               : " in " + read_time));
     pcl_pslam::setWritingOutputs(true);
     if (r.ranks > 1) { // every rank its part of the map, then rank 0 the rest
       ranks.agree([&] { pcl_pslam::writeMapTile(o, in, r, progress); });

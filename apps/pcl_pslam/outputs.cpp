@@ -509,7 +509,7 @@ writeOutputs(const Options& o,
     nlohmann::json s = {{"index", i},
                         {"number", in.numbers[i]},
                         {"stamp", in.stamps[i]},
-                        {"points", in.points_read[i]},
+                        {"points", r.reports.at(i).points},
                         {"points_reduced", r.reports.at(i).reduced_points}};
     if (i < r.reports.size()) {
       const auto& rep = r.reports[i];

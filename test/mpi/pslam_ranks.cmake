@@ -63,10 +63,16 @@ endforeach()
 # (a tile missing or cut short would drop some), in at most one per rank.
 file(READ ${OUT}/alone/report.json report)
 string(JSON alone GET "${report}" map points)
+string(JSON last_alone GET "${report}" scans 10 points)
 foreach(np 2 3)
   file(READ ${OUT}/np${np}/report.json report)
   string(JSON ranks GET "${report}" segments ranks)
   string(JSON tiles GET "${report}" map points)
+  string(JSON last GET "${report}" scans 10 points) # read by the last rank, reported by 0
+  if(NOT last EQUAL last_alone OR last EQUAL 0)
+    message(FATAL_ERROR "np ${np}: report.json gives scan 10 ${last} points (alone: "
+      "${last_alone})")
+  endif()
   math(EXPR most "${alone} * ${np}")
   if(NOT ranks EQUAL np OR tiles LESS alone OR tiles GREATER most)
     message(FATAL_ERROR "np ${np}: report.json says ${ranks} ranks, ${tiles} map points "
