@@ -71,6 +71,16 @@ TEST(MapSegments, BitIdenticalToOneProcessForAnyRankAndThreadCount)
     EXPECT_EQ(report.segments, (n + kSegmentSize - 1) / kSegmentSize);
     const auto [b, e] = mpi::scansOfRank(n, kSegmentSize, worldRank(), worldSize());
     EXPECT_EQ(e - b, report.own_scans);
+    // Bytes sent, all ranks' (the same on each): every scan's points and normals (24 B a
+    // point) to every other rank, at least.
+    std::uint64_t points = 0, lo = 0, hi = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      points += alone->reducedScan(i)->size();
+    MPI_Allreduce(&report.bytes_shared, &lo, 1, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(&report.bytes_shared, &hi, 1, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
+    EXPECT_EQ(lo, hi);
+    EXPECT_GE(report.bytes_shared, static_cast<std::uint64_t>(worldSize() - 1) * points * 24);
+    EXPECT_LE(report.bytes_shared, static_cast<std::uint64_t>(worldSize() - 1) * points * 26);
   }
 }
 

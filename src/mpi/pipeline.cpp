@@ -314,6 +314,8 @@ mapSegments(MPI_Comm comm,
       }
     }
   }
+  std::uint64_t sent = out.bytes_shared; // this rank's; the report gives all ranks'
+  MPI_Allreduce(&sent, &out.bytes_shared, 1, MPI_UINT64_T, MPI_SUM, comm);
   pipeline->addTimes(times);
   return pipeline;
 }
