@@ -182,8 +182,10 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     }
     if (!o.quiet) {
       const auto& t = r.times;
-      std::printf("stage times: front end %.2f s, loop detection %.2f s, loop closing %.2f s "
+      std::printf("%s: front end %.2f s, loop detection %.2f s, loop closing %.2f s "
                   "(%d pLUM runs); %.1f ms per scan; %zu bytes kept per scan\n",
+                  r.ranks > 1 ? "rank 0's stage times (its segments, then the whole sequence)"
+                              : "stage times",
                   t.preprocess + t.front_end,
                   t.loop_detection,
                   t.loop_closing,
