@@ -251,7 +251,7 @@ mapTileName(int rank, const char* extension)
   return "map_rank" + std::to_string(rank) + extension;
 }
 
-std::vector<std::string>
+void
 writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress)
 {
   const Cloud::Ptr map = buildMap(
@@ -262,13 +262,9 @@ writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporte
       [&](int done, int total) { progress.update("map", done, total); },
       r.own_begin,
       r.own_end);
-  std::vector<std::string> written{mapTileName(r.rank, ".pcd")};
-  writeMapPcd(join(o.out, written.back()), *map);
-  if (o.ply) {
-    written.push_back(mapTileName(r.rank, ".ply"));
-    writeMapPly(join(o.out, written.back()), *map);
-  }
-  return written;
+  writeMapPcd(join(o.out, mapTileName(r.rank, ".pcd")), *map);
+  if (o.ply)
+    writeMapPly(join(o.out, mapTileName(r.rank, ".ply")), *map);
 }
 
 double

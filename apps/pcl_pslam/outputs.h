@@ -76,9 +76,9 @@ std::string
 mapTileName(int rank, const char* extension);
 
 /** Under MPI, every rank's part of the map: the scans it matched (Result::own_begin,
- *  own_end), read again, as map_rank<rank>.pcd (and .ply with --ply) in o.out. Returns
- *  the names written. writeOutputs then reads all tiles back for map.png. */
-std::vector<std::string>
+ *  own_end), read again, as map_rank<rank>.pcd (and .ply with --ply) in o.out.
+ *  writeOutputs then reads all tiles back for map.png and names them. */
+void
 writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress);
 
 /** Everything a run writes into o.out, in order, with a progress update (and so a check

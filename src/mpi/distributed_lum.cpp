@@ -21,6 +21,16 @@ linkRange(std::size_t num_links, int rank, int size)
 }
 
 void
+requireSameOnAllRanks(MPI_Comm comm, std::uint64_t hash, const std::string& what)
+{
+  std::uint64_t lo = 0, hi = 0;
+  MPI_Allreduce(&hash, &lo, 1, MPI_UINT64_T, MPI_MIN, comm);
+  MPI_Allreduce(&hash, &hi, 1, MPI_UINT64_T, MPI_MAX, comm);
+  if (lo != hi)
+    throw CollectiveError(what + " differ between ranks");
+}
+
+void
 throwIfAnyFailed(MPI_Comm comm, const std::string& error)
 {
   int failed = error.empty() ? 0 : 1, any = 0;

@@ -222,13 +222,9 @@ mapSegments(MPI_Comm comm,
   out = SegmentsReport();
 
   // Same inputs everywhere, else the ranks would map different sequences.
-  const std::uint64_t hash = inputHash(params, num_scans, segment_size, overlap);
-  std::uint64_t lo = 0, hi = 0;
-  MPI_Allreduce(&hash, &lo, 1, MPI_UINT64_T, MPI_MIN, comm);
-  MPI_Allreduce(&hash, &hi, 1, MPI_UINT64_T, MPI_MAX, comm);
-  if (lo != hi)
-    throw std::runtime_error("mpi::mapSegments: the options or the number of scans differ "
-                             "between ranks");
+  requireSameOnAllRanks(comm,
+                        inputHash(params, num_scans, segment_size, overlap),
+                        "mpi::mapSegments: the options or the number of scans");
 
   // The automatic lengths, from scan 0 on rank 0.
   std::string error;

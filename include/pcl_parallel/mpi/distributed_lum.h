@@ -51,6 +51,11 @@ struct CollectiveError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/** Collective: unless every rank passes the same `hash` (of its options and inputs), every
+ *  rank throws CollectiveError(what + " differ between ranks"). */
+void
+requireSameOnAllRanks(MPI_Comm comm, std::uint64_t hash, const std::string& what);
+
 /** Collective: if any rank's `error` is non-empty, every rank throws CollectiveError with
  *  one message composed on rank 0 ("rank r of N: error", for each failed rank). */
 void

@@ -48,9 +48,10 @@ struct SegmentsReport {
  * poses, links and kept scans bit-identical to slam::mapSegments with the same segment
  * size in one process, for any rank and thread count. Errors (a scan a rank cannot read,
  * different options or inputs on different ranks) are thrown on every rank as one
- * std::runtime_error composed on rank 0 (throwIfAnyFailed). `progress` is called on
- * each rank after each scan its front ends match ("match", done, this rank's total),
- * then after each scan joined into the graph ("join", done, num_scans).
+ * CollectiveError composed on rank 0 (throwIfAnyFailed, requireSameOnAllRanks).
+ * `progress` is called on each rank after each scan its front ends match ("match",
+ * done, this rank's total), then after each scan joined into the graph ("join", done,
+ * num_scans).
  */
 std::unique_ptr<slam::Pipeline>
 mapSegments(MPI_Comm comm,

@@ -162,12 +162,7 @@ DistributedLUM<PointT>::computeOn(Lum& lum,
   }
   throwIfAnyFailed(comm, error);
   // Every rank must run the same relaxation (only the thread count may differ).
-  const std::uint64_t hash = configHash(lum);
-  std::uint64_t lo = 0, hi = 0;
-  MPI_Allreduce(&hash, &lo, 1, MPI_UINT64_T, MPI_MIN, comm);
-  MPI_Allreduce(&hash, &hi, 1, MPI_UINT64_T, MPI_MAX, comm);
-  if (lo != hi)
-    throw std::runtime_error(where + "the graph or the pLUM options differ between ranks");
+  requireSameOnAllRanks(comm, configHash(lum), where + "the graph or the pLUM options");
 
   std::vector<double> buffer;
   broadcastPoses(lum, comm, buffer, nullptr, 0); // rank 0's start poses
