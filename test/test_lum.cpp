@@ -572,7 +572,9 @@ TEST_F(QuietPcl, PlumBidirectionalAndDuplicateLinksAreDeterministic)
 // The gate schedule, the option setters' validation and the iteration callback.
 // Normals given with setPointNormals (by point index) are what pLUM would estimate itself
 // when they are the same numbers: bit-identical poses, so they reach each tree position
-// of the right point. Other normals change the result; a wrong count is an error.
+// of the right point. Other normals change the result; a wrong count is an error. The
+// normals one ParallelLUM used (getPointNormals, in the cloud's order) given to another
+// pair its vertex the same (how a scan moves between MPI ranks).
 TEST_F(QuietPcl, PlumTakesGivenNormals)
 {
   const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
@@ -580,7 +582,7 @@ TEST_F(QuietPcl, PlumTakesGivenNormals)
                        makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
   const PlumScene s = plumScene(truth, 61);
   const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 62);
-  enum class Normals { kEstimated, kGiven, kZero };
+  enum class Normals { kEstimated, kGiven, kZero, kFromAnother };
   auto run = [&](Normals mode) {
     ParallelLUM<pcl::PointXYZ> lum;
     for (std::size_t v = 0; v < s.clouds.size(); ++v)
@@ -593,6 +595,15 @@ TEST_F(QuietPcl, PlumTakesGivenNormals)
     lum.setMaxIterations(3);
     for (std::size_t v = 0; mode != Normals::kEstimated && v < s.clouds.size(); ++v) {
       std::vector<Eigen::Vector3f> given(s.clouds[v]->size(), Eigen::Vector3f::Zero());
+      if (mode == Normals::kFromAnother) {
+        ParallelLUM<pcl::PointXYZ> other;
+        other.setPointToPlane(true);
+        other.addPointCloud(s.clouds[v]);
+        EXPECT_TRUE(other.getPointNormals(0).empty()) << "none before the tree";
+        other.getSearchTree(0); // estimates them
+        given = other.getPointNormals(0);
+        EXPECT_EQ(given.size(), s.clouds[v]->size());
+      }
       if (mode == Normals::kGiven) {
         const pcl_parallel::KdTreeIndex& tree =
             *lum.getSearchTree(v); // its normals: by tree position
@@ -609,9 +620,10 @@ TEST_F(QuietPcl, PlumTakesGivenNormals)
     return out;
   };
   const Poses estimated = run(Normals::kEstimated), given = run(Normals::kGiven),
-              zero = run(Normals::kZero);
+              zero = run(Normals::kZero), from_another = run(Normals::kFromAnother);
   for (std::size_t v = 1; v < estimated.size(); ++v) {
     EXPECT_EQ(given[v], estimated[v]) << "vertex " << v;
+    EXPECT_EQ(from_another[v], estimated[v]) << "vertex " << v;
     EXPECT_NE(zero[v], estimated[v]) << "vertex " << v;
   }
   ParallelLUM<pcl::PointXYZ> lum;

@@ -207,12 +207,15 @@ runPslam(int argc, char** argv)
   MPI_Barrier(MPI_COMM_WORLD);
   const double t2 = now();
   const auto peaks = peakMiB(size);
+  // What each rank keeps of the graph: scans and bytes (points, trees, normals).
+  unsigned long kept[2] = {pipeline->keptScans(), pipeline->bytesPerScan() * n};
+  std::vector<unsigned long> kepts(2 * static_cast<std::size_t>(size));
+  MPI_Gather(kept, 2, MPI_UNSIGNED_LONG, kepts.data(), 2, MPI_UNSIGNED_LONG, 0, MPI_COMM_WORLD);
   if (rank != 0)
     return 0;
   std::size_t loops = 0;
   for (const auto& l : pipeline->links())
     loops += l.loop ? 1 : 0;
-  const std::size_t num_links = pipeline->links().size();
   using pcl_parallel::evaluation::Alignment;
   const auto ate = [&](const slam::Poses& poses) {
     return pcl_parallel::evaluation::absoluteTrajectoryError(poses, truth, Alignment::SE3)
@@ -237,19 +240,24 @@ runPslam(int argc, char** argv)
               st.loop_closing,
               pipeline->relaxations(),
               t2 - t1);
-  std::printf("  ATE front end %.2f cm, final %.2f cm; %zu loop links; matched scans sent "
-              "%.1f MB; pLUM sends %.1f kB per iteration\n",
+  std::printf("  ATE front end %.2f cm, final %.2f cm; %zu loop links; sent outside pLUM "
+              "%.2f MB (%zu scans point to point); pLUM sends %.1f kB per iteration\n",
               ate(pipeline->frontEndPoses()),
               ate(pipeline->poses()),
               loops,
               report.bytes_shared / 1e6,
-              pcl_parallel::mpi::DistributedLUM<pcl::PointXYZ>::bytesPerIteration(
-                  num_links, pipeline->size(), size) /
-                  1e3);
+              report.scans_sent,
+              report.lum_bytes_per_iteration / 1e3);
   const std::size_t segment_size = segments ? (n + segments - 1) / segments : n;
   for (int r = 0; r < size; ++r) {
     const auto [begin, end] = pcl_parallel::mpi::scansOfRank(n, segment_size, r, size);
-    std::printf("  rank %d: scans %zu-%zu, peak RSS %.0f MiB\n", r, begin, end, peaks[r]);
+    std::printf("  rank %d: scans %zu-%zu, keeps %lu scans (%.1f MB), peak RSS %.0f MiB\n",
+                r,
+                begin,
+                end,
+                kepts[2 * r],
+                kepts[2 * r + 1] / 1e6,
+                peaks[r]);
   }
   return 0;
 }

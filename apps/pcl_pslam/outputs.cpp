@@ -493,7 +493,9 @@ writeOutputs(const Options& o,
                      {"overlap", params.segment_overlap},
                      {"ranks", r.ranks},
                      {"rank0_wait_seconds", r.wait_seconds},
-                     {"bytes_shared", r.bytes_shared}};
+                     {"bytes_shared", r.bytes_shared},
+                     {"scans_sent", r.scans_sent},
+                     {"max_kept_scans", r.max_kept_scans}};
   j["relaxations"] = r.relaxations;
   nlohmann::json stages = nlohmann::json::array();
   for (const auto& s : progress.stages())

@@ -63,6 +63,10 @@ run(const ScanReader& read,
           pcl_parallel::mpi::scansOfRank(n, size, result.rank, result.ranks);
       result.wait_seconds = report.wait_seconds;
       result.bytes_shared = report.bytes_shared;
+      result.scans_sent = report.scans_sent;
+      unsigned long kept = report.kept_scans, most = 0;
+      MPI_Allreduce(&kept, &most, 1, MPI_UNSIGNED_LONG, MPI_MAX, MPI_COMM_WORLD);
+      result.max_kept_scans = most;
     }
 #endif
     if (!owned) {

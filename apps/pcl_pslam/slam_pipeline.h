@@ -61,7 +61,9 @@ struct Result {
   std::size_t segments = 0, segment_size = 0, own_begin = 0, own_end = 0;
   int rank = 0, ranks = 1;
   double wait_seconds = 0.0;      ///< MPI: waiting for the other ranks' front ends
-  std::uint64_t bytes_shared = 0; ///< MPI: matched scans sent between ranks
+  std::uint64_t bytes_shared = 0; ///< MPI: sent between ranks outside pLUM
+  std::size_t scans_sent = 0;     ///< MPI: scans sent to the rank of a link to them
+  std::size_t max_kept_scans = 0; ///< MPI: the most scans whose points one rank keeps
 };
 
 /** Scan k (0-based), read when the pipeline needs it. */

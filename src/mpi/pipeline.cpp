@@ -85,15 +85,21 @@ private:
 };
 
 void
+writePoints(Writer& w, const slam::Cloud& points, const std::vector<Eigen::Vector3f>& normals)
+{
+  w.put<std::uint64_t>(points.size());
+  for (const auto& p : points)
+    w.put(p.x), w.put(p.y), w.put(p.z);
+  w.put<std::uint64_t>(normals.size());
+  for (const auto& n : normals)
+    w.putMatrix(n);
+}
+
+/** A matched scan without its points and normals (the owner keeps those). */
+void
 writeMatched(Writer& w, const slam::MatchedScan& m)
 {
   const slam::FrontEndResult& fe = m.front_end;
-  w.put<std::uint64_t>(fe.reduced->size());
-  for (const auto& p : *fe.reduced)
-    w.put(p.x), w.put(p.y), w.put(p.z);
-  w.put<std::uint64_t>(fe.normals.size());
-  for (const auto& n : fe.normals)
-    w.putMatrix(n);
   w.putMatrix(fe.pose);
   w.putMatrix(fe.prediction);
   w.putMatrix(m.step);
@@ -110,21 +116,27 @@ writeMatched(Writer& w, const slam::MatchedScan& m)
   w.put(r.seconds);
 }
 
+slam::Cloud::Ptr
+readPoints(Reader& in, std::vector<Eigen::Vector3f>& normals)
+{
+  slam::Cloud::Ptr points(new slam::Cloud);
+  points->resize(in.get<std::uint64_t>());
+  for (auto& p : *points) {
+    p.x = in.get<float>();
+    p.y = in.get<float>();
+    p.z = in.get<float>();
+  }
+  normals.resize(in.get<std::uint64_t>());
+  for (auto& n : normals)
+    in.getMatrix(n);
+  return points;
+}
+
 slam::MatchedScan
 readMatched(Reader& in)
 {
   slam::MatchedScan m;
   slam::FrontEndResult& fe = m.front_end;
-  fe.reduced.reset(new slam::Cloud);
-  fe.reduced->resize(in.get<std::uint64_t>());
-  for (auto& p : *fe.reduced) {
-    p.x = in.get<float>();
-    p.y = in.get<float>();
-    p.z = in.get<float>();
-  }
-  fe.normals.resize(in.get<std::uint64_t>());
-  for (auto& n : fe.normals)
-    in.getMatrix(n);
   in.getMatrix(fe.pose);
   in.getMatrix(fe.prediction);
   in.getMatrix(m.step);
@@ -195,13 +207,62 @@ scansOfRank(std::size_t num_scans, std::size_t segment_size, int rank, int size)
   return {segments[begin].begin, segments[end - 1].end};
 }
 
-slam::LoopCloser::Relaxation
-relaxOverRanks(MPI_Comm comm)
+RankExchange::RankExchange(MPI_Comm comm, std::function<int(std::size_t)> owner)
+    : comm_(comm)
+    , owner_(std::move(owner))
 {
-  auto reasons = std::make_shared<std::vector<std::string>>();
-  return [comm, reasons](ParallelLUM<slam::PointT>& lum) {
-    DistributedLUM<slam::PointT>::computeOn(lum, comm, *reasons);
-  };
+  MPI_Comm_rank(comm_, &rank_);
+  MPI_Comm_size(comm_, &size_);
+}
+
+void
+RankExchange::broadcast(int root, std::vector<double>& values)
+{
+  std::uint64_t n = values.size();
+  MPI_Bcast(&n, 1, MPI_UINT64_T, root, comm_);
+  values.resize(n);
+  MPI_Bcast(values.data(), static_cast<int>(n), MPI_DOUBLE, root, comm_);
+  if (rank_ == root)
+    bytes_sent_ += (n + 1) * sizeof(double) * static_cast<std::uint64_t>(size_ - 1);
+}
+
+void
+RankExchange::maximum(std::vector<double>& values)
+{
+  MPI_Allreduce(
+      MPI_IN_PLACE, values.data(), static_cast<int>(values.size()), MPI_DOUBLE, MPI_MAX, comm_);
+  if (size_ > 1)
+    bytes_sent_ += values.size() * sizeof(double);
+}
+
+void
+RankExchange::send(int from, int to, slam::KeptScan& scan)
+{
+  constexpr int kTag = 12;
+  if (rank_ == from) {
+    Writer w;
+    writePoints(w, *scan.points, scan.normals);
+    std::uint64_t n = w.bytes().size();
+    MPI_Send(&n, 1, MPI_UINT64_T, to, kTag, comm_);
+    MPI_Send(w.bytes().data(), static_cast<int>(n), MPI_BYTE, to, kTag, comm_);
+    bytes_sent_ += n;
+    ++scans_sent_;
+  }
+  else if (rank_ == to) {
+    std::uint64_t n = 0;
+    MPI_Recv(&n, 1, MPI_UINT64_T, from, kTag, comm_, MPI_STATUS_IGNORE);
+    std::vector<char> bytes(n);
+    MPI_Recv(bytes.data(), static_cast<int>(n), MPI_BYTE, from, kTag, comm_, MPI_STATUS_IGNORE);
+    Reader in(bytes);
+    scan.points = readPoints(in, scan.normals);
+  }
+}
+
+void
+RankExchange::relax(ParallelLUM<slam::PointT>& lum)
+{
+  DistributedLUM<slam::PointT>::computeOn(
+      lum, comm_, reasons_, [this](std::size_t source, std::size_t) { return owner_(source); });
 }
 
 std::unique_ptr<slam::Pipeline>
@@ -210,7 +271,7 @@ mapSegments(MPI_Comm comm,
             std::size_t num_scans,
             std::size_t segment_size,
             std::size_t overlap,
-            const slam::ScanSource& read,
+            const slam::ScanSource& source,
             SegmentsReport* report,
             const slam::SegmentProgress& progress)
 {
@@ -227,6 +288,7 @@ mapSegments(MPI_Comm comm,
                         "mpi::mapSegments: the options or the number of scans");
 
   // The automatic lengths, from scan 0 on rank 0.
+  slam::ScanSource read = source;
   std::string error;
   std::vector<slam::Segment> segments;
   double range = 0.0;
@@ -234,12 +296,8 @@ mapSegments(MPI_Comm comm,
     segments = slam::splitSequence(num_scans, segment_size, overlap);
     if (num_scans == 0)
       throw std::invalid_argument("no scans");
-    if (rank == 0) {
-      const slam::Cloud::Ptr first = read(0).first;
-      if (!first)
-        throw std::invalid_argument("scan 0 could not be read");
-      range = slam::sequenceMedianRange(*first, params);
-    }
+    if (rank == 0) // its first segment starts with scan 0
+      range = slam::sequenceMedianRange(read, params);
   }
   catch (const std::exception& e) {
     error = e.what();
@@ -276,10 +334,21 @@ mapSegments(MPI_Comm comm,
   out.segments = segments.size();
   out.own_segments = own_end - own_begin;
 
-  // Loop closing over the whole sequence, the same on every rank: each segment's matched
-  // scans from the rank that owns it, in order; pLUM over the ranks.
+  // Loop closing over the whole sequence, the same graph on every rank: each segment's
+  // matched scans (steps, information, reports) from the rank that owns it, in order;
+  // their points stay there (RankExchange).
+  std::vector<std::size_t> ends; // of the own scans of ranks 0, 1, ... that have any
+  for (int r = 0; r < size; ++r) {
+    const auto [b, e] = scansOfRank(num_scans, segment_size, r, size);
+    if (b < e)
+      ends.push_back(e);
+  }
+  const auto exchange = std::make_shared<RankExchange>(comm, [ends](std::size_t i) {
+    return static_cast<int>(std::upper_bound(ends.begin(), ends.end(), i) - ends.begin());
+  });
   std::unique_ptr<slam::Pipeline> pipeline(new slam::Pipeline(params, range));
-  pipeline->setRelaxation(relaxOverRanks(comm));
+  pipeline->setExchange(exchange);
+  std::uint64_t sent = 0; // by this rank
   for (int owner = 0; owner < size; ++owner) {
     const auto [begin, end] = linkRange(segments.size(), owner, size);
     for (std::size_t s = begin; s < end; ++s) {
@@ -292,7 +361,7 @@ mapSegments(MPI_Comm comm,
           for (const auto& m : scans)
             writeMatched(w, m);
           broadcastBytes(comm, owner, w.bytes());
-          out.bytes_shared += w.bytes().size() * static_cast<std::size_t>(size - 1);
+          sent += w.bytes().size() * static_cast<std::size_t>(size - 1);
         }
       }
       else {
@@ -310,9 +379,20 @@ mapSegments(MPI_Comm comm,
       }
     }
   }
-  std::uint64_t sent = out.bytes_shared; // this rank's; the report gives all ranks'
-  MPI_Allreduce(&sent, &out.bytes_shared, 1, MPI_UINT64_T, MPI_SUM, comm);
   pipeline->addTimes(times);
+  // finish() relaxes once more: the report's bytes come from the exchange, which the
+  // pipeline keeps; counted here up to the joins.
+  sent += exchange->bytesSent();
+  std::uint64_t counts[2] = {sent, exchange->scansSent()}, all[2] = {0, 0};
+  MPI_Allreduce(counts, all, 2, MPI_UINT64_T, MPI_SUM, comm);
+  out.bytes_shared = all[0];
+  out.scans_sent = all[1];
+  out.kept_scans = pipeline->keptScans();
+  std::size_t remote_links = 0; // measured off rank 0: their blocks travel
+  for (const slam::Link& l : pipeline->links())
+    remote_links += exchange->owner(l.source) != 0 ? 1 : 0;
+  out.lum_bytes_per_iteration =
+      DistributedLUM<slam::PointT>::iterationBytes(remote_links, num_scans, size);
   return pipeline;
 }
 

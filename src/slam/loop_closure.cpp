@@ -21,8 +21,9 @@ namespace slam {
 struct LoopCloser::Impl {
   ParallelLUM<PointT> lum;
   ParallelIterativeClosestPoint<PointT, PointT, double> icp;
-  std::vector<std::shared_ptr<const KdTreeIndex>> trees; ///< pLUM's, per scan: overlap
-  std::size_t points = 0;
+  std::vector<std::shared_ptr<const KdTreeIndex>> trees; ///< pLUM's, per own scan: overlap
+  std::size_t points = 0;                                ///< of every scan
+  std::size_t kept_points = 0;                           ///< of the scans held here
 };
 
 namespace {
@@ -72,26 +73,61 @@ LoopCloser::LoopCloser(const LoopClosureParameters& params)
 LoopCloser::~LoopCloser() = default;
 
 void
+LoopCloser::setExchange(std::shared_ptr<ScanExchange> exchange)
+{
+  if (!scans_.empty())
+    throw std::logic_error("LoopCloser::setExchange: set it before the first scan");
+  exchange_ = std::move(exchange);
+}
+
+int
+LoopCloser::owner(std::size_t i) const
+{
+  return exchange_ ? exchange_->owner(i) : 0;
+}
+
+bool
+LoopCloser::owns(std::size_t i) const
+{
+  return !exchange_ || exchange_->owner(i) == exchange_->rank();
+}
+
+void
 LoopCloser::addScan(const Cloud::ConstPtr& scan,
                     const Pose& pose,
                     std::vector<Eigen::Vector3f> normals,
                     const Information& information,
-                    double information_pairs)
+                    double information_pairs,
+                    std::size_t num_points)
 {
+  const std::size_t j = scans_.size();
+  const bool own = owns(j);
+  if (own != static_cast<bool>(scan))
+    throw std::invalid_argument("LoopCloser::addScan: scan " + std::to_string(j) +
+                                (own ? " has no points" : " is another process's"));
   // ParallelLUM takes PCL's non-const pointer; it never modifies the cloud.
   const auto v = impl_->lum.addPointCloud(std::const_pointer_cast<Cloud>(scan),
                                           Eigen::Matrix4f(pose.cast<float>()));
   impl_->lum.setPoseMatrix(v, pose); // keep the double pose
-  if (params_.lum_point_to_plane && !normals.empty())
-    impl_->lum.setPointNormals(v, std::move(normals));
-  impl_->points += scan->size();
-  impl_->trees.push_back(impl_->lum.getSearchTree(v));
+  if (own) {
+    if (params_.lum_point_to_plane && !normals.empty())
+      impl_->lum.setPointNormals(v, std::move(normals));
+    impl_->trees.push_back(impl_->lum.getSearchTree(v));
+    num_points = scan->size();
+    impl_->kept_points += num_points;
+  }
+  else
+    impl_->trees.emplace_back();
+  impl_->points += num_points;
+  sizes_.push_back(static_cast<std::uint32_t>(num_points));
+  borrowed_.push_back(0);
   scans_.push_back(scan);
   poses_.push_back(pose);
-  if (scans_.size() > 1) {
-    const auto j = static_cast<std::uint32_t>(scans_.size() - 1);
-    links_.push_back({j - 1, j, false});
+  if (j > 0) {
+    links_.push_back({static_cast<std::uint32_t>(j - 1), static_cast<std::uint32_t>(j), false});
     impl_->lum.addLink(j, j - 1);
+    share(j - 1, owner(j)); // a link is measured where its source is kept
+    borrow(j - 1, owner(j));
     if (params_.sequence_constraints && information_pairs > 0.0 && !information.isZero()) {
       const double pairs = 2.0 * static_cast<double>(params_.lum_queries_per_scan);
       impl_->lum.addPoseConstraint(j,
@@ -99,9 +135,112 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
                                    poses_[j - 1].inverse() * pose,
                                    information * (pairs / information_pairs),
                                    params_.sequence_cauchy_scale);
-      constrained_.push_back(j);
+      constrained_.push_back(static_cast<std::uint32_t>(j));
     }
   }
+}
+
+void
+LoopCloser::share(std::size_t i, int to)
+{
+  const int from = owner(i);
+  if (!exchange_ || from == to)
+    return;
+  const int rank = exchange_->rank();
+  KeptScan kept;
+  if (rank == from) {
+    kept.points = scans_[i];
+    if (params_.lum_point_to_plane)
+      kept.normals = impl_->lum.getPointNormals(i);
+  }
+  exchange_->send(from, to, kept);
+  if (rank != to || impl_->lum.getPointCloud(i)) // held already
+    return;
+  impl_->lum.setPointCloud(i, std::const_pointer_cast<Cloud>(kept.points));
+  if (!kept.normals.empty())
+    impl_->lum.setPointNormals(i, std::move(kept.normals));
+  impl_->kept_points += kept.points->size();
+}
+
+void
+LoopCloser::borrow(std::size_t i, int by)
+{
+  if (exchange_ && exchange_->rank() == by && !owns(i))
+    ++borrowed_[i];
+}
+
+void
+LoopCloser::release(std::size_t i)
+{
+  if (owns(i) || borrowed_[i] > 0 || !impl_->lum.getPointCloud(i))
+    return;
+  impl_->kept_points -= impl_->lum.getPointCloud(i)->size();
+  impl_->lum.setPointCloud(i, nullptr);
+}
+
+std::vector<double>
+LoopCloser::firstLook(const std::vector<std::uint32_t>& candidates)
+{
+  const std::size_t j = scans_.size() - 1;
+  const std::size_t step = std::max<std::size_t>(1, sizes_[j] / 256);
+  std::vector<double> sample; // x, y, z of every step-th point
+  if (owns(j))
+    for (std::size_t k = 0; k < scans_[j]->size(); k += step) {
+      const auto& p = (*scans_[j])[k];
+      sample.insert(sample.end(), {p.x, p.y, p.z});
+    }
+  const bool elsewhere = std::any_of(
+      candidates.begin(), candidates.end(), [&](auto i) { return owner(i) != owner(j); });
+  if (elsewhere)
+    exchange_->broadcast(owner(j), sample);
+  Cloud points;
+  for (std::size_t k = 0; k + 2 < sample.size(); k += 3)
+    points.push_back(PointT(static_cast<float>(sample[k]),
+                            static_cast<float>(sample[k + 1]),
+                            static_cast<float>(sample[k + 2])));
+  std::vector<double> overlaps(candidates.size(), -1.0);
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    const std::uint32_t i = candidates[k];
+    if (owns(i))
+      overlaps[k] = overlap(points,
+                            Pose(poses_[i].inverse() * poses_[j]),
+                            *impl_->trees[i],
+                            params_.overlap_distance * 2.0,
+                            1);
+  }
+  if (exchange_)
+    exchange_->maximum(overlaps);
+  return overlaps;
+}
+
+std::vector<double>
+LoopCloser::matchPair(std::uint32_t i)
+{
+  const std::size_t j = scans_.size() - 1;
+  share(i, owner(j));
+  std::vector<double> result(18, 0.0);
+  if (owns(j)) {
+    const Cloud::ConstPtr target =
+        scans_[i] ? scans_[i] : Cloud::ConstPtr(impl_->lum.getPointCloud(i));
+    auto& icp = impl_->icp;
+    icp.setInputSource(params_.icp_source_voxel_size > 0.0
+                           ? filters::voxelCentroid(
+                                 *scans_[j], params_.icp_source_voxel_size, params_.num_threads)
+                           : scans_[j]);
+    icp.setInputTarget(target);
+    Cloud aligned;
+    icp.align(aligned, Pose(poses_[i].inverse() * poses_[j]));
+    if (icp.hasConverged()) {
+      const Pose measured = icp.getFinalTransformation();
+      result[0] = 1.0;
+      Pose::Map(&result[1]) = measured;
+      result[17] = overlap(
+          *scans_[j], measured, *impl_->lum.getSearchTree(i), params_.overlap_distance, 1);
+    }
+  }
+  if (exchange_)
+    exchange_->broadcast(owner(j), result);
+  return result;
 }
 
 std::vector<LoopCandidate>
@@ -122,19 +261,12 @@ LoopCloser::detect()
   const std::size_t limit = static_cast<std::size_t>(std::max(1, params_.max_candidates));
   if (candidates.size() > limit)
     candidates.resize(limit);
-  const Cloud& scan = *scans_[j];
-  const std::size_t step = std::max<std::size_t>(1, scan.size() / 256);
+  const std::vector<double> overlaps = firstLook(candidates);
   double best = -1.0;
   std::uint32_t best_i = 0;
-  for (const std::uint32_t i : candidates) {
-    const double o = overlap(scan,
-                             Pose(poses_[i].inverse() * poses_[j]),
-                             *impl_->trees[i],
-                             params_.overlap_distance * 2.0,
-                             step);
-    if (o > best)
-      best = o, best_i = i;
-  }
+  for (std::size_t k = 0; k < candidates.size(); ++k)
+    if (overlaps[k] > best)
+      best = overlaps[k], best_i = candidates[k];
   LoopCandidate c;
   c.link = {best_i, static_cast<std::uint32_t>(j), true};
   c.overlap = best;
@@ -143,18 +275,11 @@ LoopCloser::detect()
     return tried;
   }
   const std::uint32_t i = best_i;
-  auto& icp = impl_->icp;
-  icp.setInputSource(
-      params_.icp_source_voxel_size > 0.0
-          ? filters::voxelCentroid(scan, params_.icp_source_voxel_size, params_.num_threads)
-          : scans_[j]);
-  icp.setInputTarget(scans_[i]);
-  Cloud aligned;
-  icp.align(aligned, Pose(poses_[i].inverse() * poses_[j]));
+  const std::vector<double> match = matchPair(i);
   Pose measured = Pose::Identity();
-  if (icp.hasConverged()) {
-    measured = icp.getFinalTransformation();
-    c.overlap = overlap(scan, measured, *impl_->trees[i], params_.overlap_distance, 1);
+  if (match[0] != 0.0) {
+    measured = Pose::Map(&match[1]);
+    c.overlap = match[17];
     c.error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j],
                                                params_.median_range);
     double path = 0.0; // what the front end travelled from i to j
@@ -171,7 +296,10 @@ LoopCloser::detect()
     links_.push_back(c.link);
     loop_sources_.push_back(static_cast<std::uint32_t>(j));
     impl_->lum.addLink(j, i);
+    borrow(i, owner(j)); // matchPair brought it where j is kept
   }
+  else
+    release(i);
   tried.push_back(c);
   return tried;
 }
@@ -189,8 +317,8 @@ LoopCloser::relax(int max_iterations)
   const std::size_t mean = impl_->points / poses_.size();
   const std::size_t per_scan = std::max<std::size_t>(1, params_.lum_queries_per_scan);
   lum.setQueryStep(std::max<std::size_t>(1, mean / per_scan));
-  if (relaxation_)
-    relaxation_(lum);
+  if (exchange_)
+    exchange_->relax(lum);
   else
     lum.compute();
   for (std::size_t v = 0; v < poses_.size(); ++v)
@@ -208,6 +336,15 @@ LoopCloser::sequenceChi2() const
 }
 
 std::size_t
+LoopCloser::keptScans() const
+{
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < scans_.size(); ++i)
+    kept += owns(i) || borrowed_[i] > 0 ? 1 : 0;
+  return kept;
+}
+
+std::size_t
 LoopCloser::bytesPerScan() const
 {
   if (scans_.empty())
@@ -216,7 +353,8 @@ LoopCloser::bytesPerScan() const
   // copied as float[3], an id, ~1/6 node of 16 B each), normals in point-to-plane mode.
   const double tree = 12 + 4 + 16.0 / 6;
   const double per_point = sizeof(PointT) + tree + (params_.lum_point_to_plane ? 12 : 0);
-  return static_cast<std::size_t>(per_point * impl_->points / scans_.size()) + sizeof(Pose);
+  return static_cast<std::size_t>(per_point * impl_->kept_points / scans_.size()) +
+         sizeof(Pose);
 }
 
 std::vector<std::uint32_t>

@@ -121,15 +121,14 @@ Pipeline::start(double median_range)
   loop_params_ = slam::loopClosureParameters(params_, median_range);
   front_end_.reset(new FrontEnd(front_end_params_));
   loops_.reset(new LoopCloser(loop_params_));
-  loops_->setRelaxation(relaxation_);
 }
 
 void
-Pipeline::setRelaxation(Relaxation relaxation)
+Pipeline::setExchange(std::shared_ptr<ScanExchange> exchange)
 {
-  relaxation_ = std::move(relaxation);
-  if (loops_)
-    loops_->setRelaxation(relaxation_);
+  if (!loops_)
+    throw std::logic_error("Pipeline::setExchange: construct with the median range");
+  loops_->setExchange(std::move(exchange));
 }
 
 std::size_t
@@ -213,8 +212,12 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
   auto stage = Clock::now();
-  loops_->addScan(
-      fe.reduced, pose, std::move(fe.normals), fe.information, fe.information_pairs);
+  loops_->addScan(fe.reduced,
+                  pose,
+                  std::move(fe.normals),
+                  fe.information,
+                  fe.information_pairs,
+                  report.reduced_points);
   if (params_.close_loops) {
     report.loops = loops_->detect();
     const auto found = std::find_if(
@@ -290,6 +293,8 @@ Pipeline::map(double voxel_size) const
   if (!(voxel_size > 0.0)) { // every kept point, moved
     Cloud::Ptr all(new Cloud);
     for (std::size_t i = 0; i < size(); ++i) {
+      if (!loops_->scan(i))
+        continue; // another process's
       Cloud moved;
       pcl::transformPointCloud(*loops_->scan(i), moved, poses()[i]);
       *all += moved;
@@ -299,7 +304,8 @@ Pipeline::map(double voxel_size) const
   // Scan by scan into the voxels: no copy of all points (as the app's second pass).
   filters::VoxelCentroidMap map(voxel_size, params_.num_threads);
   for (std::size_t i = 0; i < size(); ++i)
-    map.add(*loops_->scan(i), poses()[i]);
+    if (loops_->scan(i))
+      map.add(*loops_->scan(i), poses()[i]);
   return map.centroids();
 }
 

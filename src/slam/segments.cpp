@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace pcl_parallel {
 namespace slam {
@@ -37,6 +38,21 @@ sequenceMedianRange(const Cloud& first_scan, const Parameters& params)
   if (cropped->empty())
     throw std::invalid_argument("scan 0 has no finite points in range");
   return medianRange(*cropped);
+}
+
+double
+sequenceMedianRange(ScanSource& read, const Parameters& params)
+{
+  auto first = read(0);
+  if (!first.first)
+    throw std::invalid_argument("scan 0 could not be read");
+  const double range = sequenceMedianRange(*first.first, params);
+  read = [first = std::move(first), read = std::move(read)](std::size_t i) mutable {
+    if (i == 0 && first.first)
+      return std::exchange(first, {});
+    return read(i);
+  };
+  return range;
 }
 
 std::vector<MatchedScan>
@@ -73,15 +89,13 @@ mapSegments(const Parameters& params,
             std::size_t num_scans,
             std::size_t segment_size,
             std::size_t overlap,
-            const ScanSource& read,
+            const ScanSource& source,
             const SegmentProgress& progress)
 {
   if (num_scans == 0)
     throw std::invalid_argument("mapSegments: no scans");
-  const Cloud::Ptr first = read(0).first;
-  if (!first)
-    throw std::invalid_argument("scan 0 could not be read");
-  const double range = sequenceMedianRange(*first, params);
+  ScanSource read = source;
+  const double range = sequenceMedianRange(read, params);
   std::unique_ptr<Pipeline> pipeline(new Pipeline(params, range));
   // All front ends first, then loop closing: the order mpi::mapSegments has.
   const std::vector<Segment> segments = splitSequence(num_scans, segment_size, overlap);

@@ -2,7 +2,8 @@
 # per rank alternating 1 and 2) the poses are bit-identical to `pcl_pslam run` with the
 # same --segment-size in one process without a launcher, every run exits 0, and the
 # outputs are complete: poses, frames, report.json and map.png once, the map as one tile
-# per rank (map_rank<r>.pcd) with several ranks, an empty one for a rank without a segment.
+# per rank (map_rank<r>.pcd) with several ranks, an empty one for a rank without a segment;
+# no rank keeps every scan's points.
 #   cmake -DPSLAM=exe -DMPIRUN="mpiexec|flags" -DNP_FLAG=-n -DDIR=scans -DOUT=dir -P ...
 cmake_minimum_required(VERSION 3.19)
 string(REPLACE "|" ";" mpirun "${MPIRUN}")
@@ -72,6 +73,12 @@ foreach(np 2 3)
   if(NOT last EQUAL last_alone OR last EQUAL 0)
     message(FATAL_ERROR "np ${np}: report.json gives scan 10 ${last} points (alone: "
       "${last_alone})")
+  endif()
+  # No rank keeps the whole survey's points (its own scans and its links' others only).
+  string(JSON kept GET "${report}" segments max_kept_scans)
+  string(JSON num_scans LENGTH "${report}" scans)
+  if(NOT kept GREATER 0 OR NOT kept LESS num_scans)
+    message(FATAL_ERROR "np ${np}: a rank keeps ${kept} of ${num_scans} scans")
   endif()
   math(EXPR most "${alone} * ${np}")
   if(NOT ranks EQUAL np OR tiles LESS alone OR tiles GREATER most)

@@ -108,12 +108,19 @@ public:
   void
   compute();
 
-  /** Collective: compute() on a ParallelLUM that holds the graph and every cloud its
-   *  rank's links need (e.g. the same graph on every rank, as slam::LoopCloser builds
-   *  it); the links are split as by setGraph. `remote_reasons` keeps the texts of links
-   *  dropped on other ranks (the ParallelLUM points to them) and must outlive it. */
+  /** The rank that measures a link (source, target) in computeOn. */
+  using LinkOwner = std::function<int(std::size_t source, std::size_t target)>;
+
+  /** Collective: compute() on a ParallelLUM that holds the same graph on every rank and
+   *  the clouds of the links this rank measures: those `owner` gives it (e.g. the rank
+   *  that keeps the source scan, as mpi::exchangeOverRanks does), or without one the
+   *  split of setGraph. `remote_reasons` keeps the texts of links dropped on other ranks
+   *  (the ParallelLUM points to them) and must outlive it. */
   static void
-  computeOn(Lum& lum, MPI_Comm comm, std::vector<std::string>& remote_reasons);
+  computeOn(Lum& lum,
+            MPI_Comm comm,
+            std::vector<std::string>& remote_reasons,
+            const LinkOwner& owner = {});
 
   /** The pose of any vertex, the same on every rank after compute(). */
   Eigen::Matrix4d
@@ -148,6 +155,9 @@ public:
   /** ... for a graph of num_links links and num_vertices vertices over `size` ranks. */
   static std::uint64_t
   bytesPerIteration(std::size_t num_links, std::size_t num_vertices, int size);
+  /** ... when `remote_links` links are measured off rank 0 (e.g. computeOn's owner). */
+  static std::uint64_t
+  iterationBytes(std::size_t remote_links, std::size_t num_vertices, int size);
   int
   getRank() const
   {

@@ -10,15 +10,65 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
 namespace pcl_parallel {
 namespace mpi {
 
-/** pLUM for slam::LoopCloser / slam::Pipeline (setRelaxation) over the ranks of `comm`:
- *  DistributedLUM::computeOn on the graph every rank holds. Collective in each relax();
- *  the poses are bit-identical to ParallelLUM::compute for any rank count. */
-slam::LoopCloser::Relaxation
-relaxOverRanks(MPI_Comm comm);
+/**
+ * \brief slam::ScanExchange over the ranks of `comm` (slam::LoopCloser::setExchange,
+ * slam::Pipeline::setExchange): scan i's points are kept by rank owner(i); a scan goes
+ * point to point to the rank that measures a link to it, a loop check's sample is
+ * broadcast, and pLUM runs as DistributedLUM::computeOn with each link measured by the
+ * owner of its source scan. Poses bit-identical to one process for any rank count.
+ */
+class RankExchange : public slam::ScanExchange {
+public:
+  /** owner(i): the rank that keeps scan i (the same function on every rank). */
+  RankExchange(MPI_Comm comm, std::function<int(std::size_t scan)> owner);
+
+  int
+  rank() const override
+  {
+    return rank_;
+  }
+  int
+  owner(std::size_t scan) const override
+  {
+    return owner_(scan);
+  }
+  void
+  broadcast(int root, std::vector<double>& values) override;
+  void
+  maximum(std::vector<double>& values) override;
+  void
+  send(int from, int to, slam::KeptScan& scan) override;
+  void
+  relax(ParallelLUM<slam::PointT>& lum) override;
+
+  /** Payload bytes this rank sent (scans, samples and results; not pLUM's). */
+  std::uint64_t
+  bytesSent() const
+  {
+    return bytes_sent_;
+  }
+  /** Scans sent point to point by this rank. */
+  std::size_t
+  scansSent() const
+  {
+    return scans_sent_;
+  }
+
+private:
+  MPI_Comm comm_;
+  int rank_ = 0;
+  int size_ = 1;
+  std::function<int(std::size_t)> owner_;
+  std::vector<std::string> reasons_; ///< of links dropped on other ranks (pLUM points there)
+  std::uint64_t bytes_sent_ = 0;
+  std::size_t scans_sent_ = 0;
+};
 
 /** The scans [first, second) whose segments rank `rank` of `size` matches in
  *  mapSegments (its own scans, without the overlap; empty for a rank without a segment). */
@@ -32,7 +82,13 @@ struct SegmentsReport {
   std::size_t own_scans = 0;      ///< ... with this many own scans (without the overlap)
   double front_end_seconds = 0.0; ///< this rank's front ends
   double wait_seconds = 0.0;      ///< waiting for the other ranks' front ends
-  std::uint64_t bytes_shared = 0; ///< matched scans sent to the other ranks, all ranks
+  /** Bytes sent between ranks outside pLUM, all ranks: the matched scans' poses and
+   *  reports to every rank, scans to the rank of a link to them, loop-check samples. */
+  std::uint64_t bytes_shared = 0;
+  std::size_t scans_sent = 0; ///< scans sent point to point, all ranks
+  /** Scans whose reduced points this rank keeps: its own and those its links need. */
+  std::size_t kept_scans = 0;
+  std::uint64_t lum_bytes_per_iteration = 0; ///< pLUM's, all ranks, on the whole graph
 };
 
 /**
@@ -40,13 +96,15 @@ struct SegmentsReport {
  * "Segments"): the sequence is cut into segments of `segment_size` scans (slam::
  * splitSequence, `overlap` scans shared with the previous one), contiguous blocks of
  * segments go to the ranks (linkRange), each rank reads and matches only its segments'
- * scans, then every rank receives every matched scan, in order, and runs the same loop
- * closing over the whole sequence with pLUM spread over the ranks (relaxOverRanks).
+ * scans and keeps their reduced points; every rank receives every matched scan's step
+ * and report, in order, and runs the same loop closing over the whole sequence, with the
+ * scans spread (RankExchange): a rank never holds the whole survey.
  *
  * Collective. The lengths come from scan 0 on rank 0 (slam::sequenceMedianRange),
- * broadcast. Every rank returns the same pipeline (finish() is left to the caller):
- * poses, links and kept scans bit-identical to slam::mapSegments with the same segment
- * size in one process, for any rank and thread count. Errors (a scan a rank cannot read,
+ * broadcast. Every rank returns the same pipeline (finish() is left to the caller, and
+ * collective): poses, links and reports bit-identical to slam::mapSegments with the same
+ * segment size in one process, for any rank and thread count; reducedScan() and map()
+ * give this rank's own scans (scansOfRank). Errors (a scan a rank cannot read,
  * different options or inputs on different ranks) are thrown on every rank as one
  * CollectiveError composed on rank 0 (throwIfAnyFailed, requireSameOnAllRanks).
  * `progress` is called on each rank after each scan its front ends match ("match",

@@ -259,6 +259,11 @@ public:
    *  std::invalid_argument for a size other than the cloud's. */
   void
   setPointNormals(const Vertex& vertex, std::vector<Eigen::Vector3f> normals);
+  /** Point-to-plane mode: the normals pLUM uses for a vertex's points, in the cloud's
+   *  order (given, or estimated once its tree was built); empty if neither yet. Another
+   *  process given them (setPointNormals) with the cloud pairs the vertex the same. */
+  std::vector<Eigen::Vector3f>
+  getPointNormals(const Vertex& vertex) const;
   /** pLUM mode: pairing steps per link and iteration (default 1, the paper's step 1).
    *  With k > 1 each link first aligns its two scans by up to k - 1 steps of pairwise
    *  ICP (re-pairing each time, poses of the graph unchanged), and its measurement D-bar
@@ -424,16 +429,19 @@ private:
     std::vector<pcl::CorrespondencesPtr> link_corrs;
     std::vector<ThreadState> states; // paper Sec. IV-B/V: padded, one per thread
     std::vector<lum::Vector6d, Eigen::aligned_allocator<lum::Vector6d>> delta;
+    std::vector<std::size_t> mine; ///< the links this process measures, ascending
     bool plum = false;
     unsigned threads = 1;
   };
-  /** Syncs the poses, checks the graph and builds the trees. This process computes the
-   *  links [begin, end) of the link order: only their vertices need clouds and trees. */
+  /** Picks the links one process measures (indices into the link order, ascending). */
+  using LinkSelection = std::function<std::vector<std::size_t>(const std::vector<LinkRef>&)>;
+  /** Syncs the poses, checks the graph and builds the trees. This process measures the
+   *  links `select` picks (empty: all): only their vertices need clouds and trees. */
   void
-  beginCompute(Run& run, std::size_t begin, std::size_t end);
-  /** Steps 1-2 of iteration `it` for the links [begin, end): fills their blocks. */
+  beginCompute(Run& run, const LinkSelection& select = {});
+  /** Steps 1-2 of iteration `it` for the links run.mine: fills their blocks. */
   void
-  measureLinks(Run& run, int it, std::size_t begin, std::size_t end);
+  measureLinks(Run& run, int it);
   /** Steps 3-5 from all blocks; false when compute() is to stop. */
   bool
   solveIteration(Run& run, int it);
@@ -446,10 +454,11 @@ private:
   writeBackPoses();
   std::vector<LinkRef>
   collectLinks() const;
-  /** Clouds are checked for the vertices of links [begin, end) only (all: every vertex). */
+  /** Clouds are checked for the vertices of the links `mine` only (all links: every
+   *  vertex). */
   void
-  validate(const std::vector<LinkRef>& links, std::size_t begin, std::size_t end) const;
-  /** Trees of the vertices with needed[v] (null: all). */
+  validate(const std::vector<LinkRef>& links, const std::vector<std::size_t>& mine) const;
+  /** Trees of the vertices with needed[v] (null: all that have a cloud). */
   void
   buildTrees(const std::vector<char>* needed = nullptr);
   /** One pairing step of a link within max_distance, the source scan moved by `motion`

@@ -6,7 +6,6 @@
 
 #include <pcl_parallel/slam/types.h>
 
-#include <functional>
 #include <memory>
 #include <vector>
 
@@ -72,6 +71,45 @@ struct LoopCandidate {
   bool distributed = false; ///< the error was spread along the loop (the poses moved)
 };
 
+/** A reduced scan as the loop closer keeps it: points (scanner frame) and their normals
+ *  (empty: pLUM estimates them). */
+struct KeptScan {
+  Cloud::ConstPtr points;
+  std::vector<Eigen::Vector3f> normals;
+};
+
+/**
+ * \brief How a LoopCloser's scans are spread over processes (docs/design.md, "The graph
+ * over ranks"; mpi::exchangeOverRanks). Every process holds the whole pose graph (poses,
+ * links, constraints); a scan's points are kept by its owner and by the processes that
+ * measure a link to it. Every process makes the same calls in the same order (they are
+ * collective), and the results are bit-identical to one process that keeps every scan.
+ */
+class ScanExchange {
+public:
+  virtual ~ScanExchange() = default;
+  /** This process. */
+  virtual int
+  rank() const = 0;
+  /** The process that keeps scan i's points (and matches its loops). */
+  virtual int
+  owner(std::size_t scan) const = 0;
+  /** Collective: the values of process `root` on every process. */
+  virtual void
+  broadcast(int root, std::vector<double>& values) = 0;
+  /** Collective: the element-wise maximum of every process's values (of one length). */
+  virtual void
+  maximum(std::vector<double>& values) = 0;
+  /** Collective: `scan` of process `from` into `scan` of process `to` (from != to); the
+   *  other processes pass and get nothing. */
+  virtual void
+  send(int from, int to, KeptScan& scan) = 0;
+  /** Collective: pLUM on a graph that is the same on every process; each measures the
+   *  links whose source scan it owns (it holds both scans of those). */
+  virtual void
+  relax(ParallelLUM<PointT>& lum) = 0;
+};
+
 /**
  * \brief The pose graph and its loop closing (paper Sec. III, V, VI-C): scans are added
  * as the front end matches them (each linked to its predecessor); detect() links the
@@ -83,32 +121,27 @@ struct LoopCandidate {
  */
 class LoopCloser {
 public:
-  /** Runs pLUM on the graph as relax() set it up (poses, iterations, query step): by
-   *  default ParallelLUM::compute; mpi::relaxOverRanks spreads the links over MPI ranks
-   *  with the same result. */
-  using Relaxation = std::function<void(ParallelLUM<PointT>&)>;
-
   explicit LoopCloser(const LoopClosureParameters& params = LoopClosureParameters());
   ~LoopCloser();
 
-  /** How relax() runs pLUM (empty: ParallelLUM::compute). */
+  /** Spreads the scans over processes (before the first addScan); null: all kept here. */
   void
-  setRelaxation(Relaxation relaxation)
-  {
-    relaxation_ = std::move(relaxation);
-  }
+  setExchange(std::shared_ptr<ScanExchange> exchange);
 
   /** Adds the next scan (reduced, scanner frame) at its front-end pose, with its points'
    *  normals if the front end has them (FrontEndResult::normals; pLUM estimates them
    *  otherwise, from the reduced points), and the information of its match from that
    *  many pairs (FrontEndResult::information, information_pairs; zero: none), which
-   *  with sequence_constraints holds its pose relative to the previous scan. */
+   *  with sequence_constraints holds its pose relative to the previous scan. With an
+   *  exchange, a scan another process owns comes as null with its `num_points`.
+   *  Collective with an exchange, as detect() and relax(). */
   void
   addScan(const Cloud::ConstPtr& scan,
           const Pose& pose,
           std::vector<Eigen::Vector3f> normals = {},
           const Information& information = Information::Zero(),
-          double information_pairs = 0.0);
+          double information_pairs = 0.0,
+          std::size_t num_points = 0);
 
   /** Looks for loop links of the newest scan; adds the accepted ones to the graph and,
    *  with distribute_error and an error above overlap_distance, moves the poses since
@@ -136,32 +169,63 @@ public:
   {
     return links_;
   }
+  /** A scan's reduced points; null where another process owns it. */
   const Cloud::ConstPtr&
   scan(std::size_t i) const
   {
     return scans_[i];
   }
+  /** Scans whose points this process keeps: its own and those its links need. */
+  std::size_t
+  keptScans() const;
   /** Per scan, the squared Mahalanobis error of its sequence constraint at the current
    *  poses (after relax(): above sequence_cauchy_scale, the scans overruled the front
    *  end's step there); -1 where it has none (the first scan, a failed match). */
   std::vector<double>
   sequenceChi2() const;
 
-  /** Bytes held per scan on average (reduced points and their k-d tree). */
+  /** Bytes this process holds per scan of the graph (reduced points, their k-d trees and
+   *  normals). */
   std::size_t
   bytesPerScan() const;
 
 private:
   struct Impl;
 
+  /** The owner of scan i, or this process without an exchange. */
+  int
+  owner(std::size_t i) const;
+  bool
+  owns(std::size_t i) const;
+  /** Overlap of every-256th points of the newest scan with each candidate at the current
+   *  poses, computed where the candidate is kept. */
+  std::vector<double>
+  firstLook(const std::vector<std::uint32_t>& candidates);
+  /** pICP of the newest scan against scan i where the newest is kept: converged (0/1),
+   *  the measured pose of the newest in i's frame (16) and the overlap, on every process. */
+  std::vector<double>
+  matchPair(std::uint32_t i);
+  /** Collective: scan i's points from its owner to process `to`, which keeps them unless
+   *  it held them already (a no-op without an exchange or if `to` owns them). */
+  void
+  share(std::size_t i, int to);
+  /** On process `by`: one more link measured here needs scan i (if another's). */
+  void
+  borrow(std::size_t i, int by);
+  /** Drops scan i's points if this process holds them for no link. */
+  void
+  release(std::size_t i);
+
   LoopClosureParameters params_;
   std::unique_ptr<Impl> impl_;
-  std::vector<Cloud::ConstPtr> scans_;
+  std::shared_ptr<ScanExchange> exchange_;
+  std::vector<Cloud::ConstPtr> scans_;  ///< own scans (null: another process's)
+  std::vector<std::uint32_t> sizes_;    ///< every scan's point count
+  std::vector<std::uint32_t> borrowed_; ///< links measured here that need scan i (not own)
   Poses poses_;
   std::vector<Link> links_;
   std::vector<std::uint32_t> loop_sources_; ///< source scan of each loop link
   std::vector<std::uint32_t> constrained_;  ///< scan of each sequence constraint
-  Relaxation relaxation_;
 };
 
 /** Candidates for loop links of scan j, nearest first: scans i <= j - min_separation

@@ -126,9 +126,6 @@ struct StageTimes {
  */
 class Pipeline {
 public:
-  /** pLUM as LoopCloser::relax runs it (LoopCloser::setRelaxation). */
-  using Relaxation = LoopCloser::Relaxation;
-
   /** The automatic lengths come from the first scan's median range. */
   explicit Pipeline(const Parameters& params = Parameters());
   /** Lengths from a given median range (e.g. a segment's pipeline takes the sequence's);
@@ -156,14 +153,16 @@ public:
 
   /** addScan's second half for a scan another pipeline's front end matched: adds it to
    *  the pose graph at the previous scan's current pose times `scan.step` (the first
-   *  scan at its front-end pose), detects loops, relaxes. Returns the scan's index. */
+   *  scan at its front-end pose), detects loops, relaxes. Returns the scan's index. With
+   *  an exchange, a scan another process owns comes without points (front_end.reduced
+   *  null, report.reduced_points its size), and the call is collective. */
   std::size_t
   addMatched(MatchedScan scan);
 
-  /** How pLUM runs (default: ParallelLUM::compute in this process; mpi::relaxOverRanks
-   *  spreads it over MPI ranks). */
+  /** Spreads the loop closer's scans over processes (LoopCloser::setExchange; e.g.
+   *  mpi::exchangeOverRanks); requires the median-range constructor. */
   void
-  setRelaxation(Relaxation relaxation);
+  setExchange(std::shared_ptr<ScanExchange> exchange);
 
   /** Final pLUM over the whole graph (when loops were found). */
   void
@@ -224,15 +223,24 @@ public:
   {
     return relaxations_;
   }
-  /** A scan's reduced points (scanner frame), as kept for loop closing and the map. */
+  /** A scan's reduced points (scanner frame), as kept for loop closing and the map; null
+   *  where another process owns the scan (setExchange). */
   Cloud::ConstPtr
   reducedScan(std::size_t i) const;
-  /** The map: the kept scans at the current poses, reduced with voxel_size (<= 0: none). */
+  /** The map: the kept scans at the current poses, reduced with voxel_size (<= 0: none);
+   *  with an exchange, of this process's own scans. */
   Cloud::Ptr
   map(double voxel_size) const;
-  /** Bytes kept per scan (reduced points, their k-d tree and normals, poses). */
+  /** Bytes this process keeps per scan of the sequence (reduced points, their k-d trees
+   *  and normals, poses). */
   std::size_t
   bytesPerScan() const;
+  /** Scans whose points this process keeps (all without an exchange). */
+  std::size_t
+  keptScans() const
+  {
+    return loops_ ? loops_->keptScans() : 0;
+  }
 
 private:
   /** Resolves the lengths from the median range and creates the stages. */
@@ -255,7 +263,6 @@ private:
   bool has_odometry_ = false;
   std::size_t first_index_ = 0;
   std::size_t tracked_ = 0; ///< scans through track()
-  Relaxation relaxation_;
 };
 
 } // namespace slam

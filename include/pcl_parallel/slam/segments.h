@@ -41,6 +41,10 @@ using ScanSource = std::function<std::pair<Cloud::Ptr, std::optional<Pose>>(std:
  *  (as Pipeline::addScan takes it). Throws std::invalid_argument if none is in range. */
 double
 sequenceMedianRange(const Cloud& first_scan, const Parameters& params);
+/** ... read through `read`, which then hands that scan on once rather than reading it
+ *  again (the first segment starts with it). Throws if scan 0 cannot be read. */
+double
+sequenceMedianRange(ScanSource& read, const Parameters& params);
 
 /** Progress of a segmented run: stage ("match" for the front ends, "join" for loop
  *  closing), scans done, of total. */

@@ -126,8 +126,17 @@ DistributedLUM<PointT>::bytesPerIteration(std::size_t num_links,
                                           std::size_t num_vertices,
                                           int size)
 {
-  const std::size_t rank0_links = linkRange(num_links, 0, size).second;
-  return (num_links - rank0_links) * sizeof(WireLink) +
+  return iterationBytes(num_links - linkRange(num_links, 0, size).second, num_vertices, size);
+}
+
+template <typename PointT>
+std::uint64_t
+DistributedLUM<PointT>::iterationBytes(std::size_t remote_links,
+                                       std::size_t num_vertices,
+                                       int size)
+{
+  // The blocks to rank 0; the poses and 4 control values from it.
+  return remote_links * sizeof(WireLink) +
          static_cast<std::uint64_t>(size - 1) * (16 * num_vertices + 4) * sizeof(double);
 }
 
@@ -142,20 +151,39 @@ template <typename PointT>
 void
 DistributedLUM<PointT>::computeOn(Lum& lum,
                                   MPI_Comm comm,
-                                  std::vector<std::string>& remote_reasons)
+                                  std::vector<std::string>& remote_reasons,
+                                  const LinkOwner& owner)
 {
   const std::string where = "[pcl_parallel::mpi::DistributedLUM::compute] ";
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
   typename Lum::Run run;
-  const std::size_t num_links = lum.collectLinks().size();
-  const auto [begin, end] = linkRange(num_links, rank, size);
+  std::vector<int> owners; // of each link, in link order
   std::string error;
   try {
     if (!(lum.getCorrespondenceDistance() > 0.0))
       throw std::invalid_argument(where + "needs pLUM mode (setCorrespondenceDistance)");
-    lum.beginCompute(run, begin, end);
+    lum.beginCompute(run, [&](const std::vector<typename Lum::LinkRef>& links) {
+      owners.resize(links.size());
+      for (int r = 0; r < size; ++r) {
+        const auto range = linkRange(links.size(), r, size);
+        std::fill(owners.begin() + range.first, owners.begin() + range.second, r);
+      }
+      if (owner)
+        for (std::size_t li = 0; li < links.size(); ++li) {
+          owners[li] = owner(links[li].source, links[li].target);
+          if (owners[li] < 0 || owners[li] >= size)
+            throw std::out_of_range(where + "link " + std::to_string(links[li].source) +
+                                    " -> " + std::to_string(links[li].target) +
+                                    " is owned by no rank");
+        }
+      std::vector<std::size_t> mine;
+      for (std::size_t li = 0; li < links.size(); ++li)
+        if (owners[li] == rank)
+          mine.push_back(li);
+      return mine;
+    });
   }
   catch (const std::exception& e) {
     error = e.what();
@@ -166,28 +194,30 @@ DistributedLUM<PointT>::computeOn(Lum& lum,
 
   std::vector<double> buffer;
   broadcastPoses(lum, comm, buffer, nullptr, 0); // rank 0's start poses
-  // Gather layout: each rank's contiguous links, in rank order = link order.
-  std::vector<int> counts(size), displs(size);
-  for (int r = 0; r < size; ++r) {
-    const auto range = linkRange(num_links, r, size);
-    counts[r] = static_cast<int>((range.second - range.first) * sizeof(WireLink));
-    displs[r] = static_cast<int>(range.first * sizeof(WireLink));
-  }
-  std::vector<WireLink> mine(end - begin), all(rank == 0 ? num_links : 0);
+  // Gather layout: each rank's links in link order, the ranks in order; rank 0 puts each
+  // block back at its link's place, so the system is assembled as in one process.
+  const std::size_t num_links = run.links.size();
+  std::vector<int> counts(size, 0), displs(size, 0);
+  for (const int r : owners)
+    counts[r] += static_cast<int>(sizeof(WireLink));
+  for (int r = 1; r < size; ++r)
+    displs[r] = displs[r - 1] + counts[r - 1];
+  std::vector<WireLink> mine(run.mine.size()), all(rank == 0 ? num_links : 0);
   remote_reasons.assign(num_links, std::string());
 
   for (int it = 0; it < lum.getMaxIterations(); ++it) {
     error.clear();
     try {
-      lum.measureLinks(run, it, begin, end); // steps 1-2, this rank's links
+      lum.measureLinks(run, it); // steps 1-2, this rank's links
     }
     catch (const std::exception& e) {
       error = e.what();
     }
     throwIfAnyFailed(comm, error);
-    for (std::size_t li = begin; li < end; ++li) {
+    for (std::size_t k = 0; k < run.mine.size(); ++k) {
+      const std::size_t li = run.mine[k];
       const lum::LinkBlock& b = run.blocks[li];
-      WireLink& w = mine[li - begin];
+      WireLink& w = mine[k];
       std::memset(&w, 0, sizeof(w));
       Eigen::Map<lum::Matrix6d>(w.info) = b.info;
       Eigen::Map<lum::Vector6d>(w.grad) = b.grad;
@@ -211,8 +241,13 @@ DistributedLUM<PointT>::computeOn(Lum& lum,
     double control[4] = {0.0, 0.0, 0.0, 0.0};
     if (rank == 0) {
       try {
-        for (std::size_t li = end; li < num_links; ++li) { // rank 0 owns [0, end)
-          const WireLink& w = all[li];
+        std::vector<std::size_t> next(displs.begin(), displs.end()); // per rank, in bytes
+        for (std::size_t li = 0; li < num_links; ++li) {
+          const int r = owners[li];
+          const WireLink& w = all[next[r] / sizeof(WireLink)];
+          next[r] += sizeof(WireLink);
+          if (r == 0)
+            continue; // measured here
           lum::LinkBlock& b = run.blocks[li];
           b.info = Eigen::Map<const lum::Matrix6d>(w.info);
           b.grad = Eigen::Map<const lum::Vector6d>(w.grad);

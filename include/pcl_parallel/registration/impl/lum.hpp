@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -357,6 +358,24 @@ ParallelLUM<PointT>::setNormalNeighbours(std::size_t k)
 }
 
 template <typename PointT>
+std::vector<Eigen::Vector3f>
+ParallelLUM<PointT>::getPointNormals(const Vertex& vertex) const
+{
+  checkVertex(vertex, "getPointNormals");
+  if (vertex < given_normals_.size() && !given_normals_[vertex].empty())
+    return given_normals_[vertex];
+  std::vector<Eigen::Vector3f> normals;
+  if (vertex >= trees_.size() || !trees_[vertex] || vertex >= normals_.size() ||
+      normals_[vertex].size() != trees_[vertex]->size())
+    return normals;
+  const KdTreeIndex& tree = *trees_[vertex]; // tree positions back to point indices
+  normals.resize(tree_source_[vertex].second, Eigen::Vector3f::Zero());
+  for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
+    normals[tree.id(pos)] = normals_[vertex][pos];
+  return normals;
+}
+
+template <typename PointT>
 void
 ParallelLUM<PointT>::setPointNormals(const Vertex& vertex, std::vector<Eigen::Vector3f> normals)
 {
@@ -403,8 +422,7 @@ ParallelLUM<PointT>::collectLinks() const
 template <typename PointT>
 void
 ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links,
-                              std::size_t begin,
-                              std::size_t end) const
+                              const std::vector<std::size_t>& mine) const
 {
   const std::size_t n = getNumVertices();
   const std::string where = "[pcl_parallel::ParallelLUM::compute] ";
@@ -412,10 +430,11 @@ ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links,
     throw std::invalid_argument(where + "the graph needs at least 2 vertices");
   if (links.empty() && constraints_.empty())
     throw std::invalid_argument(where + "the graph has no links");
-  end = std::min(end, links.size());
-  std::vector<char> needed(n, begin == 0 && end == links.size());
-  for (std::size_t li = begin; li < end; ++li)
+  std::vector<char> needed(n, mine.size() == links.size()), measured(links.size(), 0);
+  for (const std::size_t li : mine) {
     needed[links[li].source] = needed[links[li].target] = 1;
+    measured[li] = 1;
+  }
   for (std::size_t v = 0; v < n; ++v) {
     const auto& cloud = (*slam_graph_)[v].cloud_;
     if (needed[v] && (!cloud || cloud->empty()))
@@ -430,7 +449,7 @@ ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links,
     const LinkRef& l = links[li];
     pairs.emplace_back(static_cast<std::uint32_t>(l.source),
                        static_cast<std::uint32_t>(l.target));
-    if (correspondence_distance_ > 0.0 || li < begin || li >= end)
+    if (correspondence_distance_ > 0.0 || !measured[li])
       continue;
     const auto& corrs = (*slam_graph_)[l.edge].corrs_;
     const std::string name =
@@ -468,6 +487,11 @@ ParallelLUM<PointT>::buildTrees(const std::vector<char>* needed)
   for (std::size_t v = 0; v < n; ++v) {
     const PointCloud* c = (*slam_graph_)[v].cloud_.get();
     const std::size_t size = c ? c->size() : 0;
+    if (!c) { // none here (another process keeps it), or released: no tree
+      trees_[v].reset();
+      tree_source_[v] = {nullptr, 0};
+      continue;
+    }
     if (needed && !(*needed)[v])
       continue;
     if (!trees_[v] || tree_source_[v] != std::make_pair(c, size))
@@ -640,20 +664,25 @@ ParallelLUM<PointT>::computeLinkFixed(const LinkRef& link, lum::LinkAccumulator&
 
 template <typename PointT>
 void
-ParallelLUM<PointT>::beginCompute(Run& run, std::size_t begin, std::size_t end)
+ParallelLUM<PointT>::beginCompute(Run& run, const LinkSelection& select)
 {
   syncPoses();
   run.links = collectLinks();
-  validate(run.links, begin, end);
-  end = std::min(end, run.links.size());
+  if (select)
+    run.mine = select(run.links);
+  else {
+    run.mine.resize(run.links.size());
+    std::iota(run.mine.begin(), run.mine.end(), std::size_t(0));
+  }
+  validate(run.links, run.mine);
   run.plum = correspondence_distance_ > 0.0;
   run.threads = resolveNumberOfThreads(num_threads_);
   if (run.plum) {
-    if (begin == 0 && end == run.links.size())
+    if (run.mine.size() == run.links.size())
       buildTrees();
     else {
       std::vector<char> needed(getNumVertices(), 0);
-      for (std::size_t li = begin; li < end; ++li)
+      for (const std::size_t li : run.mine)
         needed[run.links[li].source] = needed[run.links[li].target] = 1;
       buildTrees(&needed);
     }
@@ -672,14 +701,14 @@ ParallelLUM<PointT>::beginCompute(Run& run, std::size_t begin, std::size_t end)
 
 template <typename PointT>
 void
-ParallelLUM<PointT>::measureLinks(Run& run, int it, std::size_t begin, std::size_t end)
+ParallelLUM<PointT>::measureLinks(Run& run, int it)
 {
   const double gate = correspondenceDistanceAt(it);
   const unsigned threads = run.threads;
   // Steps 1-2 for the links in parallel; each link's sums run in a fixed order.
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
-  for (std::int64_t li = static_cast<std::int64_t>(begin); li < static_cast<std::int64_t>(end);
-       ++li) {
+  for (std::int64_t k = 0; k < static_cast<std::int64_t>(run.mine.size()); ++k) {
+    const std::size_t li = run.mine[k];
     const LinkRef& link = run.links[li];
     lum::LinkBlock& b = run.blocks[li];
     b.source = static_cast<std::uint32_t>(link.source);
@@ -786,9 +815,9 @@ void
 ParallelLUM<PointT>::compute()
 {
   Run run;
-  beginCompute(run, 0, std::numeric_limits<std::size_t>::max());
+  beginCompute(run);
   for (int it = 0; it < max_iterations_; ++it) {
-    measureLinks(run, it, 0, run.links.size());
+    measureLinks(run, it);
     if (!solveIteration(run, it))
       break;
   }
