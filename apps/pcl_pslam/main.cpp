@@ -86,7 +86,7 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
 
   // PCL's own warnings stay visible (e.g. a reader's complaint), on stderr.
   pcl::console::setVerbosityLevel(pcl::console::L_WARN);
-  pcl_pslam::installSignalHandlers(quiet_rank);
+  pcl_pslam::installSignalHandlers(quiet_rank, ranks.size());
   std::string command_line;
   for (int i = 0; i < argc; ++i)
     command_line += (i ? " " : "") + std::string(argv[i]);

@@ -17,6 +17,7 @@ namespace {
 volatile std::sig_atomic_t g_signal = 0;
 volatile std::sig_atomic_t g_writing = 0;   // 1 while outputs are being written
 volatile std::sig_atomic_t g_quiet = 0;     // 1: no message (not MPI rank 0)
+volatile std::sig_atomic_t g_ranks = 1;     // MPI ranks of the job
 volatile std::sig_atomic_t g_stderr_fd = 2; // the real stderr while PCL's is captured
 char g_remove_dir[4096] = {0};              // an --out this run created, removed if empty
 
@@ -29,8 +30,11 @@ onSignal(int s)
   g_signal = s;
   if (g_writing)
     return;
-  const char* msg = s == SIGTERM ? "pcl_pslam: terminated (SIGTERM); no outputs were written\n"
-                                 : "pcl_pslam: interrupted (SIGINT); no outputs were written\n";
+  const char* msg =
+      s != SIGTERM  ? "pcl_pslam: interrupted (SIGINT); no outputs were written\n"
+      : g_ranks > 1 ? "pcl_pslam: terminated (SIGTERM) by mpirun: a rank died (mpirun's "
+                      "message names it) or the job was stopped; no outputs were written\n"
+                    : "pcl_pslam: terminated (SIGTERM); no outputs were written\n";
   std::size_t n = 0;
   while (msg[n])
     ++n;
@@ -49,9 +53,10 @@ Interrupted::Interrupted(int s)
 {}
 
 void
-installSignalHandlers(bool quiet)
+installSignalHandlers(bool quiet, int ranks)
 {
   g_quiet = quiet ? 1 : 0;
+  g_ranks = ranks;
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
 }

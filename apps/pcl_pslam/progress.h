@@ -25,9 +25,10 @@ struct Interrupted : std::runtime_error {
 };
 
 /** Routes SIGINT and SIGTERM to the flag checkInterrupt() reads; `quiet`: without the
- *  message (an MPI rank other than 0: the launcher signals every rank). */
+ *  message (an MPI rank other than 0: the launcher signals every rank); `ranks`: the
+ *  job's size (the SIGTERM message then says why mpirun ends a job). */
 void
-installSignalHandlers(bool quiet = false);
+installSignalHandlers(bool quiet = false, int ranks = 1);
 
 /** While true, a signal stops the run at the next progress update instead of at once. */
 void
