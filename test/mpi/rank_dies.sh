@@ -22,9 +22,10 @@ timeout 120 "${mpirun[@]}" "$np_flag" 3 "$pslam" run "$work/scans" -q --segment-
 job=$!
 victim=
 for _ in $(seq 1500); do # up to 30 s
-  for p in $(pgrep -f "$work/scans"); do
-    if tr '\0' '\n' < /proc/$p/environ 2>/dev/null | grep -qx 'OMPI_COMM_WORLD_RANK=2\|PMI_RANK=2'; then
-      victim=$p
+  for dir in /proc/[0-9]*; do # the process of rank 2 (no pgrep: procps may be absent)
+    tr '\0' ' ' < "$dir/cmdline" 2>/dev/null | grep -q "run $work/scans" || continue
+    if tr '\0' '\n' < "$dir/environ" 2>/dev/null | grep -qx 'OMPI_COMM_WORLD_RANK=2\|PMI_RANK=2'; then
+      victim=${dir#/proc/}
       break 2
     fi
   done
