@@ -30,11 +30,11 @@ onSignal(int s)
   g_signal = s;
   if (g_writing)
     return;
-  const char* msg =
-      s != SIGTERM  ? "pcl_pslam: interrupted (SIGINT); no outputs were written\n"
-      : g_ranks > 1 ? "pcl_pslam: terminated (SIGTERM) by mpirun: a rank died (mpirun's "
-                      "message names it) or the job was stopped; no outputs were written\n"
-                    : "pcl_pslam: terminated (SIGTERM); no outputs were written\n";
+  const char* msg = s != SIGTERM ? "pcl_pslam: interrupted (SIGINT); no outputs were written\n"
+                    : g_ranks > 1
+                        ? "pcl_pslam: terminated (SIGTERM) by mpirun: a rank died (mpirun's "
+                          "message names it) or the job was stopped; no outputs were written\n"
+                        : "pcl_pslam: terminated (SIGTERM); no outputs were written\n";
   std::size_t n = 0;
   while (msg[n])
     ++n;
