@@ -21,7 +21,7 @@ namespace slam {
 struct LoopCloser::Impl {
   ParallelLUM<PointT> lum;
   ParallelIterativeClosestPoint<PointT, PointT, double> icp;
-  std::vector<std::shared_ptr<const KdTreeIndex>> trees; ///< pLUM's, per own scan: overlap
+  std::vector<std::shared_ptr<const KdTreeIndex>> trees; ///< pLUM's, per scan held here
   std::size_t points = 0;                                ///< of every scan
   std::size_t kept_points = 0;                           ///< of the scans held here
 };
@@ -119,7 +119,6 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
   else
     impl_->trees.emplace_back();
   impl_->points += num_points;
-  sizes_.push_back(static_cast<std::uint32_t>(num_points));
   borrowed_.push_back(0);
   scans_.push_back(scan);
   poses_.push_back(pose);
@@ -159,6 +158,7 @@ LoopCloser::share(std::size_t i, int to)
   impl_->lum.setPointCloud(i, std::const_pointer_cast<Cloud>(kept.points));
   if (!kept.normals.empty())
     impl_->lum.setPointNormals(i, std::move(kept.normals));
+  impl_->trees[i] = impl_->lum.getSearchTree(i);
   impl_->kept_points += kept.points->size();
 }
 
@@ -176,19 +176,21 @@ LoopCloser::release(std::size_t i)
     return;
   impl_->kept_points -= impl_->lum.getPointCloud(i)->size();
   impl_->lum.setPointCloud(i, nullptr);
+  impl_->trees[i].reset();
 }
 
 std::vector<double>
 LoopCloser::firstLook(const std::vector<std::uint32_t>& candidates)
 {
   const std::size_t j = scans_.size() - 1;
-  const std::size_t step = std::max<std::size_t>(1, sizes_[j] / 256);
-  std::vector<double> sample; // x, y, z of every step-th point
-  if (owns(j))
+  std::vector<double> sample; // x, y, z of every step-th point, on the owner
+  if (owns(j)) {
+    const std::size_t step = std::max<std::size_t>(1, scans_[j]->size() / 256);
     for (std::size_t k = 0; k < scans_[j]->size(); k += step) {
       const auto& p = (*scans_[j])[k];
       sample.insert(sample.end(), {p.x, p.y, p.z});
     }
+  }
   const bool elsewhere = std::any_of(
       candidates.begin(), candidates.end(), [&](auto i) { return owner(i) != owner(j); });
   if (elsewhere)
@@ -234,8 +236,7 @@ LoopCloser::matchPair(std::uint32_t i)
       const Pose measured = icp.getFinalTransformation();
       result[0] = 1.0;
       Pose::Map(&result[1]) = measured;
-      result[17] = overlap(
-          *scans_[j], measured, *impl_->lum.getSearchTree(i), params_.overlap_distance, 1);
+      result[17] = overlap(*scans_[j], measured, *impl_->trees[i], params_.overlap_distance, 1);
     }
   }
   if (exchange_)

@@ -113,7 +113,7 @@ public:
 
   /** Collective: compute() on a ParallelLUM that holds the same graph on every rank and
    *  the clouds of the links this rank measures: those `owner` gives it (e.g. the rank
-   *  that keeps the source scan, as mpi::exchangeOverRanks does), or without one the
+   *  that keeps the source scan, as mpi::RankExchange does), or without one the
    *  split of setGraph. `remote_reasons` keeps the texts of links dropped on other ranks
    *  (the ParallelLUM points to them) and must outlive it. */
   static void

@@ -80,7 +80,7 @@ struct KeptScan {
 
 /**
  * \brief How a LoopCloser's scans are spread over processes (docs/design.md, "The graph
- * over ranks"; mpi::exchangeOverRanks). Every process holds the whole pose graph (poses,
+ * over ranks"; mpi::RankExchange). Every process holds the whole pose graph (poses,
  * links, constraints); a scan's points are kept by its owner and by the processes that
  * measure a link to it. Every process makes the same calls in the same order (they are
  * collective), and the results are bit-identical to one process that keeps every scan.
@@ -220,7 +220,6 @@ private:
   std::unique_ptr<Impl> impl_;
   std::shared_ptr<ScanExchange> exchange_;
   std::vector<Cloud::ConstPtr> scans_;  ///< own scans (null: another process's)
-  std::vector<std::uint32_t> sizes_;    ///< every scan's point count
   std::vector<std::uint32_t> borrowed_; ///< links measured here that need scan i (not own)
   Poses poses_;
   std::vector<Link> links_;

@@ -160,7 +160,7 @@ public:
   addMatched(MatchedScan scan);
 
   /** Spreads the loop closer's scans over processes (LoopCloser::setExchange; e.g.
-   *  mpi::exchangeOverRanks); requires the median-range constructor. */
+   *  mpi::RankExchange); requires the median-range constructor. */
   void
   setExchange(std::shared_ptr<ScanExchange> exchange);
 

@@ -166,11 +166,12 @@ DistributedLUM<PointT>::computeOn(Lum& lum,
       throw std::invalid_argument(where + "needs pLUM mode (setCorrespondenceDistance)");
     lum.beginCompute(run, [&](const std::vector<typename Lum::LinkRef>& links) {
       owners.resize(links.size());
-      for (int r = 0; r < size; ++r) {
-        const auto range = linkRange(links.size(), r, size);
-        std::fill(owners.begin() + range.first, owners.begin() + range.second, r);
-      }
-      if (owner)
+      if (!owner)
+        for (int r = 0; r < size; ++r) {
+          const auto range = linkRange(links.size(), r, size);
+          std::fill(owners.begin() + range.first, owners.begin() + range.second, r);
+        }
+      else
         for (std::size_t li = 0; li < links.size(); ++li) {
           owners[li] = owner(links[li].source, links[li].target);
           if (owners[li] < 0 || owners[li] >= size)
