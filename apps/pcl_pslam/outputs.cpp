@@ -504,30 +504,28 @@ writeOutputs(const Options& o,
   j["total_seconds"] = progress.elapsed();
   nlohmann::json scans = nlohmann::json::array();
   for (std::size_t i = 0; i < n; ++i) {
+    const auto& rep = r.reports.at(i); // one per scan
     nlohmann::json s = {{"index", i},
                         {"number", in.numbers[i]},
                         {"stamp", in.stamps[i]},
-                        {"points", r.reports.at(i).points},
-                        {"points_reduced", r.reports.at(i).reduced_points}};
-    if (i < r.reports.size()) {
-      const auto& rep = r.reports[i];
-      s["icp_converged"] = rep.converged;
-      s["icp_fitness"] = rep.fitness;
-      s["icp_gate"] = rep.gate;
-      s["icp_correction"] = rep.correction;
-      s["icp_source_points"] = rep.source_points;
-      s["seconds"] = rep.seconds;
-      s["lum_iterations"] = rep.lum_iterations;
-      if (rep.sequence_chi2 >= 0.0) // the front end's step against the final poses
-        s["sequence_chi2"] = rep.sequence_chi2;
-      nlohmann::json tried = nlohmann::json::array();
-      for (const auto& c : rep.loops)
-        tried.push_back({{"target", c.link.target},
-                         {"overlap", c.overlap},
-                         {"error", c.error},
-                         {"accepted", c.accepted}});
-      s["loops_tried"] = tried;
-    }
+                        {"points", rep.points},
+                        {"points_reduced", rep.reduced_points}};
+    s["icp_converged"] = rep.converged;
+    s["icp_fitness"] = rep.fitness;
+    s["icp_gate"] = rep.gate;
+    s["icp_correction"] = rep.correction;
+    s["icp_source_points"] = rep.source_points;
+    s["seconds"] = rep.seconds;
+    s["lum_iterations"] = rep.lum_iterations;
+    if (rep.sequence_chi2 >= 0.0) // the front end's step against the final poses
+      s["sequence_chi2"] = rep.sequence_chi2;
+    nlohmann::json tried = nlohmann::json::array();
+    for (const auto& c : rep.loops)
+      tried.push_back({{"target", c.link.target},
+                       {"overlap", c.overlap},
+                       {"error", c.error},
+                       {"accepted", c.accepted}});
+    s["loops_tried"] = tried;
     if (!in.files[i].empty())
       s["file"] = in.files[i];
     scans.push_back(s);
