@@ -93,6 +93,35 @@ TEST(AdaptiveThreshold, GrowsOnSuddenMotionAndShrinksBack)
   EXPECT_NEAR(rot.sigma(), 100.0 * std::sin(0.002), 1e-12);
 }
 
+// Translation and rotation each as an RMS of their own, without the initial threshold;
+// a deviation below min motion counts in neither; a window evicts the seed, then samples.
+TEST(AdaptiveThreshold, TranslationAndRotationSpreadsOfTheirOwn)
+{
+  AdaptiveThreshold th(2.0, 0.1, 100.0, 3);
+  EXPECT_EQ(th.numDeviations(), 0u);
+  EXPECT_EQ(th.translationSigma(), 0.0);
+  EXPECT_EQ(th.rotationSigma(), 0.0);
+  th.updateModelDeviation(deviation(0.05, 0.0)); // below min motion
+  EXPECT_EQ(th.numDeviations(), 0u);
+  th.updateModelDeviation(deviation(0.3, 0.0));
+  th.updateModelDeviation(deviation(0.0, 0.004)); // 0.4 m at 100 m: counted
+  EXPECT_EQ(th.numSamples(), 3u);
+  EXPECT_EQ(th.numDeviations(), 2u);
+  EXPECT_NEAR(th.translationSigma(), std::sqrt(0.09 / 2.0), 1e-12);
+  EXPECT_NEAR(th.rotationSigma(), std::sqrt(0.004 * 0.004 / 2.0), 1e-12);
+  // The combined sigma still has the seed and weighs the rotation at max range.
+  const double chord = 200.0 * std::sin(0.002);
+  EXPECT_NEAR(th.sigma(), std::sqrt((4.0 + 0.09 + chord * chord) / 3.0), 1e-12);
+  th.updateModelDeviation(deviation(0.2, -0.002)); // the seed leaves the window
+  EXPECT_EQ(th.numSamples(), 3u);
+  EXPECT_EQ(th.numDeviations(), 3u);
+  EXPECT_NEAR(th.translationSigma(), std::sqrt((0.09 + 0.04) / 3.0), 1e-12);
+  EXPECT_NEAR(th.rotationSigma(), std::sqrt((0.004 * 0.004 + 0.002 * 0.002) / 3.0), 1e-12);
+  th.updateModelDeviation(deviation(0.5, 0.0)); // the first sample leaves
+  EXPECT_NEAR(th.translationSigma(), std::sqrt((0.04 + 0.25) / 3.0), 1e-12);
+  EXPECT_NEAR(th.rotationSigma(), std::sqrt((0.004 * 0.004 + 0.002 * 0.002) / 3.0), 1e-12);
+}
+
 TEST(AdaptiveThreshold, BadArgumentsThrow)
 {
   EXPECT_THROW(AdaptiveThreshold(0.0, 0.1, 100.0), std::invalid_argument);

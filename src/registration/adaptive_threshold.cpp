@@ -7,7 +7,6 @@
 #include <Eigen/Geometry>
 
 #include <cmath>
-#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -30,18 +29,27 @@ AdaptiveThreshold::AdaptiveThreshold(double initial_threshold,
         std::to_string(initial_threshold) + ", " + std::to_string(min_motion) + ", " +
         std::to_string(max_range) + ")");
   // KISS-ICP seeds the mean with the initial threshold as one sample.
-  samples_.push_back(initial_threshold * initial_threshold);
-  sse_ = samples_.back();
+  samples_.push_back({initial_threshold * initial_threshold, 0.0, 0.0});
+  sum_ = samples_.back();
 }
+
+namespace {
+
+/** The rotation angle of a rigid transform, from sin (skew part) and cos (trace): acos
+ *  alone loses small angles. */
+double
+rotationAngle(const Eigen::Matrix4d& d)
+{
+  const Eigen::Vector3d w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
+  return std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0));
+}
+
+} // namespace
 
 double
 motionDisplacement(const Eigen::Matrix4d& d, double range)
 {
-  // Rotation angle from sin (skew part) and cos (trace): acos alone loses small angles.
-  const Eigen::Vector3d w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
-  const double theta =
-      std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0));
-  return d.topRightCorner<3, 1>().norm() + 2.0 * range * std::sin(0.5 * theta);
+  return d.topRightCorner<3, 1>().norm() + 2.0 * range * std::sin(0.5 * rotationAngle(d));
 }
 
 double
@@ -58,19 +66,50 @@ AdaptiveThreshold::updateModelDeviation(const Eigen::Matrix4d& deviation)
   const double e = modelError(deviation);
   if (e <= min_motion_) // standing still says nothing about the prediction's error
     return;
-  samples_.push_back(e * e);
+  const double theta = rotationAngle(deviation);
+  const Sample s{e * e, deviation.topRightCorner<3, 1>().squaredNorm(), theta * theta};
+  samples_.push_back(s);
   if (window_ > 0 && samples_.size() > window_) {
     samples_.pop_front();
-    sse_ = std::accumulate(samples_.begin(), samples_.end(), 0.0);
+    seeded_ = false;
+    resum();
   }
-  else
-    sse_ += e * e;
+  else {
+    sum_.error2 += s.error2;
+    sum_.translation2 += s.translation2;
+    sum_.rotation2 += s.rotation2;
+  }
+}
+
+void
+AdaptiveThreshold::resum()
+{
+  sum_ = {0.0, 0.0, 0.0};
+  for (const Sample& s : samples_) {
+    sum_.error2 += s.error2;
+    sum_.translation2 += s.translation2;
+    sum_.rotation2 += s.rotation2;
+  }
 }
 
 double
 AdaptiveThreshold::sigma() const
 {
-  return std::sqrt(sse_ / static_cast<double>(samples_.size()));
+  return std::sqrt(sum_.error2 / static_cast<double>(samples_.size()));
+}
+
+double
+AdaptiveThreshold::translationSigma() const
+{
+  const std::size_t n = numDeviations();
+  return n > 0 ? std::sqrt(sum_.translation2 / static_cast<double>(n)) : 0.0;
+}
+
+double
+AdaptiveThreshold::rotationSigma() const
+{
+  const std::size_t n = numDeviations();
+  return n > 0 ? std::sqrt(sum_.rotation2 / static_cast<double>(n)) : 0.0;
 }
 
 } // namespace registration

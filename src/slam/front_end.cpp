@@ -28,6 +28,12 @@ struct FrontEnd::Registration {
 
 namespace {
 
+/** KISS-ICP's min motion for the adaptive threshold, in map voxels (0.1 m at 1 m). */
+constexpr double kMinMotionVoxels = 0.1;
+/** Deviations kept before the prior's spread is taken from them: σ from n samples is
+ *  known to about 1/sqrt(2n), 16 % at 20. */
+constexpr std::size_t kPriorSpreadSamples = 20;
+
 /** The reduced points' normals (scanner frame): PCA of each one's 10 nearest reduced
  *  points, zero where the neighbourhood is degenerate. Reduced, not raw, neighbours: on a
  *  spinning LiDAR the nearest raw points lie along one ring, a nearly linear neighbourhood
@@ -98,8 +104,10 @@ FrontEnd::FrontEnd(const FrontEndParameters& params)
   icp.setUsePointToPlane(params.point_to_plane);
   icp.setUseTargetNormalFields(!params.normals_from_map);
   if (params.adaptive_threshold) // KISS-ICP: min motion 0.1 m at 1 m voxels, max range
-    icp_->threshold.reset(new registration::AdaptiveThreshold(
-        params.max_correspondence_distance, 0.1 * params.map_voxel_size, params.map_distance));
+    icp_->threshold.reset(
+        new registration::AdaptiveThreshold(params.max_correspondence_distance,
+                                            kMinMotionVoxels * params.map_voxel_size,
+                                            params.map_distance));
 }
 
 double
@@ -108,6 +116,22 @@ FrontEnd::gate() const
   return icp_->threshold ? std::min(params_.max_correspondence_distance,
                                     icp_->threshold->correspondenceDistance())
                          : params_.max_correspondence_distance;
+}
+
+std::pair<double, double>
+FrontEnd::priorSpread() const
+{
+  const registration::AdaptiveThreshold& th = *icp_->threshold;
+  if (th.numDeviations() < kPriorSpreadSamples) { // the gate's sigma, rotation at max range
+    const double sigma = gate() / 3.0;
+    return {sigma, sigma / params_.map_distance};
+  }
+  // Translation and rotation each from their own deviations: the combined sigma is
+  // dominated by rotation times max range (docs/design.md, "The motion prior's spread").
+  // Below min motion a deviation is not measured, so neither is a spread.
+  const double min_motion = kMinMotionVoxels * params_.map_voxel_size;
+  return {std::max(th.translationSigma(), min_motion),
+          std::max(th.rotationSigma(), min_motion / params_.map_distance)};
 }
 
 FrontEnd::~FrontEnd() = default;
@@ -144,13 +168,13 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
     r.gate = gate();
     icp.setMaxCorrespondenceDistance(r.gate);
     if (icp_->threshold) { // Geman-McClure, scale sigma / 3 (KISS-ICP)
-      icp.setRobustKernel({registration::RobustKernel::Type::kGemanMcClure, r.gate / 9.0});
-      // The prediction as a prior, with the spread the adaptive threshold measured for
-      // it: sigma in translation, sigma / max range in rotation (its model error), against
-      // residuals of the kernel's scale sigma / 3: weights (1/3)^2 and (max range / 3)^2.
+      const double scale = r.gate / 9.0;
+      icp.setRobustKernel({registration::RobustKernel::Type::kGemanMcClure, scale});
       if (params_.motion_prior) {
-        const double lever = params_.map_distance / 3.0;
-        icp.setMotionPrior(r.prediction, 1.0 / 9.0, lever * lever);
+        const auto [sigma_t, sigma_r] = priorSpread();
+        icp.setMotionPrior(r.prediction,
+                           (scale / sigma_t) * (scale / sigma_t),
+                           (scale / sigma_r) * (scale / sigma_r));
       }
     }
     Cloud aligned;

@@ -67,18 +67,42 @@ public:
     return sigma() / 3.0;
   }
 
+  /** The kept samples, the initial threshold's included. */
   std::size_t
   numSamples() const
   {
     return samples_.size();
   }
 
+  /** The kept deviations: numSamples() less the initial threshold's while it is kept. */
+  std::size_t
+  numDeviations() const
+  {
+    return samples_.size() - (seeded_ ? 1 : 0);
+  }
+
+  /** The kept deviations' translation |Δt| and rotation angle θ (rad), each as an RMS on
+   *  its own (the initial threshold not counted); 0 before the first deviation. δ
+   *  weighs a rotation by max range; these tell the two apart, e.g. for the spread of a
+   *  prior (docs/design.md, "The motion prior's spread"). */
+  double
+  translationSigma() const;
+  double
+  rotationSigma() const;
+
 private:
+  struct Sample {
+    double error2, translation2, rotation2; ///< δ², |Δt|², θ²
+  };
+  void
+  resum();
+
   double min_motion_;
   double max_range_;
   std::size_t window_;
-  std::deque<double> samples_; ///< kept δ², oldest first
-  double sse_ = 0.0;           ///< Σ samples_ (recomputed on eviction: no drift)
+  std::deque<Sample> samples_; ///< kept samples, oldest first
+  bool seeded_ = true;         ///< the initial threshold is still samples_.front()
+  Sample sum_{0.0, 0.0, 0.0};  ///< Σ samples_ (recomputed on eviction: no drift)
 };
 
 } // namespace registration

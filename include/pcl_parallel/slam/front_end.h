@@ -9,6 +9,7 @@
 
 #include <memory>
 #include <optional>
+#include <utility>
 
 namespace pcl_parallel {
 namespace slam {
@@ -31,9 +32,11 @@ struct FrontEndParameters {
    *  sigma / 3. Off: the fixed gate and no kernel. */
   bool adaptive_threshold = true;
   /** With the adaptive threshold: the motion prior (odometry step or constant velocity)
-   *  enters pICP as a Gaussian prior of the spread the threshold measured
-   *  (ParallelIterativeClosestPoint::setMotionPrior), so directions a sparse or one-sided
-   *  scan leaves unconstrained stay at the prediction (docs/design.md, "Real data"). */
+   *  enters pICP as a Gaussian prior (ParallelIterativeClosestPoint::setMotionPrior), so
+   *  directions a sparse or one-sided scan leaves unconstrained stay at the prediction
+   *  (docs/design.md, "Real data"). Its spread: the RMS of how far the matches moved the
+   *  scans from the prediction, in translation and in rotation each, once 20 such
+   *  deviations are in; before, the threshold's sigma ("The motion prior's spread"). */
   bool motion_prior = true;
   /** Point-to-plane pICP instead of point-to-point. */
   bool point_to_plane = true;
@@ -103,6 +106,9 @@ private:
   struct Registration;
   double
   gate() const;
+  /** The motion prior's standard deviations, translation and rotation (rad). */
+  std::pair<double, double>
+  priorSpread() const;
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;
