@@ -398,6 +398,51 @@ TEST(LumMath, PointToPlaneIgnoresOffsetsAlongTheSurface)
 }
 
 // Normals of points on a sphere are radial; points on a line get none.
+// The Cauchy kernel of a pose constraint beside a scan link on the same vertices weighs
+// the update the constraint asks for, d = J^-1 e0, in the link's information: a link with
+// no information along d does not contradict it (full weight, the block of plain least
+// squares), a link that constrains d does (down-weighted as by its own information), and
+// without a valid link the constraint's own chi2 decides as before.
+TEST(LumMath, ConstraintKernelJudgedByTheLinkBetweenItsVertices)
+{
+  namespace lum = pcl_parallel::lum;
+  const Eigen::Matrix4d source = makePose(2.0, -1.0, 0.5, 0.1, -0.2, 0.7);
+  const Eigen::Matrix4d target = makePose(0.5, 0.3, 0.0, 0.0, 0.1, 0.2);
+  lum::PoseConstraint c;
+  c.source = 1;
+  c.target = 0;
+  c.measured = target.inverse() * source;
+  c.measured(0, 3) += 0.1; // 10 cm off: chi2 1e4 in its own information
+  c.information = lum::Matrix6d::Identity() * 1e6;
+  const lum::LinkBlock plain = lum::constraintBlock(c, source, target);
+  ASSERT_TRUE(plain.valid);
+  const lum::Vector6d d = plain.info.ldlt().solve(plain.grad); // J^-1 e0
+  c.cauchy_scale = 16.8;
+  const double own_weight = 1.0 / (1.0 + 1e4 / 16.8);
+  const lum::LinkBlock alone = lum::constraintBlock(c, source, target);
+  EXPECT_LT((alone.info - own_weight * plain.info).norm(), 1e-9 * plain.info.norm());
+
+  lum::LinkBlock link;
+  link.source = 1;
+  link.target = 0;
+  link.valid = true;
+  const lum::Vector6d u = d.normalized();
+  link.info = 1e6 * (lum::Matrix6d::Identity() - u * u.transpose()); // open along d
+  const lum::LinkBlock open = lum::constraintBlock(c, source, target, &link);
+  EXPECT_LT((open.info - plain.info).norm(), 1e-6 * plain.info.norm());
+  EXPECT_LT((open.grad - plain.grad).norm(), 1e-6 * plain.grad.norm());
+
+  link.info = lum::Matrix6d::Identity() * 1e6; // constrains d: chi2 = 1e6 |d|^2
+  const double link_weight = 1.0 / (1.0 + 1e6 * d.squaredNorm() / 16.8);
+  const lum::LinkBlock held = lum::constraintBlock(c, source, target, &link);
+  EXPECT_LT(link_weight, 0.01);
+  EXPECT_LT((held.info - link_weight * plain.info).norm(), 1e-6 * plain.info.norm());
+
+  link.valid = false; // dropped this iteration: the constraint's own chi2
+  const lum::LinkBlock dropped = lum::constraintBlock(c, source, target, &link);
+  EXPECT_LT((dropped.info - alone.info).norm(), 1e-12 * plain.info.norm());
+}
+
 TEST(LumMath, EstimateNormals)
 {
   std::vector<float> xyz;

@@ -37,19 +37,23 @@ binPath(const std::string& dir, std::size_t i)
   return dir + "/" + name;
 }
 
-/** The front end alone (no loop closing) over scans 0..n-1 of DIR/bin, 2 threads. */
+/** The pipeline over scans 0..n-1 of DIR/bin, 2 threads: the final poses, or with
+ *  close_loops false the front end's alone (`pcl_pslam run --no-loops`). */
 Poses
-frontEnd(const std::string& dir, std::size_t n, const Poses* odometry = nullptr)
+mapSequence(const std::string& dir,
+            std::size_t n,
+            const Poses* odometry = nullptr,
+            bool close_loops = false)
 {
   slam::Parameters p;
-  p.close_loops = false;
+  p.close_loops = close_loops;
   p.num_threads = 2;
   slam::Pipeline pipeline(p);
   for (std::size_t i = 0; i < n; ++i)
     pipeline.addScan(*io::loadScan(binPath(dir, i)),
                      odometry ? std::optional<Pose>((*odometry)[i]) : std::nullopt);
   pipeline.finish();
-  return pipeline.frontEndPoses();
+  return close_loops ? pipeline.poses() : pipeline.frontEndPoses();
 }
 
 // Handheld Livox Avia swung ~10 degrees between keyframes, FAST-LIO2's (IMU-aided)
@@ -64,10 +68,11 @@ TEST(RealSequences, HandheldFrontEndKeepsTheOdometrysSteps)
   PCL_PARALLEL_REQUIRE_DATA(odometry_file, "fastlio_quick_shack/odom_poses.txt");
   const std::string dir = test::dataFile("fastlio_quick_shack/bin");
   const Poses odometry = io::loadKittiPoses(odometry_file);
-  const Poses reference = io::loadKittiPoses(test::dataFile("fastlio_quick_shack/optimized_poses.txt"));
+  const Poses reference =
+      io::loadKittiPoses(test::dataFile("fastlio_quick_shack/optimized_poses.txt"));
   ASSERT_EQ(odometry.size(), 241u);
   const std::size_t n = kSanitized ? 30 : odometry.size();
-  const Poses poses = frontEnd(dir, n, &odometry);
+  const Poses poses = mapSequence(dir, n, &odometry);
   ASSERT_EQ(poses.size(), n);
   const Poses truth(reference.begin(), reference.begin() + n);
   const auto e = evaluation::frameRelativeError(poses, truth);
@@ -77,6 +82,28 @@ TEST(RealSequences, HandheldFrontEndKeepsTheOdometrysSteps)
   EXPECT_LT(e.rotation_deg.max, 1.0);
   EXPECT_LT(e.translation.mean, 0.025);
   EXPECT_LT(e.translation.max, 0.2);
+}
+
+// The same with loop closing (pLUM over 50-60 loop links): the relaxation must not bend
+// the steps the front end got right. Where the swung scanner sees only a close, nearly
+// planar patch (scans 112-137) pLUM's links of two reduced scans leave directions open;
+// the front end's steps, as sequence constraints, must hold them. Measured: 0.145 degrees
+// mean, 1.19 worst. With the constraints' Cauchy kernel judged by their own information
+// (chi2 in the thousands there) they yielded to whatever the loops pulled: 0.232, 3.29.
+TEST(RealSequences, HandheldLoopClosingKeepsTheSteps)
+{
+  PCL_PARALLEL_REQUIRE_DATA(odometry_file, "fastlio_quick_shack/odom_poses.txt");
+  if (kSanitized)
+    GTEST_SKIP() << "loop closing over 241 scans: too slow under the sanitizers";
+  const Poses odometry = io::loadKittiPoses(odometry_file);
+  const Poses reference =
+      io::loadKittiPoses(test::dataFile("fastlio_quick_shack/optimized_poses.txt"));
+  const Poses poses =
+      mapSequence(test::dataFile("fastlio_quick_shack/bin"), odometry.size(), &odometry, true);
+  const auto e = evaluation::frameRelativeError(poses, reference);
+  EXPECT_LT(e.rotation_deg.mean, 0.18);
+  EXPECT_LT(e.rotation_deg.max, 2.0);
+  EXPECT_LT(e.translation.mean, 0.025);
 }
 
 // An Ouster OS1-64 on a car, keyframes ~2 m apart, no odometry (the data's poses are
@@ -92,7 +119,7 @@ TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
     GTEST_SKIP() << "332 Ouster sweeps: too slow under the sanitizers; the handheld test "
                     "runs the same code there";
   const std::size_t n = 332;
-  const Poses poses = frontEnd(dir, n);
+  const Poses poses = mapSequence(dir, n);
   ASSERT_EQ(poses.size(), n);
   std::size_t forward = 0;
   for (std::size_t i = 1; i < n; ++i) {

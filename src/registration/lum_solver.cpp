@@ -9,6 +9,7 @@
 #include <pcl_parallel/registration/lum_solver.h>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
@@ -217,7 +218,8 @@ constraintChi2(const PoseConstraint& c,
 LinkBlock
 constraintBlock(const PoseConstraint& c,
                 const Eigen::Matrix4d& source_pose,
-                const Eigen::Matrix4d& target_pose)
+                const Eigen::Matrix4d& target_pose,
+                const LinkBlock* link)
 {
   LinkBlock b;
   b.source = c.source;
@@ -230,9 +232,17 @@ constraintBlock(const PoseConstraint& c,
   j.topLeftCorner<3, 3>() = rt;
   j.topRightCorner<3, 3>() = -rt * skew(source_pose.topRightCorner<3, 1>());
   j.bottomRightCorner<3, 3>() = rt;
-  // Cauchy IRLS weight (Black and Rangarajan 1996) from the current error.
-  const double weight =
-      c.cauchy_scale > 0.0 ? 1.0 / (1.0 + e0.dot(c.information * e0) / c.cauchy_scale) : 1.0;
+  // Cauchy IRLS weight (Black and Rangarajan 1996) from the current error, judged by the
+  // scans' link where there is one: the update the constraint asks for in its information.
+  double weight = 1.0;
+  if (c.cauchy_scale > 0.0) {
+    double chi2 = e0.dot(c.information * e0);
+    if (link && link->valid) {
+      const Vector6d d = j.partialPivLu().solve(e0); // J is invertible (block triangular)
+      chi2 = d.dot(link->info * d);
+    }
+    weight = 1.0 / (1.0 + chi2 / c.cauchy_scale);
+  }
   b.info = weight * (j.transpose() * c.information * j);
   b.grad = weight * (j.transpose() * (c.information * e0));
   b.valid = b.info.allFinite() && b.grad.allFinite();

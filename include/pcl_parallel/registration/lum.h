@@ -300,7 +300,9 @@ public:
    *  source Exp(e) (lum::PoseConstraint). Each iteration adds it to G X = B after the
    *  links, in the order added; it also connects its vertices. cauchy_scale > 0 puts a
    *  Cauchy kernel on its squared Mahalanobis error, so that a constraint the scans
-   *  contradict yields (e.g. 16.8, chi2's 99 % quantile for 6 degrees of freedom).
+   *  contradict yields (e.g. 16.8, chi2's 99 % quantile for 6 degrees of freedom); where
+   *  a link joins the same two vertices (source to target), the error is measured in that
+   *  link's information of the iteration (lum::constraintBlock).
    *  Throws std::out_of_range for an unknown vertex (as addLink), std::invalid_argument
    *  for equal vertices, a non-finite pose, a non-finite or asymmetric information or a
    *  negative scale. */

@@ -198,9 +198,10 @@ struct PoseConstraint {
   std::uint32_t target = 0;
   Eigen::Matrix4d measured = Eigen::Matrix4d::Identity();
   Matrix6d information = Matrix6d::Zero();
-  /** > 0: a Cauchy kernel on the squared Mahalanobis error chi2 = e^T I e, the
-   *  information scaled by 1 / (1 + chi2 / cauchy_scale) at each linearisation (IRLS), so
-   *  a constraint the scans contradict yields; 0: plain least squares. */
+  /** > 0: a Cauchy kernel, the information scaled by 1 / (1 + chi2 / cauchy_scale) at
+   *  each linearisation (IRLS), so that a constraint the scans contradict yields; chi2 is
+   *  the error in the information of the scan link between the same two vertices where
+   *  one is measured (constraintBlock), else its own e^T I e. 0: plain least squares. */
   double cauchy_scale = 0.0;
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
@@ -208,11 +209,16 @@ struct PoseConstraint {
 /** The constraint's contribution to G X = B at the current poses, as a link block: its
  *  error e0 = (t, w) of measured^-1 target^-1 source and the body Jacobian J of the
  *  world-frame updates (applyUpdate), H = J^T I J and g = J^T I e0 (times the Cauchy
- *  weight). */
+ *  weight). `link`: this iteration's valid block of the scan link from source to target,
+ *  if any; the Cauchy kernel then weighs the update the constraint asks for, d = J^-1 e0,
+ *  in the link's information, chi2 = d^T H_link d: the scans contradict a constraint only
+ *  in directions their pairs constrain, and a direction they leave open (a wall seen
+ *  alone) is not a contradiction (docs/design.md, "Sequence constraints"). */
 LinkBlock
 constraintBlock(const PoseConstraint& c,
                 const Eigen::Matrix4d& source_pose,
-                const Eigen::Matrix4d& target_pose);
+                const Eigen::Matrix4d& target_pose,
+                const LinkBlock* link = nullptr);
 
 /** The constraint's squared Mahalanobis error e0^T I e0 at the given poses. */
 double

@@ -52,8 +52,9 @@ struct LoopClosureParameters {
    *  scan links (addScan): each weighs as much as a pLUM link (its information scaled to
    *  2 x lum_queries_per_scan pairs, the shape and residual variance its own), under a
    *  Cauchy kernel of this chi2 scale, so that a match the scans contradict yields
-   *  (16.8: chi2's 99 % quantile for 6 degrees of freedom). docs/design.md, "Sequence
-   *  constraints". */
+   *  (16.8: chi2's 99 % quantile for 6 degrees of freedom), the error measured in the
+   *  information of the pair's pLUM link (lum::constraintBlock). docs/design.md,
+   *  "Sequence constraints". */
   bool sequence_constraints = true;
   double sequence_cauchy_scale = 16.8;
   double median_range = 10.0; ///< of the scans: converts a rotation error to a displacement
@@ -179,8 +180,8 @@ public:
   std::size_t
   keptScans() const;
   /** Per scan, the squared Mahalanobis error of its sequence constraint at the current
-   *  poses (after relax(): above sequence_cauchy_scale, the scans overruled the front
-   *  end's step there); -1 where it has none (the first scan, a failed match). */
+   *  poses, in its own information (after relax(): how far loop closing moved the scan
+   *  from the front end's step); -1 where it has none (the first scan, a failed match). */
   std::vector<double>
   sequenceChi2() const;
 

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -757,8 +758,15 @@ ParallelLUM<PointT>::solveIteration(Run& run, int it)
   }
   // The pose constraints after the links, in the order added (deterministic).
   run.blocks.resize(links.size());
+  // A constraint's robust kernel looks at the link between its vertices (constraintBlock).
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::size_t> link_of;
+  for (std::size_t li = 0; li < links.size(); ++li)
+    if (run.blocks[li].valid)
+      link_of.emplace(std::make_pair(run.blocks[li].source, run.blocks[li].target), li);
   for (const lum::PoseConstraint& c : constraints_) {
-    run.blocks.push_back(lum::constraintBlock(c, poses_[c.source], poses_[c.target]));
+    const auto f = link_of.find({c.source, c.target});
+    const lum::LinkBlock* link = f == link_of.end() ? nullptr : &run.blocks[f->second];
+    run.blocks.push_back(lum::constraintBlock(c, poses_[c.source], poses_[c.target], link));
     if (run.blocks.back().valid)
       valid.emplace_back(c.source, c.target);
   }
