@@ -56,6 +56,22 @@ mapSequence(const std::string& dir,
   return close_loops ? pipeline.poses() : pipeline.frontEndPoses();
 }
 
+/** fastlio_quick_shack's first n scans mapped from its odometry (the file): the per-step
+ *  errors against its optimised poses. */
+evaluation::FrameRelativeError
+handheldStepErrors(const std::string& odometry_file, std::size_t n, bool close_loops)
+{
+  const Poses odometry = io::loadKittiPoses(odometry_file);
+  const Poses reference =
+      io::loadKittiPoses(test::dataFile("fastlio_quick_shack/optimized_poses.txt"));
+  EXPECT_EQ(odometry.size(), 241u);
+  const Poses poses =
+      mapSequence(test::dataFile("fastlio_quick_shack/bin"), n, &odometry, close_loops);
+  EXPECT_EQ(poses.size(), n);
+  return evaluation::frameRelativeError(poses,
+                                        Poses(reference.begin(), reference.begin() + n));
+}
+
 // Handheld Livox Avia swung ~10 degrees between keyframes, FAST-LIO2's (IMU-aided)
 // odometry given: the front end must keep what the odometry got right. Its steps against
 // the optimised poses (FAST-LIO2 + Scan-Context/iSAM2; step by step the same as the
@@ -66,16 +82,7 @@ mapSequence(const std::string& dir,
 TEST(RealSequences, HandheldFrontEndKeepsTheOdometrysSteps)
 {
   PCL_PARALLEL_REQUIRE_DATA(odometry_file, "fastlio_quick_shack/odom_poses.txt");
-  const std::string dir = test::dataFile("fastlio_quick_shack/bin");
-  const Poses odometry = io::loadKittiPoses(odometry_file);
-  const Poses reference =
-      io::loadKittiPoses(test::dataFile("fastlio_quick_shack/optimized_poses.txt"));
-  ASSERT_EQ(odometry.size(), 241u);
-  const std::size_t n = kSanitized ? 30 : odometry.size();
-  const Poses poses = mapSequence(dir, n, &odometry);
-  ASSERT_EQ(poses.size(), n);
-  const Poses truth(reference.begin(), reference.begin() + n);
-  const auto e = evaluation::frameRelativeError(poses, truth);
+  const auto e = handheldStepErrors(odometry_file, kSanitized ? 30 : 241, false);
   if (kSanitized)
     return; // the run above is what the sanitizers look at
   EXPECT_LT(e.rotation_deg.mean, 0.15);
@@ -95,12 +102,7 @@ TEST(RealSequences, HandheldLoopClosingKeepsTheSteps)
   PCL_PARALLEL_REQUIRE_DATA(odometry_file, "fastlio_quick_shack/odom_poses.txt");
   if (kSanitized)
     GTEST_SKIP() << "loop closing over 241 scans: too slow under the sanitizers";
-  const Poses odometry = io::loadKittiPoses(odometry_file);
-  const Poses reference =
-      io::loadKittiPoses(test::dataFile("fastlio_quick_shack/optimized_poses.txt"));
-  const Poses poses =
-      mapSequence(test::dataFile("fastlio_quick_shack/bin"), odometry.size(), &odometry, true);
-  const auto e = evaluation::frameRelativeError(poses, reference);
+  const auto e = handheldStepErrors(odometry_file, 241, true);
   EXPECT_LT(e.rotation_deg.mean, 0.18);
   EXPECT_LT(e.rotation_deg.max, 2.0);
   EXPECT_LT(e.translation.mean, 0.025);
