@@ -68,8 +68,18 @@ handheldStepErrors(const std::string& odometry_file, std::size_t n, bool close_l
   const Poses poses =
       mapSequence(test::dataFile("fastlio_quick_shack/bin"), n, &odometry, close_loops);
   EXPECT_EQ(poses.size(), n);
-  return evaluation::frameRelativeError(poses,
-                                        Poses(reference.begin(), reference.begin() + n));
+  return evaluation::frameRelativeError(poses, Poses(reference.begin(), reference.begin() + n));
+}
+
+void
+expectStepErrorsBelow(const evaluation::FrameRelativeError& e,
+                      double rotation_mean_deg,
+                      double rotation_max_deg,
+                      double translation_mean)
+{
+  EXPECT_LT(e.rotation_deg.mean, rotation_mean_deg);
+  EXPECT_LT(e.rotation_deg.max, rotation_max_deg);
+  EXPECT_LT(e.translation.mean, translation_mean);
 }
 
 // Handheld Livox Avia swung ~10 degrees between keyframes, FAST-LIO2's (IMU-aided)
@@ -85,9 +95,7 @@ TEST(RealSequences, HandheldFrontEndKeepsTheOdometrysSteps)
   const auto e = handheldStepErrors(odometry_file, kSanitized ? 30 : 241, false);
   if (kSanitized)
     return; // the run above is what the sanitizers look at
-  EXPECT_LT(e.rotation_deg.mean, 0.15);
-  EXPECT_LT(e.rotation_deg.max, 1.0);
-  EXPECT_LT(e.translation.mean, 0.025);
+  expectStepErrorsBelow(e, 0.15, 1.0, 0.025);
   EXPECT_LT(e.translation.max, 0.2);
 }
 
@@ -102,10 +110,7 @@ TEST(RealSequences, HandheldLoopClosingKeepsTheSteps)
   PCL_PARALLEL_REQUIRE_DATA(odometry_file, "fastlio_quick_shack/odom_poses.txt");
   if (kSanitized)
     GTEST_SKIP() << "loop closing over 241 scans: too slow under the sanitizers";
-  const auto e = handheldStepErrors(odometry_file, 241, true);
-  EXPECT_LT(e.rotation_deg.mean, 0.18);
-  EXPECT_LT(e.rotation_deg.max, 2.0);
-  EXPECT_LT(e.translation.mean, 0.025);
+  expectStepErrorsBelow(handheldStepErrors(odometry_file, 241, true), 0.18, 2.0, 0.025);
 }
 
 // An Ouster OS1-64 on a car, keyframes ~2 m apart, no odometry (the data's poses are
