@@ -74,22 +74,16 @@ AdaptiveThreshold::updateModelDeviation(const Eigen::Matrix4d& deviation)
     seeded_ = false;
     resum();
   }
-  else {
-    sum_.error2 += s.error2;
-    sum_.translation2 += s.translation2;
-    sum_.rotation2 += s.rotation2;
-  }
+  else
+    sum_ += s;
 }
 
 void
 AdaptiveThreshold::resum()
 {
   sum_ = {0.0, 0.0, 0.0};
-  for (const Sample& s : samples_) {
-    sum_.error2 += s.error2;
-    sum_.translation2 += s.translation2;
-    sum_.rotation2 += s.rotation2;
-  }
+  for (const Sample& s : samples_)
+    sum_ += s;
 }
 
 double

@@ -93,6 +93,14 @@ public:
 private:
   struct Sample {
     double error2, translation2, rotation2; ///< δ², |Δt|², θ²
+    Sample&
+    operator+=(const Sample& s)
+    {
+      error2 += s.error2;
+      translation2 += s.translation2;
+      rotation2 += s.rotation2;
+      return *this;
+    }
   };
   void
   resum();
