@@ -124,14 +124,13 @@ FrontEnd::priorSpread() const
   const registration::AdaptiveThreshold& th = *icp_->threshold;
   if (th.numDeviations() < kPriorSpreadSamples) { // the gate's sigma, rotation at max range
     const double sigma = gate() / 3.0;
-    return {sigma, sigma / params_.map_distance};
+    return {sigma, sigma / th.maxRange()};
   }
   // Translation and rotation each from their own deviations: the combined sigma is
   // dominated by rotation times max range (docs/design.md, "The motion prior's spread").
   // Below min motion a deviation is not measured, so neither is a spread.
-  const double min_motion = kMinMotionVoxels * params_.map_voxel_size;
-  return {std::max(th.translationSigma(), min_motion),
-          std::max(th.rotationSigma(), min_motion / params_.map_distance)};
+  return {std::max(th.translationSigma(), th.minMotion()),
+          std::max(th.rotationSigma(), th.minMotion() / th.maxRange())};
 }
 
 FrontEnd::~FrontEnd() = default;

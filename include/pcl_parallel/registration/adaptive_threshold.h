@@ -67,6 +67,19 @@ public:
     return sigma() / 3.0;
   }
 
+  /** Deviations at or below this are not counted. */
+  double
+  minMotion() const
+  {
+    return min_motion_;
+  }
+  /** The range at which a rotation counts as a displacement. */
+  double
+  maxRange() const
+  {
+    return max_range_;
+  }
+
   /** The kept samples, the initial threshold's included. */
   std::size_t
   numSamples() const
