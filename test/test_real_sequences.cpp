@@ -113,12 +113,33 @@ TEST(RealSequences, HandheldLoopClosingKeepsTheSteps)
   expectStepErrorsBelow(handheldStepErrors(odometry_file, 241, true), 0.18, 2.0, 0.025);
 }
 
-// An Ouster OS1-64 on a car, keyframes ~2 m apart, no odometry (the data's poses are
+// The same scanner without odometry: the front end from constant velocity alone. The
+// swings change the motion between keyframes far more than constant velocity predicts,
+// so the local-map match starts from a match to the previous scan
+// (FrontEndParameters::guess_from_previous_scan). Measured: 2.0 degrees mean per-step
+// rotation error (it loses the fastest swings, up to 32 degrees at scans 117-122);
+// from constant velocity itself 5.0 degrees mean.
+TEST(RealSequences, HandheldFrontEndWithoutOdometry)
+{
+  PCL_PARALLEL_REQUIRE_DATA(reference_file, "fastlio_quick_shack/optimized_poses.txt");
+  const std::size_t n = kSanitized ? 30 : 241;
+  const Poses poses = mapSequence(test::dataFile("fastlio_quick_shack/bin"), n);
+  ASSERT_EQ(poses.size(), n);
+  if (kSanitized)
+    return; // the run above is what the sanitizers look at
+  const Poses reference = io::loadKittiPoses(reference_file);
+  EXPECT_LT(evaluation::frameRelativeError(poses, reference).rotation_deg.mean, 3.0);
+}
+
+// An Ouster OS1-64 on a car, keyframes 0.4-5.5 s apart, no odometry (the data's poses are
 // unusable, PROVENANCE.txt): from constant velocity alone the front end must follow the
 // drive. The car moves along -x of the scans' frame (PROVENANCE.txt) and the clip ends
-// far from where it began. Measured: 85 % of the steps go forward, the last pose 1,043 m
-// from the first. With the prior's spread from the combined model error the run lost the
-// street and wandered in a 100 m tangle: 50 %, 30 m.
+// far from where it began. Where the car pulls away (keyframes 5-60), scan-to-scan
+// matching and a brute-force overlap search find steps of 5-9 m (docs/design.md, "Real
+// data"), 300 m in all. Measured: 99 % of the steps go forward, 272 m to keyframe 60,
+// the last pose 863 m from the first. Matched to the local map from constant velocity
+// the front end stalled there: 85 %, 47 m (and 1,043 m); with the prior's spread from
+// the combined model error it lost the street and wandered in a 100 m tangle: 50 %, 30 m.
 TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
 {
   PCL_PARALLEL_REQUIRE_DATA(dir, "mulran_riverside02_keyframes/bin");
@@ -129,11 +150,15 @@ TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
   const Poses poses = mapSequence(dir, n);
   ASSERT_EQ(poses.size(), n);
   std::size_t forward = 0;
+  double pull_away = 0.0; // path to keyframe 60
   for (std::size_t i = 1; i < n; ++i) {
     const Pose step = poses[i - 1].inverse() * poses[i];
     forward += step(0, 3) < 0.0 ? 1 : 0;
+    if (i <= 60)
+      pull_away += step.topRightCorner<3, 1>().norm();
   }
-  EXPECT_GT(static_cast<double>(forward) / static_cast<double>(n - 1), 0.75);
+  EXPECT_GT(static_cast<double>(forward) / static_cast<double>(n - 1), 0.95);
+  EXPECT_GT(pull_away, 200.0);
   EXPECT_GT((poses.back().topRightCorner<3, 1>() - poses.front().topRightCorner<3, 1>()).norm(),
             500.0);
 }

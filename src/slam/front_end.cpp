@@ -15,14 +15,21 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <utility>
 #include <vector>
 
 namespace pcl_parallel {
 namespace slam {
 
+namespace {
+using Icp = ParallelIterativeClosestPoint<PointT, MapPoint, float>;
+} // namespace
+
 struct FrontEnd::Registration {
   // The target's normals come with it (setUseTargetNormalFields): estimated once per scan.
-  ParallelIterativeClosestPoint<PointT, MapPoint, float> icp;
+  Icp icp;
+  Icp to_previous; ///< the initial guess's match; its own object keeps icp's map tree
   std::unique_ptr<registration::AdaptiveThreshold> threshold;
 };
 
@@ -75,6 +82,28 @@ withNormals(const Cloud& reduced, const std::vector<Eigen::Vector3f>& normals)
   return out;
 }
 
+/** A match's gate and, with the adaptive threshold, its Geman-McClure kernel (scale
+ *  sigma / 3, KISS-ICP) and motion prior of the given spread (translation, rotation). */
+void
+configure(Icp& icp,
+          double gate,
+          bool adaptive,
+          const Pose& prediction,
+          const std::optional<std::pair<double, double>>& prior_spread)
+{
+  icp.setMaxCorrespondenceDistance(gate);
+  if (!adaptive)
+    return;
+  const double scale = gate / 9.0;
+  icp.setRobustKernel({registration::RobustKernel::Type::kGemanMcClure, scale});
+  if (prior_spread) {
+    const auto [sigma_t, sigma_r] = *prior_spread;
+    icp.setMotionPrior(prediction,
+                       (scale / sigma_t) * (scale / sigma_t),
+                       (scale / sigma_r) * (scale / sigma_r));
+  }
+}
+
 /** pICP's body-frame Hessian (rotation first) over the residual variance, in the pose
  *  graph's order (translation first). */
 Information
@@ -96,13 +125,14 @@ FrontEnd::FrontEnd(const FrontEndParameters& params)
     , icp_(new Registration)
     , map_(params.map_voxel_size, params.map_distance, params.map_points_per_voxel)
 {
-  auto& icp = icp_->icp;
-  icp.setNumberOfThreads(params.num_threads);
-  icp.setMaxCorrespondenceDistance(params.max_correspondence_distance);
-  icp.setMaximumIterations(params.max_iterations);
-  icp.setTransformationEpsilon(params.transformation_epsilon);
-  icp.setUsePointToPlane(params.point_to_plane);
-  icp.setUseTargetNormalFields(!params.normals_from_map);
+  for (Icp* icp : {&icp_->icp, &icp_->to_previous}) {
+    icp->setNumberOfThreads(params.num_threads);
+    icp->setMaxCorrespondenceDistance(params.max_correspondence_distance);
+    icp->setMaximumIterations(params.max_iterations);
+    icp->setTransformationEpsilon(params.transformation_epsilon);
+    icp->setUsePointToPlane(params.point_to_plane);
+    icp->setUseTargetNormalFields(!params.normals_from_map);
+  }
   if (params.adaptive_threshold) // KISS-ICP: min motion 0.1 m at 1 m voxels, max range
     icp_->threshold.reset(
         new registration::AdaptiveThreshold(params.max_correspondence_distance,
@@ -131,6 +161,14 @@ FrontEnd::priorSpread() const
   // Below min motion a deviation is not measured, so neither is a spread.
   return {std::max(th.translationSigma(), th.minMotion()),
           std::max(th.rotationSigma(), th.minMotion() / th.maxRange())};
+}
+
+std::optional<std::pair<double, double>>
+FrontEnd::priorSpreadIfUsed() const
+{
+  if (!icp_->threshold || !params_.motion_prior)
+    return std::nullopt;
+  return priorSpread();
 }
 
 FrontEnd::~FrontEnd() = default;
@@ -165,19 +203,9 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
     if (target != target_) // the tree is rebuilt only for a new target
       icp.setInputTarget(target_ = target);
     r.gate = gate();
-    icp.setMaxCorrespondenceDistance(r.gate);
-    if (icp_->threshold) { // Geman-McClure, scale sigma / 3 (KISS-ICP)
-      const double scale = r.gate / 9.0;
-      icp.setRobustKernel({registration::RobustKernel::Type::kGemanMcClure, scale});
-      if (params_.motion_prior) {
-        const auto [sigma_t, sigma_r] = priorSpread();
-        icp.setMotionPrior(r.prediction,
-                           (scale / sigma_t) * (scale / sigma_t),
-                           (scale / sigma_r) * (scale / sigma_r));
-      }
-    }
+    configure(icp, r.gate, icp_->threshold != nullptr, r.prediction, priorSpreadIfUsed());
     Cloud aligned;
-    icp.alignDouble(aligned, r.prediction);
+    icp.alignDouble(aligned, initialGuess(source, r.prediction, odometry.has_value()));
     r.converged = icp.hasConverged();
     if (r.converged) {
       r.pose = icp.getFinalTransformationDouble();
@@ -198,9 +226,23 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
   pcl::transformPointCloudWithNormals(*world, *world, pose_);
   if (to_map)
     map_.update(*world, pose_.topRightCorner<3, 1>());
-  else
-    previous_ = world;
+  previous_ = world;
   return r;
+}
+
+Pose
+FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry)
+{
+  if (!params_.guess_from_previous_scan || odometry ||
+      params_.target != MatchTarget::kLocalMap || !previous_ || previous_->empty())
+    return prediction;
+  Icp& icp = icp_->to_previous;
+  configure(icp, gate(), icp_->threshold != nullptr, prediction, priorSpreadIfUsed());
+  icp.setInputSource(source);
+  icp.setInputTarget(previous_);
+  Cloud aligned;
+  icp.alignDouble(aligned, prediction);
+  return icp.hasConverged() ? Pose(icp.getFinalTransformationDouble()) : prediction;
 }
 
 void

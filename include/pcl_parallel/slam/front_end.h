@@ -38,6 +38,14 @@ struct FrontEndParameters {
    *  scans from the prediction, in translation and in rotation each, once 20 such
    *  deviations are in; before, the threshold's sigma ("The motion prior's spread"). */
   bool motion_prior = true;
+  /** Local map without odometry: the map match starts from a match to the previous scan
+   *  (from constant velocity), not from constant velocity itself. Where the motion
+   *  changes more between scans than the map's basin allows (keyframes metres apart, a
+   *  car pulling away, a handheld scanner swung), a map match from a poor guess can slide
+   *  into the copy of the scene that earlier wrong poses left in the map, and that error
+   *  reinforces itself; a single previous scan holds no such copy (docs/design.md,
+   *  "Real data"). Ignored with odometry, whose step is the guess. */
+  bool guess_from_previous_scan = true;
   /** Point-to-plane pICP instead of point-to-point. */
   bool point_to_plane = true;
   /** Point-to-plane normals: false (default) estimates them once per scan from its
@@ -109,11 +117,18 @@ private:
   /** The motion prior's standard deviations, translation and rotation (rad). */
   std::pair<double, double>
   priorSpread() const;
+  /** priorSpread() where pICP takes a motion prior (adaptive threshold and motion_prior). */
+  std::optional<std::pair<double, double>>
+  priorSpreadIfUsed() const;
+  /** Where the match starts: the prediction, or its match to the previous scan
+   *  (guess_from_previous_scan). */
+  Pose
+  initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry);
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;
   LocalMap map_;
-  MapCloud::Ptr previous_;    ///< kPreviousScan: the last scan, reduced, world frame
+  MapCloud::Ptr previous_;    ///< the last scan, reduced, world frame
   MapCloud::ConstPtr target_; ///< what pICP's target tree was built from
   std::size_t scans_ = 0;
   Pose pose_ = Pose::Identity();
