@@ -32,7 +32,7 @@ constexpr bool kSanitized = false;
 std::string
 binPath(const std::string& dir, std::size_t i)
 {
-  char name[16];
+  char name[32]; // any size_t's digits and ".bin"
   std::snprintf(name, sizeof(name), "%06zu.bin", i);
   return dir + "/" + name;
 }

@@ -103,7 +103,8 @@ struct Descriptions {
       ("scan-to-scan", po::bool_switch(&o.scan_to_scan),
        "match each scan against its predecessor only (the paper's and slam6D's default)")
       ("deskew", po::bool_switch(&o.deskew),
-       "deskew scans taken while moving (spinning LiDAR) by the predicted motion")
+       "deskew scans taken while moving (spinning LiDAR) by the predicted motion; for "
+       "consecutive sweeps, not keyframes several sweeps apart")
       ("map-normals", po::bool_switch(&o.map_normals),
        "point-to-plane normals from the local map instead of each scan (sparse scanners, "
        "e.g. Livox; slower on large maps)")
