@@ -397,7 +397,6 @@ TEST(LumMath, PointToPlaneIgnoresOffsetsAlongTheSurface)
   EXPECT_GT((d_point - truth).norm(), 1e-3); // the offsets do bias point-to-point
 }
 
-// Normals of points on a sphere are radial; points on a line get none.
 // The Cauchy kernel of a pose constraint beside a scan link on the same vertices weighs
 // the update the constraint asks for, d = J^-1 e0, in the link's information: a link with
 // no information along d does not contradict it (full weight, the block of plain least
@@ -443,6 +442,7 @@ TEST(LumMath, ConstraintKernelJudgedByTheLinkBetweenItsVertices)
   EXPECT_LT((dropped.info - alone.info).norm(), 1e-12 * plain.info.norm());
 }
 
+// Normals of points on a sphere are radial; points on a line get none.
 TEST(LumMath, EstimateNormals)
 {
   std::vector<float> xyz;
