@@ -1126,7 +1126,7 @@ TEST(ParallelIcpDeterminism, NewModesBitIdenticalForAnyThreadCount)
 
 // Target normals are reused while the target is unchanged: edited in place without
 // setInputTarget they are not re-read; setInputTarget re-reads them; a prebuilt tree with
-// force_no_recompute keeps them across setInputTarget.
+// force_no_recompute keeps them across setInputTarget, until the tree has a new index.
 TEST(ParallelIcpPointToPlane, TargetNormalsReusedWhileTargetUnchanged)
 {
   BunnyNormals b;
@@ -1174,6 +1174,14 @@ TEST(ParallelIcpPointToPlane, TargetNormalsReusedWhileTargetUnchanged)
   pre.setInputTarget(tgt); // same points, tilted normals: kept as promised
   pre.align(out, b.guess.cast<float>());
   EXPECT_EQ(pre.getFinalTransformation(), first);
+  // A new index under the same tree object (rebuilt, or adopted with
+  // setInputCloudAndIndex) is a new target: its normals are read again.
+  pcl_parallel::search::KdTree<PointNormal> other;
+  other.setInputCloud(tgt);
+  tree->setInputCloudAndIndex(tgt, other.sharedIndex());
+  pre.align(out, b.guess.cast<float>());
+  EXPECT_EQ(pre.getTargetNormals(), icp.getTargetNormals()); // the tilted ones
+  EXPECT_EQ(pre.getFinalTransformation(), icp.getFinalTransformation());
 }
 
 // Invariant on real data (bun045 -> bun000): moving both clouds by one rigid motion G

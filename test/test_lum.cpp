@@ -677,6 +677,59 @@ TEST_F(QuietPcl, PlumTakesGivenNormals)
   EXPECT_THROW(lum.setPointNormals(1, {}), std::out_of_range); // no such vertex
 }
 
+// A tree given with setSearchTree (built by the caller, on 2 threads) is the one pLUM
+// searches, with the given normals mapped onto it: the same poses as with the trees pLUM
+// builds itself. A tree of another size is an error.
+TEST_F(QuietPcl, PlumTakesGivenTrees)
+{
+  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
+                       makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
+                       makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
+  const PlumScene s = plumScene(truth, 63);
+  const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 64);
+  auto run = [&](bool given) {
+    ParallelLUM<pcl::PointXYZ> lum;
+    lum.setPointToPlane(true);
+    for (std::size_t v = 0; v < s.clouds.size(); ++v) {
+      lum.addPointCloud(s.clouds[v], Eigen::Matrix4f(start[v].cast<float>()));
+      if (!given)
+        continue;
+      const pcl::PointCloud<pcl::PointXYZ>& c = *s.clouds[v];
+      auto tree = std::make_shared<pcl_parallel::KdTreeIndex>();
+      tree->build(c.front().data, c.size(), 4, nullptr, 2);
+      const auto by_position = pcl_parallel::lum::estimateNormals(*tree, 10, 2);
+      std::vector<Eigen::Vector3f> normals(c.size());
+      for (std::uint32_t pos = 0; pos < tree->size(); ++pos)
+        normals[tree->id(pos)] = by_position[pos];
+      lum.setPointNormals(v, normals);
+      lum.setSearchTree(v, tree);
+      EXPECT_EQ(lum.getSearchTree(v), tree) << "vertex " << v;
+    }
+    lum.addLink(0, 1);
+    lum.addLink(1, 2);
+    lum.addLink(0, 2);
+    lum.setCorrespondenceDistance(0.05);
+    lum.setMaxIterations(3);
+    lum.compute();
+    Poses out;
+    for (std::size_t v = 0; v < s.clouds.size(); ++v)
+      out.push_back(lum.getPoseMatrix(v));
+    return out;
+  };
+  const Poses own = run(false), given = run(true);
+  EXPECT_GT(poseErrors(start, truth).max_trans, 2 * poseErrors(own, truth).max_trans);
+  for (std::size_t v = 0; v < own.size(); ++v)
+    EXPECT_EQ(given[v], own[v]) << "vertex " << v;
+
+  ParallelLUM<pcl::PointXYZ> lum;
+  lum.addPointCloud(s.clouds[0]);
+  auto other = std::make_shared<pcl_parallel::KdTreeIndex>();
+  other->build(s.clouds[1]->front().data, s.clouds[1]->size() - 1, 4);
+  EXPECT_THROW(lum.setSearchTree(0, other), std::invalid_argument);
+  EXPECT_THROW(lum.setSearchTree(0, nullptr), std::invalid_argument);
+  EXPECT_THROW(lum.setSearchTree(1, other), std::out_of_range); // no such vertex
+}
+
 TEST_F(QuietPcl, PlumOptions)
 {
   ParallelLUM<pcl::PointXYZ> lum;

@@ -115,6 +115,38 @@ TEST(SearchKdTree, IndicesRestrictTheTreeAndResultsReferToTheCloud)
   EXPECT_EQ(ours.index().size(), 3u);
 }
 
+// An index built once serves another cloud of the same points (another point type, as
+// the pipeline's front end shares a scan's tree): the same neighbours, no rebuild; an
+// index that does not fit the cloud is an error.
+TEST(SearchKdTree, SharedIndexServesACloudOfTheSamePoints)
+{
+  auto xyz = uniformCloud(3000, 25).makeShared();
+  xyz->push_back(pcl::PointXYZ(NAN, 0, 0)); // not in the tree: counted as not finite
+  auto with_normals = toType<pcl::PointNormal>(*xyz).makeShared();
+  pcl_parallel::search::KdTree<pcl::PointXYZ> built;
+  built.setNumberOfThreads(2);
+  built.setInputCloud(xyz);
+  pcl_parallel::search::KdTree<pcl::PointNormal> shared, own;
+  shared.setInputCloudAndIndex(with_normals, built.sharedIndex());
+  own.setInputCloud(with_normals);
+  EXPECT_EQ(shared.sharedIndex(), built.sharedIndex()); // the same object, not a copy
+  EXPECT_EQ(shared.getInputCloud(), with_normals);
+  pcl::Indices si, oi;
+  std::vector<float> sd, od;
+  for (const auto& q : toType<pcl::PointNormal>(uniformCloud(200, 26))) {
+    shared.nearestKSearch(q, 6, si, sd);
+    own.nearestKSearch(q, 6, oi, od);
+    EXPECT_EQ(si, oi);
+    EXPECT_EQ(sd, od);
+  }
+  auto fewer = toType<pcl::PointNormal>(uniformCloud(2999, 25)).makeShared();
+  EXPECT_THROW(shared.setInputCloudAndIndex(fewer, built.sharedIndex()), std::invalid_argument);
+  EXPECT_THROW(shared.setInputCloudAndIndex(with_normals, nullptr), std::invalid_argument);
+  EXPECT_THROW(shared.setInputCloudAndIndex(nullptr, built.sharedIndex()),
+               std::invalid_argument);
+  EXPECT_EQ(shared.getInputCloud(), with_normals); // a refused index changes nothing
+}
+
 TEST(SearchKdTree, BatchSearchesMatchSingleQueriesForAnyThreadCount)
 {
   auto cloud = clusteredCloud(20000, 25).makeShared();

@@ -8,12 +8,14 @@
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/lum_solver.h>
+#include <pcl_parallel/search/kdtree.h>
 #include <pcl_parallel/slam/front_end.h>
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <pcl/common/transforms.h>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <optional>
 #include <utility>
@@ -41,27 +43,53 @@ constexpr double kMinMotionVoxels = 0.1;
  *  known to about 1/sqrt(2n), 16 % at 20. */
 constexpr std::size_t kPriorSpreadSamples = 20;
 
+/** The reduced points' k-d tree (scanner frame): the scan's one tree, for its normals,
+ *  the next scan's match to it and pLUM (ParallelLUM::setSearchTree: the tree pLUM would
+ *  build, default bucket size, ids the point indices). */
+std::shared_ptr<const KdTreeIndex>
+scanTree(const Cloud& reduced, unsigned num_threads)
+{
+  auto tree = std::make_shared<KdTreeIndex>();
+  tree->build(reduced.empty() ? nullptr : reduced.front().data,
+              reduced.size(),
+              sizeof(PointT) / sizeof(float),
+              nullptr,
+              num_threads);
+  return tree;
+}
+
 /** The reduced points' normals (scanner frame): PCA of each one's 10 nearest reduced
  *  points, zero where the neighbourhood is degenerate. Reduced, not raw, neighbours: on a
  *  spinning LiDAR the nearest raw points lie along one ring, a nearly linear neighbourhood
  *  whose normal is poorly determined (docs/design.md, "Normals once per scan"). */
 std::vector<Eigen::Vector3f>
-reducedNormals(const Cloud& reduced, unsigned num_threads)
+reducedNormals(const KdTreeIndex& tree, std::size_t num_points, unsigned num_threads)
 {
-  std::vector<Eigen::Vector3f> normals(reduced.size(), Eigen::Vector3f::Zero());
-  if (reduced.empty())
+  std::vector<Eigen::Vector3f> normals(num_points, Eigen::Vector3f::Zero());
+  if (tree.empty())
     return normals;
-  KdTreeIndex tree;
-  tree.build(reduced.front().data,
-             reduced.size(),
-             sizeof(PointT) / sizeof(float),
-             nullptr,
-             num_threads);
   // pLUM's estimator (the normals go to pLUM too), by tree position: back to point order.
   const std::vector<Eigen::Vector3f> by_position = lum::estimateNormals(tree, 10, num_threads);
   for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
     normals[tree.id(pos)] = by_position[pos];
   return normals;
+}
+
+/** The reduced points with their normals, NaN where none (pICP then skips a pair
+ *  there), in the scanner frame: the points the scan's tree holds. */
+MapCloud::Ptr
+scannerFrameCloud(const Cloud& reduced, const std::vector<Eigen::Vector3f>& normals)
+{
+  MapCloud::Ptr out(new MapCloud);
+  out->resize(reduced.size());
+  const Eigen::Vector3f none = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  for (std::size_t i = 0; i < reduced.size(); ++i) {
+    MapPoint& p = (*out)[i];
+    p.getVector3fMap() = reduced[i].getVector3fMap();
+    p.getNormalVector3fMap() = normals[i] == Eigen::Vector3f::Zero() ? none : normals[i];
+    p.curvature = 0.0f;
+  }
+  return out;
 }
 
 /** The reduced points that have a normal, with it: what goes into the local map. */
@@ -124,6 +152,7 @@ FrontEnd::FrontEnd(const FrontEndParameters& params)
     : params_(params)
     , icp_(new Registration)
     , map_(params.map_voxel_size, params.map_distance, params.map_points_per_voxel)
+    , previous_tree_(new search::KdTree<MapPoint>)
 {
   for (Icp* icp : {&icp_->icp, &icp_->to_previous}) {
     icp->setNumberOfThreads(params.num_threads);
@@ -195,20 +224,26 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
 
   r.pose = r.prediction;
   const bool to_map = params_.target == MatchTarget::kLocalMap;
-  const bool has_target = to_map ? !map_.empty() : previous_ && !previous_->empty();
+  const bool has_target = to_map ? !map_.empty() : hasPrevious();
   if (!first && has_target && !source->empty()) {
-    auto& icp = icp_->icp;
-    icp.setInputSource(source);
-    const MapCloud::ConstPtr target = to_map ? map_.cloud() : MapCloud::ConstPtr(previous_);
-    if (target != target_) // the tree is rebuilt only for a new target
-      icp.setInputTarget(target_ = target);
     r.gate = gate();
-    configure(icp, r.gate, icp_->threshold != nullptr, r.prediction, priorSpreadIfUsed());
-    Cloud aligned;
-    icp.alignDouble(aligned, initialGuess(source, r.prediction, odometry.has_value()));
-    r.converged = icp.hasConverged();
-    if (r.converged) {
-      r.pose = icp.getFinalTransformationDouble();
+    Icp& icp = to_map ? icp_->icp : icp_->to_previous;
+    std::optional<Pose> matched;
+    if (to_map) {
+      icp.setInputSource(source);
+      if (map_.cloud() != target_) // the tree is rebuilt only for a new map
+        icp.setInputTarget(target_ = map_.cloud());
+      configure(icp, r.gate, icp_->threshold != nullptr, r.prediction, priorSpreadIfUsed());
+      Cloud aligned;
+      icp.alignDouble(aligned, initialGuess(source, r.prediction, odometry.has_value()));
+      if (icp.hasConverged())
+        matched = Pose(icp.getFinalTransformationDouble());
+    }
+    else
+      matched = alignToPrevious(source, r.prediction);
+    r.converged = matched.has_value();
+    if (matched) {
+      r.pose = *matched;
       r.fitness = icp.getFitnessScore(r.gate);
       r.information =
           information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
@@ -220,41 +255,58 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);
   pose_ = r.pose;
 
-  // The scan's normals, once, then into the world.
-  r.normals = reducedNormals(*r.reduced, params_.num_threads);
-  const MapCloud::Ptr world = withNormals(*r.reduced, r.normals);
-  pcl::transformPointCloudWithNormals(*world, *world, pose_);
-  if (to_map)
+  // The scan's one tree and its normals, once; then into the map, and kept in the
+  // scanner frame for the next scan's match to it.
+  r.tree = scanTree(*r.reduced, params_.num_threads);
+  r.normals = reducedNormals(*r.tree, r.reduced->size(), params_.num_threads);
+  if (to_map) {
+    const MapCloud::Ptr world = withNormals(*r.reduced, r.normals);
+    pcl::transformPointCloudWithNormals(*world, *world, pose_);
     map_.update(*world, pose_.topRightCorner<3, 1>());
-  previous_ = world;
+  }
+  if (to_map && !params_.guess_from_previous_scan)
+    return r; // the previous scan is not matched
+  previous_ = scannerFrameCloud(*r.reduced, r.normals);
+  previous_tree_->setInputCloudAndIndex(previous_, r.tree);
   return r;
+}
+
+bool
+FrontEnd::hasPrevious() const
+{
+  return previous_ && !previous_->empty();
+}
+
+std::optional<Pose>
+FrontEnd::alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction)
+{
+  // In the previous scan's frame (its pose is still pose_), on the tree built with it.
+  const Pose to_previous = pose_.inverse();
+  Icp& icp = icp_->to_previous;
+  configure(icp, gate(), icp_->threshold != nullptr, to_previous * prediction, priorSpreadIfUsed());
+  icp.setInputSource(source);
+  icp.setSearchMethodTarget(previous_tree_, true);
+  icp.setInputTarget(previous_);
+  Cloud aligned;
+  icp.alignDouble(aligned, to_previous * prediction);
+  if (!icp.hasConverged())
+    return std::nullopt;
+  return Pose(pose_ * icp.getFinalTransformationDouble());
 }
 
 Pose
 FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry)
 {
-  if (!params_.guess_from_previous_scan || odometry ||
-      params_.target != MatchTarget::kLocalMap || !previous_ || previous_->empty())
+  if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
     return prediction;
-  Icp& icp = icp_->to_previous;
-  configure(icp, gate(), icp_->threshold != nullptr, prediction, priorSpreadIfUsed());
-  icp.setInputSource(source);
-  icp.setInputTarget(previous_);
-  Cloud aligned;
-  icp.alignDouble(aligned, prediction);
-  return icp.hasConverged() ? Pose(icp.getFinalTransformationDouble()) : prediction;
+  return alignToPrevious(source, prediction).value_or(prediction);
 }
 
 void
 FrontEnd::applyCorrection(const Pose& correction)
 {
-  pose_ = correction * pose_;
+  pose_ = correction * pose_; // the previous scan, kept in its own frame, moves with it
   map_.transform(correction);
-  if (previous_) { // a new object, so pICP rebuilds its target tree
-    MapCloud::Ptr moved(new MapCloud);
-    pcl::transformPointCloudWithNormals(*previous_, *moved, correction);
-    previous_ = moved;
-  }
 }
 
 void

@@ -98,7 +98,8 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
                     std::vector<Eigen::Vector3f> normals,
                     const Information& information,
                     double information_pairs,
-                    std::size_t num_points)
+                    std::size_t num_points,
+                    std::shared_ptr<const KdTreeIndex> tree)
 {
   const std::size_t j = scans_.size();
   const bool own = owns(j);
@@ -112,6 +113,8 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
   if (own) {
     if (params_.lum_point_to_plane && !normals.empty())
       impl_->lum.setPointNormals(v, std::move(normals));
+    if (tree)
+      impl_->lum.setSearchTree(v, std::move(tree));
     impl_->trees.push_back(impl_->lum.getSearchTree(v));
     num_points = scan->size();
     impl_->kept_points += num_points;

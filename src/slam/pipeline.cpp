@@ -217,7 +217,8 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
                   std::move(fe.normals),
                   fe.information,
                   fe.information_pairs,
-                  report.reduced_points);
+                  report.reduced_points,
+                  std::move(fe.tree));
   if (params_.close_loops) {
     report.loops = loops_->detect();
     const auto found = std::find_if(

@@ -378,7 +378,8 @@ private:
   RobustKernel kernel_;
   std::vector<float> target_normals_; ///< 3 per target tree position
   bool normals_valid_ = false;
-  const KdTreeIndex* normals_index_ = nullptr; ///< the tree target_normals_ belong to
+  std::shared_ptr<const KdTreeIndex> target_index_;  ///< targetIndex()'s, held
+  std::shared_ptr<const KdTreeIndex> normals_index_; ///< the tree target_normals_ belong to
   bool use_double_ = false;                    ///< alignDouble() in progress
   Eigen::Matrix4d guess_double_ = Eigen::Matrix4d::Identity();
   Eigen::Matrix4d final_transformation_double_ = Eigen::Matrix4d::Identity();

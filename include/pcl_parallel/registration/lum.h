@@ -377,6 +377,16 @@ public:
    *  overlap checks, so that a scan has one tree. */
   std::shared_ptr<const KdTreeIndex>
   getSearchTree(const Vertex& vertex);
+  /** Gives a vertex's k-d tree instead of building it, for a caller that built it
+   *  already (the pipeline's front end, for the scan's normals): KdTreeIndex::build over
+   *  the cloud's points, stride sizeof(PointT) / sizeof(float), ids left to be the cloud
+   *  indices. With the default bucket size that is the tree pLUM builds itself (a tree
+   *  does not depend on the threads that built it), so results are the same. It holds
+   *  until the cloud changes; normals are then mapped (setPointNormals) or estimated on
+   *  it. Throws std::invalid_argument for a null tree or one whose size is not the
+   *  cloud's number of finite points. */
+  void
+  setSearchTree(const Vertex& vertex, std::shared_ptr<const KdTreeIndex> tree);
   /** All pairs (i < j) whose overlap, the smaller of the two directions, is at least
    *  min_fraction, in parallel over pairs. Returns them; does not add links. */
   std::vector<std::pair<Vertex, Vertex>>
@@ -513,7 +523,7 @@ private:
   std::vector<Eigen::Vector6f, Eigen::aligned_allocator<Eigen::Vector6f>> mirrors_;
 
   // Per-vertex k-d trees in the scan's own frame, rebuilt when the cloud changes.
-  std::vector<std::shared_ptr<KdTreeIndex>> trees_;
+  std::vector<std::shared_ptr<const KdTreeIndex>> trees_;
   std::vector<std::pair<const PointCloud*, std::size_t>> tree_source_;
   /// addPoseConstraint's measurements, added to G X = B after the links in this order
   std::vector<lum::PoseConstraint, Eigen::aligned_allocator<lum::PoseConstraint>> constraints_;

@@ -8,6 +8,8 @@
 
 #include <pcl/search/kdtree.h>
 
+#include <memory>
+
 namespace pcl_parallel {
 namespace search {
 
@@ -47,6 +49,15 @@ public:
   void
   setInputCloud(const PointCloudConstPtr& cloud,
                 const IndicesConstPtr& indices = IndicesConstPtr()) override;
+
+  /** Searches \a cloud with a tree already built over it: KdTreeIndex::build over all
+   *  its points with the ids left to be the cloud indices (what setInputCloud(cloud)
+   *  builds), e.g. one shared with ParallelLUM::setSearchTree, so that a cloud's tree is
+   *  built once. Throws std::invalid_argument for a null index, or one whose size is not
+   *  the cloud's number of finite points or whose ids lie outside it. */
+  void
+  setInputCloudAndIndex(const PointCloudConstPtr& cloud,
+                        std::shared_ptr<const KdTreeIndex> index);
 
   int
   nearestKSearch(const PointT& point,
@@ -101,6 +112,12 @@ public:
   const KdTreeIndex&
   index() const
   {
+    return *index_;
+  }
+  /** The same, shared (it stays valid after the next setInputCloud()). */
+  const std::shared_ptr<const KdTreeIndex>&
+  sharedIndex() const
+  {
     return index_;
   }
 
@@ -121,7 +138,7 @@ private:
               std::vector<std::vector<float>>& k_sqr_distances,
               SearchOne search_one) const;
 
-  KdTreeIndex index_;
+  std::shared_ptr<const KdTreeIndex> index_ = std::make_shared<KdTreeIndex>();
   unsigned num_threads_ = 0;
   unsigned bucket_size_ = KdTreeIndex::kDefaultBucketSize;
 };

@@ -12,6 +12,11 @@
 #include <utility>
 
 namespace pcl_parallel {
+namespace search {
+template <typename PointT>
+class KdTree;
+} // namespace search
+
 namespace slam {
 
 /** How a scan is matched: against its predecessor (the paper's sequential pICP, Sec. II)
@@ -70,6 +75,9 @@ struct FrontEndResult {
   /** The reduced points' normals (scanner frame, from their 10 nearest reduced points),
    *  zero where a neighbourhood is no plane: pLUM takes them (LoopCloser::addScan). */
   std::vector<Eigen::Vector3f> normals;
+  /** The reduced points' k-d tree (scanner frame): built once, for the normals, the next
+   *  scan's match to this one and pLUM (LoopCloser::addScan). */
+  std::shared_ptr<const KdTreeIndex> tree;
   std::size_t source_points = 0;
   bool converged = true; ///< false: pICP failed and the prediction was kept
   double fitness = 0.0;  ///< mean squared distance of matched pairs (pICP's fitness)
@@ -124,11 +132,20 @@ private:
    *  (guess_from_previous_scan). */
   Pose
   initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry);
+  bool
+  hasPrevious() const;
+  /** pICP of the source from the prediction against the previous scan; the world pose,
+   *  or none if it did not converge. */
+  std::optional<Pose>
+  alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction);
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;
   LocalMap map_;
-  MapCloud::Ptr previous_;    ///< the last scan, reduced, world frame
+  /** The last scan, reduced, in its own frame (its pose is pose_), with its tree: the
+   *  one built for its normals. */
+  MapCloud::Ptr previous_;
+  pcl::shared_ptr<search::KdTree<MapPoint>> previous_tree_;
   MapCloud::ConstPtr target_; ///< what pICP's target tree was built from
   std::size_t scans_ = 0;
   Pose pose_ = Pose::Identity();

@@ -133,8 +133,9 @@ public:
    *  normals if the front end has them (FrontEndResult::normals; pLUM estimates them
    *  otherwise, from the reduced points), and the information of its match from that
    *  many pairs (FrontEndResult::information, information_pairs; zero: none), which
-   *  with sequence_constraints holds its pose relative to the previous scan. With an
-   *  exchange, a scan another process owns comes as null with its `num_points`.
+   *  with sequence_constraints holds its pose relative to the previous scan, and its
+   *  k-d tree if the front end built it (FrontEndResult::tree; pLUM builds it otherwise).
+   *  With an exchange, a scan another process owns comes as null with its `num_points`.
    *  Collective with an exchange, as detect() and relax(). */
   void
   addScan(const Cloud::ConstPtr& scan,
@@ -142,7 +143,8 @@ public:
           std::vector<Eigen::Vector3f> normals = {},
           const Information& information = Information::Zero(),
           double information_pairs = 0.0,
-          std::size_t num_points = 0);
+          std::size_t num_points = 0,
+          std::shared_ptr<const KdTreeIndex> tree = nullptr);
 
   /** Looks for loop links of the newest scan; adds the accepted ones to the graph and,
    *  with distribute_error and an error above overlap_distance, moves the poses since

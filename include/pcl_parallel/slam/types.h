@@ -13,6 +13,8 @@
 #include <vector>
 
 namespace pcl_parallel {
+class KdTreeIndex;
+
 namespace slam {
 
 /** The mapping pipeline works on xyz points; poses are double from input to output. */

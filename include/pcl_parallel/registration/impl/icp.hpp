@@ -181,6 +181,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::targetIndex()
     }
     ours = private_tree_.get();
   }
+  target_index_ = ours->sharedIndex();
   if (ours->index().empty()) {
     PCL_ERROR("[pcl_parallel::%s] The target search tree holds no points (empty or "
               "all-NaN target, or force_no_recompute on a tree never built).\n",
@@ -234,10 +235,11 @@ void
 ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::updateTargetNormals(
     const KdTreeIndex& target)
 {
-  if (normals_valid_ && normals_index_ == &target &&
+  // Held, so a later index cannot reuse the address; a new index means new normals.
+  if (normals_valid_ && normals_index_.get() == &target &&
       target_normals_.size() == 3 * target.size())
     return;
-  normals_index_ = &target;
+  normals_index_ = target_index_.get() == &target ? target_index_ : nullptr;
   normals_valid_ = true;
   if constexpr (pcl::traits::has_normal_v<PointTarget>) {
     if (use_normal_fields_) {

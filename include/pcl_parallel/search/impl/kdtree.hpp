@@ -10,7 +10,10 @@
 
 #include <omp.h>
 
+#include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 
 namespace pcl_parallel {
 namespace search {
@@ -80,10 +83,36 @@ KdTree<PointT>::setInputCloud(const PointCloudConstPtr& cloud, const IndicesCons
   indices_ = indices;
   if (!cloud)
     PCL_ERROR("[pcl_parallel::KdTree::setInputCloud] Null input cloud.\n");
-  detail::buildIndex(index_, cloud.get(), indices.get(), num_threads_, bucket_size_);
-  if (index_.empty())
+  auto index = std::make_shared<KdTreeIndex>();
+  detail::buildIndex(*index, cloud.get(), indices.get(), num_threads_, bucket_size_);
+  index_ = std::move(index);
+  if (index_->empty())
     PCL_ERROR("[pcl_parallel::KdTree::setInputCloud] The input cloud has no finite points; "
               "searches will find nothing.\n");
+}
+
+template <typename PointT>
+void
+KdTree<PointT>::setInputCloudAndIndex(const PointCloudConstPtr& cloud,
+                                      std::shared_ptr<const KdTreeIndex> index)
+{
+  const char* where = "[pcl_parallel::KdTree::setInputCloudAndIndex] ";
+  if (!cloud || !index)
+    throw std::invalid_argument(std::string(where) + "null cloud or index");
+  std::size_t finite = 0;
+  for (const PointT& p : *cloud)
+    finite += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) ? 1 : 0;
+  bool ids_inside = true;
+  for (std::uint32_t pos = 0; pos < index->size() && ids_inside; ++pos)
+    ids_inside = index->id(pos) < cloud->size();
+  if (index->size() != finite || !ids_inside)
+    throw std::invalid_argument(std::string(where) + "the index holds " +
+                                std::to_string(index->size()) +
+                                " points, not the cloud's " + std::to_string(finite) +
+                                " finite points" + (ids_inside ? "" : " (ids out of range)"));
+  input_ = cloud;
+  indices_.reset();
+  index_ = std::move(index);
 }
 
 template <typename PointT>
@@ -93,14 +122,14 @@ KdTree<PointT>::nearestKSearch(const PointT& point,
                                pcl::Indices& k_indices,
                                std::vector<float>& k_sqr_distances) const
 {
-  const std::size_t kk = k > 0 ? std::min<std::size_t>(k, index_.size()) : 0;
+  const std::size_t kk = k > 0 ? std::min<std::size_t>(k, index_->size()) : 0;
   std::vector<std::uint32_t> pos(kk);
   k_sqr_distances.resize(kk);
-  const std::size_t found = index_.knn(point.data, kk, pos.data(), k_sqr_distances.data());
+  const std::size_t found = index_->knn(point.data, kk, pos.data(), k_sqr_distances.data());
   k_indices.resize(found);
   k_sqr_distances.resize(found);
   for (std::size_t i = 0; i < found; ++i)
-    k_indices[i] = static_cast<pcl::index_t>(index_.id(pos[i]));
+    k_indices[i] = static_cast<pcl::index_t>(index_->id(pos[i]));
   return static_cast<int>(found);
 }
 
@@ -113,7 +142,7 @@ KdTree<PointT>::radiusSearch(const PointT& point,
                              unsigned int max_nn) const
 {
   std::vector<std::uint32_t> pos;
-  index_.radius(point.data,
+  index_->radius(point.data,
                 static_cast<float>(radius * radius),
                 pos,
                 k_sqr_distances,
@@ -121,7 +150,7 @@ KdTree<PointT>::radiusSearch(const PointT& point,
                 sorted_results_);
   k_indices.resize(pos.size());
   for (std::size_t i = 0; i < pos.size(); ++i)
-    k_indices[i] = static_cast<pcl::index_t>(index_.id(pos[i]));
+    k_indices[i] = static_cast<pcl::index_t>(index_->id(pos[i]));
   return static_cast<int>(pos.size());
 }
 
