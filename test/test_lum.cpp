@@ -615,6 +615,15 @@ TEST_F(QuietPcl, PlumBidirectionalAndDuplicateLinksAreDeterministic)
 }
 
 // The gate schedule, the option setters' validation and the iteration callback.
+/** Three scans' poses, the last one 2 m away and turned. */
+Poses
+threeScanPoses()
+{
+  return {makePose(0, 0, 0, 0, 0, 0),
+          makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
+          makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
+}
+
 // Normals given with setPointNormals (by point index) are what pLUM would estimate itself
 // when they are the same numbers: bit-identical poses, so they reach each tree position
 // of the right point. Other normals change the result; a wrong count is an error. The
@@ -622,9 +631,7 @@ TEST_F(QuietPcl, PlumBidirectionalAndDuplicateLinksAreDeterministic)
 // pair its vertex the same (how a scan moves between MPI ranks).
 TEST_F(QuietPcl, PlumTakesGivenNormals)
 {
-  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
-                       makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
-                       makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
+  const Poses truth = threeScanPoses();
   const PlumScene s = plumScene(truth, 61);
   const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 62);
   enum class Normals { kEstimated, kGiven, kZero, kFromAnother };
@@ -682,9 +689,7 @@ TEST_F(QuietPcl, PlumTakesGivenNormals)
 // builds itself. A tree of another size is an error.
 TEST_F(QuietPcl, PlumTakesGivenTrees)
 {
-  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
-                       makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
-                       makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
+  const Poses truth = threeScanPoses();
   const PlumScene s = plumScene(truth, 63);
   const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 64);
   auto run = [&](bool given) {
@@ -756,9 +761,7 @@ TEST_F(QuietPcl, PlumOptions)
   EXPECT_THROW(lum.setNormalNeighbours(2), std::invalid_argument);
 
   // The callback sees every iteration, with the updated poses.
-  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
-                       makePose(0.05, 0.1, 0, 0.2, 0.4, 0.1),
-                       makePose(-0.1, 0.02, 0.1, 2.0, -0.5, 1.0)};
+  const Poses truth = threeScanPoses();
   const PlumScene s = plumScene(truth, 51);
   const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 52);
   for (std::size_t v = 0; v < s.clouds.size(); ++v)
