@@ -217,7 +217,8 @@ public:
   /** Target normals of the last point-to-plane align(), 3 floats per target tree position
    *  (empty before). They are reused by the next align() as long as the target is
    *  unchanged: no setInputTarget() in between, or setSearchMethodTarget(tree, true) (the
-   *  caller's promise that tree and target are current) before it. */
+   *  caller's promise that tree and target are current) before it; a tree with a new
+   *  index (setInputCloud, setInputCloudAndIndex) means new normals. */
   const std::vector<float>&
   getTargetNormals() const
   {
