@@ -15,8 +15,8 @@
 #include <pcl/common/transforms.h>
 
 #include <algorithm>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -82,7 +82,8 @@ scannerFrameCloud(const Cloud& reduced, const std::vector<Eigen::Vector3f>& norm
 {
   MapCloud::Ptr out(new MapCloud);
   out->resize(reduced.size());
-  const Eigen::Vector3f none = Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  const Eigen::Vector3f none =
+      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
   for (std::size_t i = 0; i < reduced.size(); ++i) {
     MapPoint& p = (*out)[i];
     p.getVector3fMap() = reduced[i].getVector3fMap();
@@ -283,7 +284,8 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction)
   // In the previous scan's frame (its pose is still pose_), on the tree built with it.
   const Pose to_previous = pose_.inverse();
   Icp& icp = icp_->to_previous;
-  configure(icp, gate(), icp_->threshold != nullptr, to_previous * prediction, priorSpreadIfUsed());
+  configure(
+      icp, gate(), icp_->threshold != nullptr, to_previous * prediction, priorSpreadIfUsed());
   icp.setInputSource(source);
   icp.setSearchMethodTarget(previous_tree_, true);
   icp.setInputTarget(previous_);

@@ -381,7 +381,7 @@ private:
   bool normals_valid_ = false;
   std::shared_ptr<const KdTreeIndex> target_index_;  ///< targetIndex()'s, held
   std::shared_ptr<const KdTreeIndex> normals_index_; ///< the tree target_normals_ belong to
-  bool use_double_ = false;                    ///< alignDouble() in progress
+  bool use_double_ = false;                          ///< alignDouble() in progress
   Eigen::Matrix4d guess_double_ = Eigen::Matrix4d::Identity();
   Eigen::Matrix4d final_transformation_double_ = Eigen::Matrix4d::Identity();
   Eigen::Matrix4d prior_ = Eigen::Matrix4d::Identity();

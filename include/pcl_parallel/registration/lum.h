@@ -383,8 +383,8 @@ public:
    *  indices. With the default bucket size that is the tree pLUM builds itself (a tree
    *  does not depend on the threads that built it), so results are the same. It holds
    *  until the cloud changes; normals are then mapped (setPointNormals) or estimated on
-   *  it. Throws std::invalid_argument for a null tree or one whose size is not the
-   *  cloud's number of finite points. */
+   *  it. Throws std::invalid_argument for a null tree, or one whose size is not the
+   *  cloud's number of finite points or whose ids lie outside it. */
   void
   setSearchTree(const Vertex& vertex, std::shared_ptr<const KdTreeIndex> tree);
   /** All pairs (i < j) whose overlap, the smaller of the two directions, is at least
@@ -473,6 +473,9 @@ private:
   /** Trees of the vertices with needed[v] (null: all that have a cloud). */
   void
   buildTrees(const std::vector<char>* needed = nullptr);
+  /** Sizes the per-vertex trees, their sources and normals to the vertices. */
+  void
+  resizeVertexState();
   /** One pairing step of a link within max_distance, the source scan moved by `motion`
    *  (world frame) on top of its pose; pairs go to acc (and out, if given). */
   void

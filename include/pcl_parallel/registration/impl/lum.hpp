@@ -394,24 +394,14 @@ ParallelLUM<PointT>::setPointNormals(const Vertex& vertex, std::vector<Eigen::Ve
 
 template <typename PointT>
 void
-ParallelLUM<PointT>::setSearchTree(const Vertex& vertex, std::shared_ptr<const KdTreeIndex> tree)
+ParallelLUM<PointT>::setSearchTree(const Vertex& vertex,
+                                   std::shared_ptr<const KdTreeIndex> tree)
 {
   checkVertex(vertex, "setSearchTree");
   const PointCloud* cloud = (*slam_graph_)[vertex].cloud_.get();
-  std::size_t finite = 0;
-  if (cloud)
-    for (const PointT& p : *cloud)
-      finite += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) ? 1 : 0;
-  if (!tree || !cloud || tree->size() != finite)
-    throw std::invalid_argument(
-        "[pcl_parallel::ParallelLUM::setSearchTree] a tree of " +
-        std::to_string(tree ? tree->size() : 0) + " points for a cloud of " +
-        std::to_string(finite) + " finite points");
-  const std::size_t n = getNumVertices();
-  trees_.resize(n);
-  tree_source_.resize(n, {nullptr, 0});
-  normals_.resize(n);
-  normals_k_.resize(n, 0);
+  search::detail::checkIndexFits(
+      cloud, tree.get(), "[pcl_parallel::ParallelLUM::setSearchTree] ");
+  resizeVertexState();
   trees_[vertex] = std::move(tree);
   tree_source_[vertex] = {cloud, cloud->size()};
   normals_k_[vertex] = 0; // normals by tree position: mapped from given ones, or anew
@@ -502,13 +492,21 @@ ParallelLUM<PointT>::validate(const std::vector<LinkRef>& links,
 
 template <typename PointT>
 void
-ParallelLUM<PointT>::buildTrees(const std::vector<char>* needed)
+ParallelLUM<PointT>::resizeVertexState()
 {
   const std::size_t n = getNumVertices();
   trees_.resize(n);
   tree_source_.resize(n, {nullptr, 0});
   normals_.resize(n);
   normals_k_.resize(n, 0);
+}
+
+template <typename PointT>
+void
+ParallelLUM<PointT>::buildTrees(const std::vector<char>* needed)
+{
+  const std::size_t n = getNumVertices();
+  resizeVertexState();
   std::vector<std::size_t> todo;
   for (std::size_t v = 0; v < n; ++v) {
     const PointCloud* c = (*slam_graph_)[v].cloud_.get();

@@ -66,6 +66,29 @@ buildIndex(KdTreeIndex& index,
   }
   index.build(selected.data(), ids.size(), 3, ids.data(), num_threads, bucket_size);
 }
+/** Throws std::invalid_argument (message after `where`) unless \a index could be the tree
+ *  buildIndex builds over all of \a cloud: as many points as the cloud has finite ones,
+ *  ids inside the cloud. A null cloud or index does not fit. */
+template <typename PointT>
+void
+checkIndexFits(const pcl::PointCloud<PointT>* cloud,
+               const KdTreeIndex* index,
+               const char* where)
+{
+  if (!cloud || !index)
+    throw std::invalid_argument(std::string(where) + "null cloud or index");
+  std::size_t finite = 0;
+  for (const PointT& p : *cloud)
+    finite += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) ? 1 : 0;
+  bool ids_inside = true;
+  for (std::uint32_t pos = 0; pos < index->size() && ids_inside; ++pos)
+    ids_inside = index->id(pos) < cloud->size();
+  if (index->size() != finite || !ids_inside)
+    throw std::invalid_argument(std::string(where) + "the index holds " +
+                                std::to_string(index->size()) + " points, not the cloud's " +
+                                std::to_string(finite) + " finite points" +
+                                (ids_inside ? "" : " (ids out of range)"));
+}
 } // namespace detail
 
 template <typename PointT>
@@ -96,20 +119,8 @@ void
 KdTree<PointT>::setInputCloudAndIndex(const PointCloudConstPtr& cloud,
                                       std::shared_ptr<const KdTreeIndex> index)
 {
-  const char* where = "[pcl_parallel::KdTree::setInputCloudAndIndex] ";
-  if (!cloud || !index)
-    throw std::invalid_argument(std::string(where) + "null cloud or index");
-  std::size_t finite = 0;
-  for (const PointT& p : *cloud)
-    finite += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) ? 1 : 0;
-  bool ids_inside = true;
-  for (std::uint32_t pos = 0; pos < index->size() && ids_inside; ++pos)
-    ids_inside = index->id(pos) < cloud->size();
-  if (index->size() != finite || !ids_inside)
-    throw std::invalid_argument(std::string(where) + "the index holds " +
-                                std::to_string(index->size()) +
-                                " points, not the cloud's " + std::to_string(finite) +
-                                " finite points" + (ids_inside ? "" : " (ids out of range)"));
+  detail::checkIndexFits(
+      cloud.get(), index.get(), "[pcl_parallel::KdTree::setInputCloudAndIndex] ");
   input_ = cloud;
   indices_.reset();
   index_ = std::move(index);
@@ -143,11 +154,11 @@ KdTree<PointT>::radiusSearch(const PointT& point,
 {
   std::vector<std::uint32_t> pos;
   index_->radius(point.data,
-                static_cast<float>(radius * radius),
-                pos,
-                k_sqr_distances,
-                max_nn,
-                sorted_results_);
+                 static_cast<float>(radius * radius),
+                 pos,
+                 k_sqr_distances,
+                 max_nn,
+                 sorted_results_);
   k_indices.resize(pos.size());
   for (std::size_t i = 0; i < pos.size(); ++i)
     k_indices[i] = static_cast<pcl::index_t>(index_->id(pos[i]));
