@@ -4,6 +4,7 @@
  */
 #include "progress.h"
 
+#include <atomic>
 #include <cctype>
 #include <csignal>
 #include <cstdio>
@@ -20,6 +21,12 @@ volatile std::sig_atomic_t g_quiet = 0;     // 1: no message (not MPI rank 0)
 volatile std::sig_atomic_t g_ranks = 1;     // MPI ranks of the job
 volatile std::sig_atomic_t g_stderr_fd = 2; // the real stderr while PCL's is captured
 char g_remove_dir[4096] = {0};              // an --out this run created, removed if empty
+// Set by the first handler that ends the run. coreutils' timeout (and a terminal's ^C to
+// the process group) delivers a signal twice, and each may land on another thread while
+// the first is still in the handler: only one may write the message. Lock-free, so
+// async-signal-safe.
+std::atomic<int> g_ending{0};
+static_assert(std::atomic<int>::is_always_lock_free, "signal handlers need a lock-free flag");
 
 /** Before the outputs nothing exists to leave half-written, and one pICP match or pLUM
  *  iteration can take seconds, so the run ends at once (only async-signal-safe calls:
@@ -28,8 +35,8 @@ extern "C" void
 onSignal(int s)
 {
   g_signal = s;
-  if (g_writing)
-    return;
+  if (g_writing || g_ending.exchange(1) != 0)
+    return; // the other handler exits for both
   const char* msg = s != SIGTERM ? "pcl_pslam: interrupted (SIGINT); no outputs were written\n"
                     : g_ranks > 1
                         ? "pcl_pslam: terminated (SIGTERM) by mpirun: a rank died (mpirun's "
