@@ -23,11 +23,7 @@ using namespace pcl_parallel;
 using slam::Pose;
 using slam::Poses;
 
-#ifdef PCL_PARALLEL_SANITIZED
-constexpr bool kSanitized = true; // memory errors, at a tenth of the speed: fewer scans
-#else
-constexpr bool kSanitized = false;
-#endif
+using test::kSanitized; // fewer scans under a sanitizer
 
 std::string
 binPath(const std::string& dir, std::size_t i)

@@ -8,6 +8,7 @@
  * lingers; and the small pieces (local map, deskew, loop candidates, loop error spread).
  */
 #include "corridor_set.h"
+#include "test_data.h"
 
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/evaluation/trajectory_error.h>
@@ -195,11 +196,7 @@ TEST(Pipeline, SegmentedFrontEndJoinsByTheSegmentsOwnSteps)
 TEST(Pipeline, SegmentedWithoutOdometryJoinsSegmentsInFramesOfTheirOwn)
 {
   sim::PresetOptions o;
-#ifdef PCL_PARALLEL_SANITIZED
-  o.max_scans = 30; // the sanitizer stages look for memory errors, at a tenth of the speed
-#else
-  o.max_scans = 60;
-#endif
+  o.max_scans = test::kSanitized ? 30 : 60;
   const sim::SimulatedScanSet set = sim::simulatePreset("kitti", o);
   const std::size_t n = set.scans.size();
   slam::Parameters p;
@@ -429,7 +426,7 @@ TEST(LoopCloser, LingeringScannerMakesALinearGraph)
   p.distance = 5.0;
   p.overlap_distance = 0.2;
   slam::LoopCloser closer(p);
-  const std::size_t n = 80;
+  const std::size_t n = test::kSanitized ? 40 : 80;
   for (std::size_t i = 0; i < n; ++i) {
     closer.addScan(set.scans[0], set.truth[0] * makePose(double(i % 12) * 30 * kDeg, 0, 0));
     closer.detect();

@@ -29,6 +29,15 @@ dataFile(const std::string& relative)
   return std::filesystem::exists(p) ? p.string() : std::string();
 }
 
+/** Built with a sanitizer (scripts/test.sh asan, tsan), where a test runs 5-20 times
+ *  slower and is there for memory errors and races, not accuracy: the heaviest tests then
+ *  run a smaller problem through the same code paths. */
+#ifdef PCL_PARALLEL_SANITIZED
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
 } // namespace test
 } // namespace pcl_parallel
 
