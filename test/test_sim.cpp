@@ -629,7 +629,9 @@ TEST(Presets, DeterministicForSeedAndThreadCount)
   // office, kitti: the rays of a scan in parallel; hannover with 10 scans: a scan per
   // thread (simulatePreset's other path).
   for (const auto& [name, scans] : std::vector<std::pair<std::string, int>>{
-           {"office", 2}, {"kitti", 2}, {"hannover", pcl_parallel::test::kSanitized ? 4 : 10}}) {
+           {"office", 2},
+           {"kitti", 2},
+           {"hannover", pcl_parallel::test::kSanitized ? 4 : 10}}) {
     PresetOptions o;
     o.max_scans = scans;
     o.num_threads = 1;

@@ -13,9 +13,11 @@
 
 namespace pcl_parallel {
 
-/** Elements per block of deterministicReduce(): large enough that a block's work
- *  dwarfs scheduling, small enough to balance 2..64 threads on ~10^5 points. */
-constexpr std::size_t kReductionBlockSize = 2048;
+/** Elements per block of deterministicReduce(): large enough that a block's work (a
+ *  nearest-neighbour query each, ~0.1 ms a block) dwarfs taking it and combining it,
+ *  small enough that the ~10^3-point sources of a downsampled scan still make several
+ *  blocks per thread (a source of one block runs on one thread). */
+constexpr std::size_t kReductionBlockSize = 256;
 
 /**
  * \brief The map half of deterministicReduce(): [0, n) cut into fixed blocks of

@@ -260,7 +260,7 @@ estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
   {
     std::vector<std::uint32_t> pos(k);
     std::vector<float> sqr(k);
-#pragma omp for schedule(static, 4096)
+#pragma omp for schedule(dynamic, 256) // a scan's few thousand points over every thread
     for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
       const std::uint32_t p = static_cast<std::uint32_t>(i);
       const std::size_t got = tree.knn(tree.point(p), k, pos.data(), sqr.data());
