@@ -31,7 +31,7 @@ slam::ScanSource
 source(const sim::SimulatedScanSet& set)
 {
   return [&set](std::size_t i) {
-    return std::make_pair(set.scans[i], std::optional<slam::Pose>(set.odometry[i]));
+    return slam::SourceScan{set.scans[i], set.odometry[i], std::nullopt};
   };
 }
 

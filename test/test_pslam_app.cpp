@@ -153,6 +153,13 @@ TEST(PslamOptions, BadUsageIsOneLine)
             std::string::npos);
   EXPECT_NE(message({"run", "--segment-overlap", "-1", "d"}).find("--segment-overlap"),
             std::string::npos);
+  EXPECT_NE(
+      message({"run", "--sweep-period", "0.1", "d"}).find("--sweep-period needs --deskew"),
+      std::string::npos);
+  EXPECT_NE(message({"run", "--sweep-ccw", "d"}).find("--sweep-ccw needs --deskew"),
+            std::string::npos);
+  EXPECT_NE(message({"run", "--deskew", "--sweep-period", "-0.1", "d"}).find("--sweep-period"),
+            std::string::npos);
   EXPECT_NE(message({"demo", "--reduc", "1"}).find("--reduc"),
             std::string::npos); // no guessing
   for (const std::string& m :
@@ -173,8 +180,13 @@ TEST(PslamOptions, HelpNamesEveryOption)
         "--epsICP", "--epsSLAM", "--metascan", "--poses",    "--out",    "--threads",
         "--quiet",  "--ply",     "--style"})
     EXPECT_NE(h.find(name), std::string::npos) << name;
-  for (const char* name :
-       {"--loop6DAlgo", "--no-sequence-constraints", "--segment-size", "--segment-overlap"})
+  for (const char* name : {"--loop6DAlgo",
+                           "--no-sequence-constraints",
+                           "--segment-size",
+                           "--segment-overlap",
+                           "--deskew",
+                           "--sweep-period",
+                           "--sweep-ccw"})
     EXPECT_NE(h.find(name), std::string::npos) << name;
   EXPECT_NE(h.find("[default 5]"), std::string::npos); // -l (the path rule does the rest)
   EXPECT_NE(h.find("[default: auto, 10 voxels]"), std::string::npos);

@@ -505,6 +505,30 @@ TEST(Presets, NamesAndUnknownName)
   }
 }
 
+// Keyframes: every stride-th scan of the same sequence, truth, time stamps and points
+// (each still one sweep's skew).
+TEST(Presets, StrideKeepsEveryKthScan)
+{
+  PresetOptions all, keyframes;
+  all.poses_only = keyframes.poses_only = true;
+  keyframes.stride = 5;
+  const auto a = simulatePreset("kitti", all), k = simulatePreset("kitti", keyframes);
+  ASSERT_EQ(k.truth.size(), (a.truth.size() + 4) / 5);
+  for (std::size_t i = 0; i < k.truth.size(); ++i) {
+    EXPECT_TRUE(k.truth[i].isApprox(a.truth[5 * i], 1e-12)) << i;
+    EXPECT_NEAR(k.timestamps[i], a.timestamps[5 * i], 1e-12) << i;
+  }
+  keyframes.poses_only = false, keyframes.max_scans = 2;
+  all.poses_only = false, all.max_scans = 6;
+  const auto ks = simulatePreset("kitti", keyframes), as = simulatePreset("kitti", all);
+  ASSERT_EQ(ks.scans.size(), 2u);
+  ASSERT_EQ(ks.scans[1]->size(), as.scans[5]->size());
+  for (std::size_t j = 0; j < ks.scans[1]->size(); ++j)
+    ASSERT_EQ((*ks.scans[1])[j].getVector3fMap(), (*as.scans[5])[j].getVector3fMap()) << j;
+  keyframes.stride = 0;
+  EXPECT_THROW(simulatePreset("kitti", keyframes), std::invalid_argument);
+}
+
 // Scans per preset (poses only) and points per scan (one scan of each, with its model).
 TEST(Presets, SizesLikeThePapersExperiments)
 {

@@ -151,7 +151,7 @@ TEST(Pipeline, SegmentedFrontEndJoinsByTheSegmentsOwnSteps)
   slam::Parameters p;
   p.num_threads = 2;
   const slam::ScanSource read = [&](std::size_t i) {
-    return std::make_pair(set.scans[i], std::optional<Pose>(set.odometry[i]));
+    return slam::SourceScan{set.scans[i], set.odometry[i], std::nullopt};
   };
   auto segmented = slam::mapSegments(p, n, 10, 3, read);
   segmented->finish();
@@ -203,7 +203,7 @@ TEST(Pipeline, SegmentedWithoutOdometryJoinsSegmentsInFramesOfTheirOwn)
   p.num_threads = 2;
   p.deskew = true;
   const slam::ScanSource read = [&](std::size_t i) {
-    return std::make_pair(set.scans[i], std::optional<Pose>());
+    return slam::SourceScan{set.scans[i], std::nullopt, std::nullopt};
   };
   auto segmented = slam::mapSegments(p, n, n / 3, 5, read);
   segmented->finish();
@@ -222,6 +222,52 @@ TEST(Pipeline, SegmentedWithoutOdometryJoinsSegmentsInFramesOfTheirOwn)
   EXPECT_EQ(segmented->poses()[0], Pose::Identity());
   EXPECT_LT(front_end, 1.5 * alone);
   EXPECT_LT(front_end, 0.2);
+}
+
+/** Keyframes five sweeps apart (every 5th sweep of kitti's 10 Hz lidar at 9 m/s: 4.5 m
+ *  apart) are each skewed by one sweep's motion. Deskewing by that share (sweep_period
+ *  with the time stamps) makes the front end's ATE and per-frame RPE well below those
+ *  without deskewing; deskewing by the whole step between keyframes (5x the skew) makes
+ *  them worse than not deskewing at all. The first 30 keyframes (135 m, a turn). */
+TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
+{
+  sim::PresetOptions o;
+  o.stride = 5;
+  o.max_scans = 30;
+  o.num_threads = 2;
+  const sim::SimulatedScanSet set = sim::simulatePreset("kitti", o);
+  ASSERT_EQ(set.timestamps[1], 0.5);
+  struct Errors {
+    double ate, rpe;
+  };
+  const auto frontEnd = [&](bool deskew, double sweep_period) {
+    slam::Parameters p;
+    p.num_threads = 2;
+    p.close_loops = false;
+    p.deskew = deskew;
+    p.sweep_period = sweep_period;
+    slam::Pipeline pipeline(p);
+    for (std::size_t i = 0; i < set.scans.size(); ++i)
+      pipeline.addScan(*set.scans[i], set.odometry[i], set.timestamps[i]);
+    const Poses& fe = pipeline.frontEndPoses();
+    return Errors{evaluation::absoluteTrajectoryError(fe, set.truth, evaluation::Alignment::SE3)
+                      .translation.rmse,
+                  evaluation::frameRelativeError(fe, set.truth).translation.rmse};
+  };
+  const Errors none = frontEnd(false, 0.0), whole = frontEnd(true, 0.0),
+               sweep = frontEnd(true, set.scanner.sweep_period);
+  std::printf("kitti keyframes, front end ATE / RPE [m]: not deskewed %.4f / %.4f, by the "
+              "whole step %.4f / %.4f, by one sweep %.4f / %.4f\n",
+              none.ate,
+              none.rpe,
+              whole.ate,
+              whole.rpe,
+              sweep.ate,
+              sweep.rpe);
+  EXPECT_LT(sweep.ate, 0.7 * none.ate);
+  EXPECT_LT(sweep.rpe, 0.8 * none.rpe);
+  EXPECT_GT(whole.ate, none.ate);
+  EXPECT_GT(whole.rpe, none.rpe);
 }
 
 /** Loop closing on the paper's scan-to-scan front end (which drifts more): the lap's end
@@ -413,6 +459,23 @@ TEST(Pipeline, BadInputIsAClearError)
   EXPECT_THROW(pipeline.addScan(one, bad), std::invalid_argument);
   pipeline.addScan(one, Pose::Identity());
   EXPECT_THROW(pipeline.addScan(one), std::invalid_argument); // odometry for some only
+  EXPECT_THROW(pipeline.addScan(one, Pose::Identity(), 1.0), std::invalid_argument);
+
+  // Time stamps: finite, all or none, and increasing when a sweep period needs them.
+  slam::Parameters p;
+  p.deskew = true;
+  p.sweep_period = 0.1;
+  slam::Pipeline keyframes(p);
+  EXPECT_THROW(keyframes.addScan(one), std::invalid_argument); // no stamp
+  EXPECT_THROW(keyframes.addScan(one, std::nullopt, NAN), std::invalid_argument);
+  keyframes.addScan(one, std::nullopt, 2.0);
+  EXPECT_THROW(keyframes.addScan(one, std::nullopt, 2.0), std::invalid_argument);
+  EXPECT_THROW(keyframes.addScan(one, std::nullopt, 1.5), std::invalid_argument);
+  EXPECT_THROW(keyframes.addScan(one), std::invalid_argument);
+  EXPECT_EQ(keyframes.addScan(one, std::nullopt, 2.5), 1u);
+  p.sweep_period = -0.1;
+  slam::Pipeline negative(p);
+  EXPECT_THROW(negative.addScan(one, std::nullopt, 0.0), std::invalid_argument);
 }
 
 // A scanner turning in place (30 deg per scan) is near every earlier scan and sees again
@@ -546,29 +609,54 @@ TEST(LocalMap, VoxelCapCropAndCorrection)
 
 // Deskewing a scan taken while moving, with the true motion, gives the scan a standing
 // scanner at the mid-sweep pose sees: each point moved by motion^(t - 1/2).
+// Either way the head turns.
 TEST(Preprocess, DeskewUndoesAConstantVelocitySweep)
 {
-  const Pose motion = makePose(5 * kDeg, 1.0, 0.2, 0.05);
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<float> u(-10, 10);
-  Cloud measured, standing;
-  for (int k = 0; k < 1000; ++k) {
-    pcl::PointXYZ p(u(rng), u(rng), 0.1f * u(rng));
-    const double t = slam::sweepTime(p);
-    // The scanner at time t sits at motion^(t - 1/2) in the mid-sweep frame.
-    const Pose at = slam::interpolateMotion(motion, t - 0.5);
-    pcl::PointXYZ q;
-    q.getVector3fMap() =
-        (at * p.getVector3fMap().cast<double>().homogeneous()).head<3>().cast<float>();
-    measured.push_back(p);
-    standing.push_back(q);
+  for (const bool clockwise : {true, false}) {
+    SCOPED_TRACE(clockwise ? "clockwise" : "counter-clockwise");
+    const Pose motion = makePose(5 * kDeg, 1.0, 0.2, 0.05);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-10, 10);
+    Cloud measured, standing;
+    for (int k = 0; k < 1000; ++k) {
+      pcl::PointXYZ p(u(rng), u(rng), 0.1f * u(rng));
+      const double t = slam::sweepTime(p, clockwise);
+      // The scanner at time t sits at motion^(t - 1/2) in the mid-sweep frame.
+      const Pose at = slam::interpolateMotion(motion, t - 0.5);
+      pcl::PointXYZ q;
+      q.getVector3fMap() =
+          (at * p.getVector3fMap().cast<double>().homogeneous()).head<3>().cast<float>();
+      measured.push_back(p);
+      standing.push_back(q);
+    }
+    const auto fixed = slam::deskew(measured, motion, 2, clockwise);
+    for (std::size_t k = 0; k < fixed->size(); ++k)
+      EXPECT_LT(((*fixed)[k].getVector3fMap() - standing[k].getVector3fMap()).norm(), 1e-4);
   }
-  const auto fixed = slam::deskew(measured, motion, 2);
-  for (std::size_t k = 0; k < fixed->size(); ++k)
-    EXPECT_LT(((*fixed)[k].getVector3fMap() - standing[k].getVector3fMap()).norm(), 1e-4);
   // Forward-facing points (t = 1/2) do not move; backward ones move by half the motion.
   EXPECT_NEAR(slam::sweepTime(pcl::PointXYZ(1, 0, 0)), 0.5, 1e-12);
   EXPECT_NEAR(slam::sweepTime(pcl::PointXYZ(-1, 1e-6f, 0)), 0.0, 1e-6);
+  // Clockwise seen from +z: from facing backwards, facing left (+y) a quarter sweep on.
+  EXPECT_NEAR(slam::sweepTime(pcl::PointXYZ(0, 1, 0)), 0.25, 1e-12);
+  EXPECT_NEAR(slam::sweepTime(pcl::PointXYZ(0, 1, 0), false), 0.75, 1e-12);
+}
+
+// A keyframe's skew is one sweep's share of the step since the previous keyframe.
+TEST(Preprocess, SweepMotionIsOneSweepsShareOfTheStep)
+{
+  const Pose step = makePose(10 * kDeg, 4.0, 1.0, 0.2);
+  const Pose one_fifth = slam::interpolateMotion(step, 0.2);
+  EXPECT_TRUE(slam::sweepMotion(step, 0.5, 0.1).isApprox(one_fifth, 1e-12));
+  // A fifth of the turn about the same axis, a fifth of the way.
+  const Eigen::AngleAxisd whole(Eigen::Matrix3d(step.topLeftCorner<3, 3>())),
+      part(Eigen::Matrix3d(one_fifth.topLeftCorner<3, 3>()));
+  EXPECT_NEAR(part.angle(), whole.angle() / 5, 1e-12);
+  EXPECT_TRUE(part.axis().isApprox(whole.axis(), 1e-9));
+  const Eigen::Vector3d fifth_way = step.topRightCorner<3, 1>() / 5;
+  EXPECT_TRUE((one_fifth.topRightCorner<3, 1>().isApprox(fifth_way, 1e-12)));
+  EXPECT_EQ(slam::sweepMotion(step, 0.5, 0.0), step); // consecutive sweeps
+  EXPECT_EQ(slam::sweepMotion(step, 0.1, 0.1), step); // the step is one sweep
+  EXPECT_EQ(slam::sweepMotion(step, 0.0, 0.1), step); // time unknown
 }
 
 TEST(Preprocess, CropRangeKeepsFiniteInRange)

@@ -186,7 +186,7 @@ runPslam(int argc, char** argv)
     Eigen::Matrix4d odometry;
     auto scan = reader.scan(i, odometry);
     read_seconds += now() - t;
-    return std::make_pair(scan, std::optional<Eigen::Matrix4d>(odometry));
+    return slam::SourceScan{scan, odometry, std::nullopt};
   };
   pcl_parallel::mpi::SegmentsReport report;
   MPI_Barrier(MPI_COMM_WORLD);
@@ -195,8 +195,8 @@ runPslam(int argc, char** argv)
   if (segments == 0) {
     pipeline.reset(new slam::Pipeline(p));
     for (std::size_t i = 0; i < n; ++i) {
-      const auto [scan, odometry] = read(i);
-      pipeline->addScan(*scan, odometry);
+      const slam::SourceScan s = read(i);
+      pipeline->addScan(*s.cloud, s.odometry);
     }
   }
   else

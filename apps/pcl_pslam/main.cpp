@@ -122,6 +122,12 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
                   (in.odometry ? "" : "; no initial poses: constant-velocity guesses"));
     pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);
     params.odometry = in.odometry;
+    if (in.has_stamps)
+      params.stamps = in.stamps;
+    else if (params.sweep_period > 0.0)
+      throw pcl_pslam::UsageError("--sweep-period needs the scans' time stamps: no --times "
+                                  "and no times.txt in " +
+                                  o.dir + " or its parent");
     params.mpi = ranks.size() > 1;
     // Streamed: each scan is read when the pipeline takes it, and dropped after.
     auto read = [&](std::size_t k) {

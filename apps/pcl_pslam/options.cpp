@@ -103,8 +103,15 @@ struct Descriptions {
       ("scan-to-scan", po::bool_switch(&o.scan_to_scan),
        "match each scan against its predecessor only (the paper's and slam6D's default)")
       ("deskew", po::bool_switch(&o.deskew),
-       "deskew scans taken while moving (spinning LiDAR) by the predicted motion; for "
-       "consecutive sweeps, not keyframes several sweeps apart")
+       "deskew scans taken while moving (spinning LiDAR) by the predicted motion, "
+       "assuming consecutive sweeps; for keyframes add --sweep-period")
+      ("sweep-period", po::value<double>()->value_name("SEC"),
+       "with --deskew: one sweep takes SEC seconds (0.1 for a 10 Hz LiDAR), so keyframes "
+       "seconds apart are deskewed by one sweep's share of the step; needs time stamps "
+       "(--times or times.txt) [default: none, consecutive sweeps]")
+      ("sweep-ccw", po::bool_switch(&o.sweep_ccw),
+       "with --deskew: the head turns counter-clockwise seen from +z in the scans' frame "
+       "[default: clockwise from facing -x, as KITTI's Velodyne]")
       ("map-normals", po::bool_switch(&o.map_normals),
        "point-to-plane normals from the local map instead of each scan (sparse scanners, "
        "e.g. Livox; slower on large maps)")
@@ -293,6 +300,13 @@ parseCommandLine(int argc, const char* const* argv)
       throw UsageError("--up needs x, y or z, got '" + axis + "'");
     o.up = axis[0] - 'x';
   }
+  if (o.sweep_ccw && !o.deskew)
+    throw UsageError("--sweep-ccw needs --deskew");
+  if (vm.count("sweep-period")) {
+    o.sweep_period = positive(vm, "sweep-period");
+    if (!o.deskew)
+      throw UsageError("--sweep-period needs --deskew");
+  }
   if (vm.count("reduce"))
     o.voxel = positive(vm, "reduce", true);
   if (vm.count("dist"))
@@ -362,6 +376,8 @@ toParameters(const Options& o, double scale)
   p.match_target = o.scan_to_scan ? pcl_parallel::slam::MatchTarget::kPreviousScan
                                   : pcl_parallel::slam::MatchTarget::kLocalMap;
   p.deskew = o.deskew;
+  p.sweep_period = o.sweep_period;
+  p.sweep_clockwise = !o.sweep_ccw;
   p.normals_from_map = o.map_normals;
   p.close_loops = !o.no_loops;
   p.elch = o.elch != 0;

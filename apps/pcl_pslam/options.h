@@ -56,7 +56,9 @@ struct Options {
   bool metascan = false;     ///< against a map of previous scans (the pipeline's default)
   bool scan_to_scan = false; ///< against the previous scan only (the paper's default)
   bool deskew = false;
-  bool map_normals = false; ///< point-to-plane normals on the local map (sparse scanners)
+  double sweep_period = 0.0; ///< seconds a sweep takes; 0: scans are consecutive sweeps
+  bool sweep_ccw = false;    ///< the head turns counter-clockwise in the scans' frame
+  bool map_normals = false;  ///< point-to-plane normals on the local map (sparse scanners)
   bool no_loops = false;
   int elch = 4; ///< [-L] 3DTK's loop closing algorithm: 0 none, else ELCH
   bool no_sequence_constraints = false;

@@ -480,6 +480,8 @@ writeOutputs(const Options& o,
       {"map_voxel_m", map_voxel},
       {"scan_to_scan", fe.target == pcl_parallel::slam::MatchTarget::kPreviousScan},
       {"deskew", fe.deskew},
+      {"sweep_period_s", fe.sweep_period},
+      {"sweep_clockwise", fe.sweep_clockwise},
       {"close_loops", params.close_loops}};
   j["pipeline_seconds"] = {{"read", in.read_seconds},
                            {"preprocess", r.times.preprocess},

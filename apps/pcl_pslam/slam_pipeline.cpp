@@ -33,12 +33,19 @@ run(const ScanReader& read,
   namespace slam = pcl_parallel::slam;
   Result result;
   result.own_end = n;
+  if (!params.stamps.empty() && params.stamps.size() != n)
+    throw std::invalid_argument("pcl_pslam: " + std::to_string(params.stamps.size()) +
+                                " time stamps for " + std::to_string(n) + " scans");
   const slam::ScanSource source = [&](std::size_t i) {
-    const Cloud::Ptr scan = read(i);
-    if (!scan || scan->empty())
+    slam::SourceScan s;
+    s.cloud = read(i);
+    if (!s.cloud || s.cloud->empty())
       throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
-    return std::make_pair(
-        scan, params.odometry ? std::optional<Eigen::Matrix4d>(initial[i]) : std::nullopt);
+    if (params.odometry)
+      s.odometry = initial[i];
+    if (!params.stamps.empty())
+      s.stamp = params.stamps[i];
+    return s;
   };
   std::unique_ptr<slam::Pipeline> owned;
   if (params.mpi || params.segment_size > 0) {
@@ -79,8 +86,8 @@ run(const ScanReader& read,
   else { // the online pipeline: loop corrections feed back into the front end
     owned.reset(new slam::Pipeline(params));
     for (std::size_t i = 0; i < n; ++i) {
-      const auto [scan, odometry] = source(i);
-      owned->addScan(*scan, odometry);
+      const slam::SourceScan s = source(i);
+      owned->addScan(*s.cloud, s.odometry, s.stamp);
       if (progress)
         progress("icp", static_cast<int>(i + 1), static_cast<int>(n));
     }

@@ -33,6 +33,9 @@ struct Parameters : pcl_parallel::slam::Parameters {
   /** true: the initial poses are odometry, each pICP starts from its step. false: they
    *  carry no motion; the front end predicts by constant velocity from the identity. */
   bool odometry = true;
+  /** Each scan's time (s), passed on with it (deskewing by sweep_period needs them);
+   *  empty: none. */
+  std::vector<double> stamps;
   /** Scans per segment (slam::mapSegments); 0: one front end over the sequence. */
   std::size_t segment_size = 0;
   std::size_t segment_overlap = 5;

@@ -703,7 +703,13 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   const bool moving = spec.scanner.sweep_period > 0.0;
   if (!moving)
     spec.step = (spec.laps * route.waypointLength() - spec.gap) / std::max(1, spec.scans - 1);
-  const int n = o.max_scans >= 0 ? std::min(o.max_scans, spec.scans) : spec.scans;
+  if (o.stride < 1)
+    throw std::invalid_argument("[pcl_parallel::sim] stride must be >= 1, got " +
+                                std::to_string(o.stride));
+  const double speed = spec.step / spec.period; // metres per second along the route
+  spec.step *= o.stride;                        // between kept scans
+  const int kept = (spec.scans + o.stride - 1) / o.stride;
+  const int n = o.max_scans >= 0 ? std::min(o.max_scans, kept) : kept;
 
   SimulatedScanSet set;
   set.name = name;
@@ -711,7 +717,8 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   for (int i = 0; i < n; ++i) {
     const double s = spec.start + i * spec.step;
     set.truth.push_back(moving ? route.pose(s) : route.poseAtWaypointArc(s));
-    set.timestamps.push_back(i / (1.0 / spec.period)); // 0.3, not 3 * 0.1 = 0.30000000000000004
+    // 0.3, not 3 * 0.1 = 0.30000000000000004
+    set.timestamps.push_back(static_cast<double>(i) * o.stride / (1.0 / spec.period));
   }
   // Odometry: the true step, disturbed in the plane of the vehicle, accumulated.
   Rng rng(0x6f646f6dull ^ (static_cast<std::uint64_t>(o.seed) << 20));
@@ -736,13 +743,13 @@ simulatePreset(const std::string& name, const PresetOptions& o)
     return set;
   }
   const RayCaster caster(spec.world);
-  const double speed = spec.step / spec.period; // metres per second along the route
   set.scans.resize(static_cast<std::size_t>(n));
   if (moving)
     set.point_times.resize(static_cast<std::size_t>(n));
   const auto scan = [&](int i, unsigned threads) {
     const auto k = static_cast<std::size_t>(i);
-    const std::uint64_t key = scanKey(o.seed, k);
+    const std::uint64_t key =
+        scanKey(o.seed, k * static_cast<std::size_t>(o.stride)); // as if all
     if (moving) {
       // Column c at sweep time t_c, i.e. (t_c - 0.5) * period after the reference pose.
       const double s0 = spec.start + i * spec.step, cols = spec.scanner.azimuth_steps;

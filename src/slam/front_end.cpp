@@ -204,20 +204,28 @@ FrontEnd::priorSpreadIfUsed() const
 FrontEnd::~FrontEnd() = default;
 
 FrontEndResult
-FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
+FrontEnd::track(const Cloud& scan,
+                const std::optional<Pose>& odometry,
+                std::optional<double> stamp)
 {
   FrontEndResult r;
   // Motion prior: the odometry step, else constant velocity (KISS-ICP Sec. III-B).
   const bool first = scans_++ == 0;
+  const double gap = stamp && last_stamp_ ? *stamp - *last_stamp_ : 0.0;
   Pose motion = velocity_;
+  double span = velocity_span_; // the seconds `motion` was taken over
   if (odometry && last_odometry_)
-    motion = last_odometry_->inverse() * *odometry;
+    motion = last_odometry_->inverse() * *odometry, span = gap;
   if (odometry)
     last_odometry_ = odometry;
   r.prediction = first ? (odometry ? *odometry : Pose::Identity()) : Pose(pose_ * motion);
 
-  const Cloud::Ptr frame =
-      params_.deskew ? deskew(scan, motion, params_.num_threads) : Cloud::Ptr(new Cloud(scan));
+  const Cloud::Ptr frame = params_.deskew
+                               ? deskew(scan,
+                                        sweepMotion(motion, span, params_.sweep_period),
+                                        params_.num_threads,
+                                        params_.sweep_clockwise)
+                               : Cloud::Ptr(new Cloud(scan));
   r.reduced = filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
   const auto source =
       filters::voxelCentroid(*r.reduced, params_.source_voxel_size, params_.num_threads);
@@ -254,6 +262,8 @@ FrontEnd::track(const Cloud& scan, const std::optional<Pose>& odometry)
     }
   }
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);
+  velocity_span_ = gap;
+  last_stamp_ = stamp;
   pose_ = r.pose;
 
   // The scan's one tree and its normals, once; then into the map, and kept in the

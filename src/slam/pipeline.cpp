@@ -73,6 +73,8 @@ frontEndParameters(const Parameters& p, double r)
   f.normals_from_map = p.normals_from_map;
   f.transformation_epsilon = p.icp_epsilon;
   f.deskew = p.deskew;
+  f.sweep_period = p.sweep_period;
+  f.sweep_clockwise = p.sweep_clockwise;
   f.num_threads = p.num_threads;
   return f;
 }
@@ -132,10 +134,12 @@ Pipeline::setExchange(std::shared_ptr<ScanExchange> exchange)
 }
 
 std::size_t
-Pipeline::addScan(const Cloud& scan, const std::optional<Pose>& odometry)
+Pipeline::addScan(const Cloud& scan,
+                  const std::optional<Pose>& odometry,
+                  std::optional<double> stamp)
 {
   const auto start = Clock::now();
-  const std::size_t index = addTracked(track(scan, odometry));
+  const std::size_t index = addTracked(track(scan, odometry, stamp));
   reports_.back().seconds = seconds(start);
   return index;
 }
@@ -148,7 +152,9 @@ Pipeline::addTracked(MatchedScan scan)
 }
 
 MatchedScan
-Pipeline::track(const Cloud& scan, const std::optional<Pose>& odometry)
+Pipeline::track(const Cloud& scan,
+                const std::optional<Pose>& odometry,
+                std::optional<double> stamp)
 {
   const auto start = Clock::now();
   const std::size_t index = first_index_ + tracked_;
@@ -158,7 +164,9 @@ Pipeline::track(const Cloud& scan, const std::optional<Pose>& odometry)
   if (tracked_ > 0 && odometry.has_value() != has_odometry_)
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 ": odometry given for some scans but not for others");
+  checkStamp(index, stamp);
   has_odometry_ = odometry.has_value();
+  last_stamp_ = stamp;
 
   MatchedScan out;
   ScanReport& report = out.report;
@@ -174,7 +182,7 @@ Pipeline::track(const Cloud& scan, const std::optional<Pose>& odometry)
   // Front end: predict, deskew, reduce, match (paper Sec. II; KISS-ICP Sec. III).
   const auto stage = Clock::now();
   const Pose before = front_end_->lastPose(); // after any loop correction
-  out.front_end = front_end_->track(*cropped, odometry);
+  out.front_end = front_end_->track(*cropped, odometry, stamp);
   const FrontEndResult& fe = out.front_end;
   // The front end's own step: chained without the loop closures' corrections.
   out.step = tracked_ == 0 ? fe.pose : Pose(before.inverse() * fe.pose);
@@ -189,6 +197,26 @@ Pipeline::track(const Cloud& scan, const std::optional<Pose>& odometry)
   report.seconds = seconds(start);
   ++tracked_;
   return out;
+}
+
+void
+Pipeline::checkStamp(std::size_t index, const std::optional<double>& stamp) const
+{
+  if (!(params_.sweep_period >= 0.0 && std::isfinite(params_.sweep_period)))
+    throw std::invalid_argument("Parameters::sweep_period must be zero or positive");
+  const std::string scan = "scan " + std::to_string(index);
+  if (stamp && !std::isfinite(*stamp))
+    throw std::invalid_argument(scan + ": time stamp is not finite");
+  if (tracked_ > 0 && stamp.has_value() != last_stamp_.has_value())
+    throw std::invalid_argument(scan + ": time stamps given for some scans but not for others");
+  if (!params_.deskew || params_.sweep_period <= 0.0)
+    return;
+  if (!stamp)
+    throw std::invalid_argument(scan + ": deskewing by a sweep period needs time stamps");
+  if (last_stamp_ && !(*stamp > *last_stamp_))
+    throw std::invalid_argument(scan + ": time stamp " + std::to_string(*stamp) +
+                                " is not after the previous scan's (" +
+                                std::to_string(*last_stamp_) + ")");
 }
 
 std::size_t

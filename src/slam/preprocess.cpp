@@ -38,8 +38,16 @@ interpolateMotion(const Pose& motion, double s)
   return out;
 }
 
+Pose
+sweepMotion(const Pose& motion, double span, double sweep_period)
+{
+  if (sweep_period <= 0.0 || !(span > sweep_period))
+    return motion;
+  return interpolateMotion(motion, sweep_period / span);
+}
+
 Cloud::Ptr
-deskew(const Cloud& scan, const Pose& motion, unsigned num_threads)
+deskew(const Cloud& scan, const Pose& motion, unsigned num_threads, bool clockwise)
 {
   Cloud::Ptr out(new Cloud(scan));
   const Eigen::AngleAxisd aa(Eigen::Matrix3d(motion.topLeftCorner<3, 3>()));
@@ -49,7 +57,7 @@ deskew(const Cloud& scan, const Pose& motion, unsigned num_threads)
 #pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 20000)
   for (std::int64_t i = 0; i < n; ++i) {
     const PointT& p = scan[i];
-    const double s = sweepTime(p) - 0.5; // motion^s, s in [-1/2, 1/2]
+    const double s = sweepTime(p, clockwise) - 0.5; // motion^s, s in [-1/2, 1/2]
     const Eigen::Vector3d q =
         Eigen::AngleAxisd(s * aa.angle(), aa.axis()) * p.getVector3fMap().cast<double>() +
         s * t;

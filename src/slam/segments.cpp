@@ -43,12 +43,12 @@ sequenceMedianRange(const Cloud& first_scan, const Parameters& params)
 double
 sequenceMedianRange(ScanSource& read, const Parameters& params)
 {
-  auto first = read(0);
-  if (!first.first)
+  SourceScan first = read(0);
+  if (!first.cloud)
     throw std::invalid_argument("scan 0 could not be read");
-  const double range = sequenceMedianRange(*first.first, params);
+  const double range = sequenceMedianRange(*first.cloud, params);
   read = [first = std::move(first), read = std::move(read)](std::size_t i) mutable {
-    if (i == 0 && first.first)
+    if (i == 0 && first.cloud)
       return std::exchange(first, {});
     return read(i);
   };
@@ -67,12 +67,12 @@ matchSegment(const Segment& segment,
   std::vector<MatchedScan> own;
   own.reserve(segment.end - segment.begin);
   for (std::size_t i = segment.first; i < segment.end; ++i) {
-    const auto [scan, odometry] = read(i);
-    if (!scan)
+    const SourceScan scan = read(i);
+    if (!scan.cloud)
       throw std::invalid_argument("scan " + std::to_string(i) + " could not be read");
     // The segment is mapped as the online pipeline maps a sequence: its own loops closed
     // as they come, the front end continuing from the corrected poses.
-    MatchedScan m = front_end.track(*scan, odometry);
+    MatchedScan m = front_end.track(*scan.cloud, scan.odometry, scan.stamp);
     if (i >= segment.begin)
       own.push_back(m);
     front_end.addTracked(std::move(m));

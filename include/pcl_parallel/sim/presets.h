@@ -35,6 +35,10 @@ struct PresetOptions {
   unsigned num_threads = 0; ///< 0: all cores; the result does not depend on it
   /** Simulate only the first max_scans scans (tests, previews); < 0: all. */
   int max_scans = -1;
+  /** Keep every stride-th scan of the preset (>= 1): on `kitti`, keyframes of a 10 Hz
+   *  sensor stride sweeps apart, each still one sweep's skew (max_scans counts kept
+   *  scans). */
+  int stride = 1;
   /** Odometry noise overrides: fraction of the distance (translation) and radians per
    *  metre (heading); < 0 keeps the preset's value. */
   double odometry_translation_noise = -1.0;

@@ -64,6 +64,14 @@ struct FrontEndParameters {
   /** Deskew scans of a spinning LiDAR (sweep time from azimuth, see sweepTime) with the
    *  predicted motion; off for stop-and-go scanners. */
   bool deskew = false;
+  /** Seconds one sweep takes (0.1 for a 10 Hz LiDAR). With deskew and the scans' time
+   *  stamps, a scan is deskewed by one sweep's share of the predicted step (sweepMotion),
+   *  so keyframes taken seconds apart are not deskewed by the whole step between them.
+   *  0: each scan is the sweep after the previous one, deskewed by the whole step. */
+  double sweep_period = 0.0;
+  /** The head turns clockwise seen from +z in the scans' frame (KITTI's Velodyne), from
+   *  facing backwards; false: counter-clockwise (see sweepTime). */
+  bool sweep_clockwise = true;
   unsigned num_threads = 0;
 };
 
@@ -99,9 +107,13 @@ public:
   explicit FrontEnd(const FrontEndParameters& params = FrontEndParameters());
   ~FrontEnd();
 
-  /** Matches the next scan (scanner frame). `odometry`: its odometry pose, if known. */
+  /** Matches the next scan (scanner frame). `odometry`: its odometry pose, if known;
+   *  `stamp`: its time (s), which deskewing by sweep_period needs (without it, or when
+   *  it is not after the previous scan's, the whole predicted step is taken). */
   FrontEndResult
-  track(const Cloud& scan, const std::optional<Pose>& odometry = std::nullopt);
+  track(const Cloud& scan,
+        const std::optional<Pose>& odometry = std::nullopt,
+        std::optional<double> stamp = std::nullopt);
 
   /** Moves the front end's state (last pose, map) by a rigid correction, e.g. after
    *  loop closing moved the latest scan from last pose to correction * last pose. */
@@ -150,7 +162,9 @@ private:
   std::size_t scans_ = 0;
   Pose pose_ = Pose::Identity();
   Pose velocity_ = Pose::Identity(); ///< last matched step
+  double velocity_span_ = 0.0;       ///< ... taken over this many seconds (0: unknown)
   std::optional<Pose> last_odometry_;
+  std::optional<double> last_stamp_;
 };
 
 } // namespace slam

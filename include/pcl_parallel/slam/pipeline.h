@@ -36,6 +36,11 @@ struct Parameters {
   bool normals_from_map = false; ///< see FrontEndParameters::normals_from_map
   double icp_epsilon = 1e-8;     ///< [--epsICP] squared change of the transform
   bool deskew = false;           ///< spinning LiDAR: deskew by the predicted motion
+  /** Seconds a sweep takes: keyframes are deskewed by one sweep's share of the step
+   *  (FrontEndParameters::sweep_period); needs every scan's time stamp. 0: the scans are
+   *  consecutive sweeps. */
+  double sweep_period = 0.0;
+  bool sweep_clockwise = true; ///< see FrontEndParameters::sweep_clockwise
   bool close_loops = true;
   double loop_distance = 0.0;      ///< [--cldist] auto r
   int loop_size = 5;               ///< [--loopsize] (3DTK: 20; the path rule does the rest)
@@ -133,17 +138,23 @@ public:
   Pipeline(const Parameters& params, double median_range, std::size_t first_index = 0);
   ~Pipeline();
 
-  /** Adds the next scan (scanner frame) with its odometry pose, if known: either every
-   *  scan has one or none. Returns the scan's index. Throws std::invalid_argument for a
-   *  scan with no points left after cropping or a non-finite odometry pose. */
+  /** Adds the next scan (scanner frame) with its odometry pose and its time stamp (s),
+   *  if known: either every scan has one or none. Returns the scan's index. Throws
+   *  std::invalid_argument for a scan with no points left after cropping, a non-finite
+   *  odometry pose or stamp, or, when deskewing by a sweep period, a missing stamp or one
+   *  not after the previous scan's. */
   std::size_t
-  addScan(const Cloud& scan, const std::optional<Pose>& odometry = std::nullopt);
+  addScan(const Cloud& scan,
+          const std::optional<Pose>& odometry = std::nullopt,
+          std::optional<double> stamp = std::nullopt);
 
   /** addScan's first half: crops the scan and runs the front end on it (the pose graph
    *  is not touched). A pipeline used for this alone matches a segment of a sequence
    *  (segments.h). Throws as addScan. */
   MatchedScan
-  track(const Cloud& scan, const std::optional<Pose>& odometry = std::nullopt);
+  track(const Cloud& scan,
+        const std::optional<Pose>& odometry = std::nullopt,
+        std::optional<double> stamp = std::nullopt);
 
   /** addScan's second half for a scan this pipeline's track() matched: adds it to the
    *  pose graph at its front-end pose, detects loops, relaxes, and moves the front end to
@@ -246,6 +257,9 @@ private:
   /** Resolves the lengths from the median range and creates the stages. */
   void
   start(double median_range);
+  /** Throws std::invalid_argument for scan `index`'s stamp as addScan documents. */
+  void
+  checkStamp(std::size_t index, const std::optional<double>& stamp) const;
   /** The graph half of addScan/addMatched for a scan at `pose`. */
   std::size_t
   addToGraph(MatchedScan scan, const Pose& pose);
@@ -261,6 +275,7 @@ private:
   int relaxations_ = 0;
   std::size_t last_loop_scan_ = 0;
   bool has_odometry_ = false;
+  std::optional<double> last_stamp_; ///< the previous scan's, if stamps are given
   std::size_t first_index_ = 0;
   std::size_t tracked_ = 0; ///< scans through track()
 };

@@ -33,9 +33,16 @@ struct Segment {
 std::vector<Segment>
 splitSequence(std::size_t num_scans, std::size_t segment_size, std::size_t overlap);
 
-/** Scan i of a sequence (scanner frame) and its odometry pose, if known; throws on a
- *  scan that cannot be read. */
-using ScanSource = std::function<std::pair<Cloud::Ptr, std::optional<Pose>>(std::size_t)>;
+/** A scan of a sequence (scanner frame) with its odometry pose and time stamp (s), if
+ *  known (as Pipeline::addScan takes them). */
+struct SourceScan {
+  Cloud::Ptr cloud;
+  std::optional<Pose> odometry;
+  std::optional<double> stamp;
+};
+
+/** Scan i of a sequence; throws on a scan that cannot be read. */
+using ScanSource = std::function<SourceScan(std::size_t)>;
 
 /** The median range that sets a sequence's automatic lengths: scan 0's, after cropping
  *  (as Pipeline::addScan takes it). Throws std::invalid_argument if none is in range. */
