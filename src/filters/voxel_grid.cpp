@@ -202,6 +202,7 @@ hashKey(const VoxelKey& k)
 
 /** Fixed, so which thread sums a voxel never changes its arithmetic. */
 constexpr std::size_t kShards = 64;
+static_assert((kShards & (kShards - 1)) == 0, "centroids() merges the shards pairwise");
 
 } // namespace
 
@@ -305,23 +306,50 @@ VoxelCentroidMap::size() const
 Cloud::Ptr
 VoxelCentroidMap::centroids() const
 {
-  std::vector<const Shard::Slot*> all;
-  all.reserve(size());
-  for (const auto& s : shards_)
-    for (const auto& slot : s.slots)
-      if (slot.count > 0)
-        all.push_back(&slot);
-  std::sort(all.begin(), all.end(), [](const auto* a, const auto* b) {
-    return keyLess(a->key, b->key);
-  });
-  Cloud::Ptr out(new Cloud);
-  out->reserve(all.size());
-  for (const auto* v : all) {
-    const double count = static_cast<double>(v->count);
-    out->push_back(pcl::PointXYZ(static_cast<float>(v->x / count),
-                                 static_cast<float>(v->y / count),
-                                 static_cast<float>(v->z / count)));
+  // Each shard's centroids, contiguous and sorted by key, in parallel; then the sorted
+  // shards merged pairwise, the merges of a level in parallel. Keys are unique, so the
+  // order (and the output) is the same for any thread count and schedule.
+  struct Centroid {
+    VoxelKey key;
+    pcl::PointXYZ p;
+  };
+  const auto by_key = [](const Centroid& a, const Centroid& b) { return keyLess(a.key, b.key); };
+  std::vector<std::size_t> offset(kShards + 1, 0);
+  for (std::size_t s = 0; s < kShards; ++s)
+    offset[s + 1] = offset[s] + shards_[s].used;
+  std::vector<Centroid> all(offset.back());
+  const unsigned threads = resolveNumberOfThreads(num_threads_);
+  const bool parallel = threads > 1 && all.size() > 10000;
+#pragma omp parallel for num_threads(threads) schedule(dynamic) if (parallel)
+  for (std::int64_t s = 0; s < static_cast<std::int64_t>(kShards); ++s) {
+    auto out = all.begin() + static_cast<std::ptrdiff_t>(offset[s]);
+    for (const auto& slot : shards_[s].slots)
+      if (slot.count > 0) {
+        const double count = static_cast<double>(slot.count);
+        *out++ = {slot.key,
+                  pcl::PointXYZ(static_cast<float>(slot.x / count),
+                                static_cast<float>(slot.y / count),
+                                static_cast<float>(slot.z / count))};
+      }
+    std::sort(all.begin() + static_cast<std::ptrdiff_t>(offset[s]), out, by_key);
   }
+  for (std::size_t width = 1; width < kShards; width *= 2) {
+    const auto pairs = static_cast<std::int64_t>(kShards / (2 * width));
+#pragma omp parallel for num_threads(threads) schedule(dynamic) if (parallel)
+    for (std::int64_t k = 0; k < pairs; ++k) {
+      const std::size_t s = static_cast<std::size_t>(k) * 2 * width;
+      const auto at = [&](std::size_t shard) {
+        return all.begin() + static_cast<std::ptrdiff_t>(offset[shard]);
+      };
+      std::inplace_merge(at(s), at(s + width), at(s + 2 * width), by_key);
+    }
+  }
+  Cloud::Ptr out(new Cloud);
+  out->resize(all.size());
+  const auto n = static_cast<std::int64_t>(all.size());
+#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)
+  for (std::int64_t i = 0; i < n; ++i)
+    (*out)[i] = all[i].p;
   return out;
 }
 
