@@ -4,6 +4,8 @@
  */
 #include "map_picture.h"
 
+#include <pcl_parallel/parallel.h>
+
 #include <algorithm>
 #include <array>
 #include <cairo.h>
@@ -226,19 +228,26 @@ robustExtent(const std::vector<Eigen::Vector2d>& points,
 }
 
 std::string
-chooseStyle(const Cloud& map, const Poses& trajectory, int up)
+chooseStyle(const Cloud& map, const Poses& trajectory, int up, unsigned num_threads)
 {
   const View view = makeView(up);
   std::vector<Eigen::Vector2d> traj;
   for (const auto& t : trajectory)
     traj.push_back(view(t));
   const TrajectoryIndex index(traj, 1.0, 0.25);
+  // Each point's trajectory position in parallel (millions of map points), counted after.
+  std::vector<int> nearest(map.size());
+  const auto n = static_cast<std::int64_t>(map.size());
+  const unsigned threads = pcl_parallel::resolveNumberOfThreads(num_threads);
+#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 100000)
+  for (std::int64_t i = 0; i < n; ++i)
+    nearest[i] = index.nearest(view(map[i].data));
   std::vector<int> ceiling(trajectory.size(), 0);
-  for (const auto& p : map) {
-    const int k = index.nearest(view(p.data));
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    const int k = nearest[i];
     if (k < 0)
       continue;
-    const double above = p.data[up] - trajectory[k](up, 3);
+    const double above = map[i].data[up] - trajectory[k](up, 3);
     if (above > 0.3 && above < 6.0)
       ++ceiling[k];
   }
@@ -287,7 +296,7 @@ writeMapPicture(const std::string& path,
   // position (heights relative to the trajectory, so the ground along a slope or ramp
   // keeps one colour).
   const std::string style =
-      opt.style == "auto" ? chooseStyle(map, trajectory, opt.up) : opt.style;
+      opt.style == "auto" ? chooseStyle(map, trajectory, opt.up, opt.num_threads) : opt.style;
   const TrajectoryIndex index(traj, opt.radius, opt.radius / 20.0);
   // Cells of the map's voxel size (at least a pixel), so a sparse reduced map reads as
   // surfaces rather than dots.
@@ -299,7 +308,10 @@ writeMapPicture(const std::string& path,
   std::vector<float> band_lo(cells, 1e30f), band_hi(cells, -1e30f);
   std::vector<float> rel(map.size());
   std::vector<std::int64_t> cell_of(map.size(), -1);
-  for (std::size_t i = 0; i < map.size(); ++i) {
+  const auto n = static_cast<std::int64_t>(map.size());
+  const unsigned threads = pcl_parallel::resolveNumberOfThreads(opt.num_threads);
+#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 100000)
+  for (std::int64_t i = 0; i < n; ++i) {
     const Eigen::Vector2d q = view(map[i].data);
     const Eigen::Vector2d xy = px(q) / cell_px;
     if (!(xy.x() >= 0 && xy.y() >= 0 && xy.x() < gw && xy.y() < gh))

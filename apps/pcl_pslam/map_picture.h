@@ -45,6 +45,7 @@ struct PictureOptions {
   double cell = 0.1;          ///< metres: points fill cells of this size (the map's voxel)
   std::vector<std::string> caption;                           ///< lines under the map
   std::vector<std::pair<std::uint32_t, std::uint32_t>> loops; ///< drawn as links
+  unsigned num_threads = 0; ///< for the per-point passes; 0: all cores
 };
 
 /** Writes the PNG (map and trajectory in metres). Returns the style used ("height" or
@@ -58,7 +59,7 @@ writeMapPicture(const std::string& path,
 /** "floorplan" when most poses see a ceiling (at least 20 map points 0.3-6 m above them
  *  within 1 m horizontally: a patch of surface, not a stray return), else "height". */
 std::string
-chooseStyle(const Cloud& map, const Poses& trajectory, int up);
+chooseStyle(const Cloud& map, const Poses& trajectory, int up, unsigned num_threads = 0);
 
 /** Cairo's version, for report.json. */
 std::string

@@ -392,6 +392,7 @@ writeOutputs(const Options& o,
     po.style = o.style;
     po.cell = map_voxel > 0.0 ? map_voxel : 0.05;
     po.loops = loops;
+    po.num_threads = o.threads;
     char line[256];
     std::snprintf(line,
                   sizeof line,

@@ -313,7 +313,9 @@ VoxelCentroidMap::centroids() const
     VoxelKey key;
     pcl::PointXYZ p;
   };
-  const auto by_key = [](const Centroid& a, const Centroid& b) { return keyLess(a.key, b.key); };
+  const auto by_key = [](const Centroid& a, const Centroid& b) {
+    return keyLess(a.key, b.key);
+  };
   std::vector<std::size_t> offset(kShards + 1, 0);
   for (std::size_t s = 0; s < kShards; ++s)
     offset[s + 1] = offset[s] + shards_[s].used;
