@@ -38,7 +38,7 @@ LocalMap::insert(const MapPoint& p)
   const Key k = key(p);
   auto [it, created] = voxels_.try_emplace(k);
   if (created)
-    order_.push_back(k);
+    order_.push_back(&*it);
   if (it->second.size() < max_points_) {
     it->second.push_back(p);
     ++added_;
@@ -54,16 +54,14 @@ LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin)
       insert(p);
   // Crop: a voxel goes when its first point is out of reach (KISS-ICP's rule).
   const double max2 = max_distance_ * max_distance_;
-  std::vector<Key> kept;
-  kept.reserve(order_.size());
-  for (const Key& k : order_) {
-    auto it = voxels_.find(k);
-    if ((it->second.front().getVector3fMap().cast<double>() - origin).squaredNorm() > max2)
-      voxels_.erase(it);
+  std::size_t kept = 0;
+  for (auto* voxel : order_) {
+    if ((voxel->second.front().getVector3fMap().cast<double>() - origin).squaredNorm() > max2)
+      voxels_.erase(Key(voxel->first)); // a copy: the key dies with the element
     else
-      kept.push_back(k);
+      order_[kept++] = voxel;
   }
-  order_.swap(kept);
+  order_.resize(kept);
   if (!cloud_ || static_cast<double>(added_) > refresh_fraction_ * cloud_->size())
     refresh();
 }
@@ -74,8 +72,8 @@ LocalMap::transform(const Pose& correction)
   const Eigen::Matrix3f r = correction.topLeftCorner<3, 3>().cast<float>();
   const Eigen::Vector3f t = correction.topRightCorner<3, 1>().cast<float>();
   std::vector<MapPoint> points;
-  for (const Key& k : order_)
-    for (const auto& p : voxels_.at(k)) {
+  for (const auto* voxel : order_)
+    for (const auto& p : voxel->second) {
       MapPoint q = p;
       q.getVector3fMap() = r * p.getVector3fMap() + t;
       q.getNormalVector3fMap() = r * p.getNormalVector3fMap();
@@ -100,12 +98,12 @@ void
 LocalMap::refresh()
 {
   std::size_t n = 0;
-  for (const Key& k : order_)
-    n += voxels_.at(k).size();
+  for (const auto* voxel : order_)
+    n += voxel->second.size();
   cloud_.reset(new MapCloud);
   cloud_->reserve(n);
-  for (const Key& k : order_)
-    for (const auto& p : voxels_.at(k))
+  for (const auto* voxel : order_)
+    for (const auto& p : voxel->second)
       cloud_->push_back(p);
   added_ = 0;
 }

@@ -33,6 +33,13 @@ public:
            double max_distance,
            int max_points_per_voxel,
            double refresh_fraction = 0.1);
+  // Moves keep the voxels' nodes, and order_ points into them; a copy would not.
+  LocalMap(LocalMap&&) noexcept = default;
+  LocalMap&
+  operator=(LocalMap&&) noexcept = default;
+  LocalMap(const LocalMap&) = delete;
+  LocalMap&
+  operator=(const LocalMap&) = delete;
 
   /** Adds points (world frame), then drops the voxels farther than max_distance from
    *  `origin` (the scanner's position). */
@@ -80,8 +87,12 @@ private:
   std::size_t max_points_;
   double refresh_fraction_;
   std::size_t added_ = 0; ///< points added since cloud_ was built
-  std::unordered_map<Key, std::vector<MapPoint>, KeyHash> voxels_;
-  std::vector<Key> order_; ///< voxels in creation order: cloud() is independent of hashing
+  using Voxels = std::unordered_map<Key, std::vector<MapPoint>, KeyHash>;
+  Voxels voxels_;
+  /** Voxels in creation order, so cloud() is independent of hashing; pointers to the
+   *  elements (a rehash keeps them valid), so the per-scan crop and refresh walk the
+   *  voxels without a hash lookup each. */
+  std::vector<Voxels::value_type*> order_;
   MapCloud::Ptr cloud_;
 };
 
