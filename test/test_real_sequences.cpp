@@ -36,8 +36,26 @@ binPath(const std::string& dir, std::size_t i)
   return dir + "/" + name;
 }
 
-/** The pipeline over scans 0..n-1 of DIR/bin, 2 threads: the final poses, or with
- *  close_loops false the front end's alone (`pcl_pslam run --no-loops`). */
+/** The pipeline with parameters p over scans 0..n-1 of DIR/bin, with their odometry and
+ *  time stamps if given: the final poses, or with p.close_loops false the front end's
+ *  alone (`pcl_pslam run --no-loops`). */
+Poses
+mapSequence(const std::string& dir,
+            std::size_t n,
+            const slam::Parameters& p,
+            const Poses* odometry = nullptr,
+            const std::vector<double>* stamps = nullptr)
+{
+  slam::Pipeline pipeline(p);
+  for (std::size_t i = 0; i < n; ++i)
+    pipeline.addScan(*io::loadScan(binPath(dir, i)),
+                     odometry ? std::optional<Pose>((*odometry)[i]) : std::nullopt,
+                     stamps ? std::optional<double>((*stamps)[i]) : std::nullopt);
+  pipeline.finish();
+  return p.close_loops ? pipeline.poses() : pipeline.frontEndPoses();
+}
+
+/** ... with the default parameters on 2 threads. */
 Poses
 mapSequence(const std::string& dir,
             std::size_t n,
@@ -47,12 +65,7 @@ mapSequence(const std::string& dir,
   slam::Parameters p;
   p.close_loops = close_loops;
   p.num_threads = 2;
-  slam::Pipeline pipeline(p);
-  for (std::size_t i = 0; i < n; ++i)
-    pipeline.addScan(*io::loadScan(binPath(dir, i)),
-                     odometry ? std::optional<Pose>((*odometry)[i]) : std::nullopt);
-  pipeline.finish();
-  return close_loops ? pipeline.poses() : pipeline.frontEndPoses();
+  return mapSequence(dir, n, p, odometry);
 }
 
 /** fastlio_quick_shack's first n scans mapped from its odometry (the file): the per-step
@@ -130,15 +143,6 @@ TEST(RealSequences, HandheldFrontEndWithoutOdometry)
   EXPECT_LT(evaluation::frameRelativeError(poses, reference).rotation_deg.mean, 3.0);
 }
 
-// An Ouster OS1-64 on a car, keyframes 0.4-5.5 s apart, no odometry (the data's poses are
-// unusable, PROVENANCE.txt): from constant velocity alone the front end must follow the
-// drive. The car moves along -x of the scans' frame (PROVENANCE.txt) and the clip ends
-// far from where it began. Where the car pulls away (keyframes 5-60), scan-to-scan
-// matching and a brute-force overlap search find steps of 5-9 m (docs/design.md, "Real
-// data"), 300 m in all. Measured: 99 % of the steps go forward, 272 m to keyframe 60,
-// the last pose 863 m from the first. Matched to the local map from constant velocity
-// the front end stalled there: 85 %, 47 m (and 1,043 m); with the prior's spread from
-// the combined model error it lost the street and wandered in a 100 m tangle: 50 %, 30 m.
 /** The car's steps: the share going forward (along -x) and the path to keyframe 60. */
 std::pair<double, double>
 carProgress(const Poses& poses)
@@ -154,6 +158,15 @@ carProgress(const Poses& poses)
   return {static_cast<double>(forward) / static_cast<double>(poses.size() - 1), pull_away};
 }
 
+// An Ouster OS1-64 on a car, keyframes 0.4-5.5 s apart, no odometry (the data's poses are
+// unusable, PROVENANCE.txt): from constant velocity alone the front end must follow the
+// drive. The car moves along -x of the scans' frame (PROVENANCE.txt) and the clip ends
+// far from where it began. Where the car pulls away (keyframes 5-60), scan-to-scan
+// matching and a brute-force overlap search find steps of 5-9 m (docs/design.md, "Real
+// data"), 300 m in all. Measured: 99 % of the steps go forward, 272 m to keyframe 60,
+// the last pose 863 m from the first. Matched to the local map from constant velocity
+// the front end stalled there: 85 %, 47 m (and 1,043 m); with the prior's spread from
+// the combined model error it lost the street and wandered in a 100 m tangle: 50 %, 30 m.
 TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
 {
   PCL_PARALLEL_REQUIRE_DATA(dir, "mulran_riverside02_keyframes/bin");
@@ -191,10 +204,7 @@ TEST(RealSequences, CarKeyframesDeskewedByOneSweep)
   p.deskew = true;
   p.sweep_period = 0.1;
   p.sweep_clockwise = false;
-  slam::Pipeline pipeline(p);
-  for (std::size_t i = 0; i < n; ++i)
-    pipeline.addScan(*io::loadScan(binPath(dir, i)), std::nullopt, times[i]);
-  const auto [forward, pull_away] = carProgress(pipeline.frontEndPoses());
+  const auto [forward, pull_away] = carProgress(mapSequence(dir, n, p, nullptr, &times));
   EXPECT_GT(forward, 0.99);
   EXPECT_GT(pull_away, 285.0);
 }

@@ -749,7 +749,7 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   const auto scan = [&](int i, unsigned threads) {
     const auto k = static_cast<std::size_t>(i);
     const std::uint64_t key =
-        scanKey(o.seed, k * static_cast<std::size_t>(o.stride)); // as if all
+        scanKey(o.seed, k * static_cast<std::size_t>(o.stride)); // keyed as without stride
     if (moving) {
       // Column c at sweep time t_c, i.e. (t_c - 0.5) * period after the reference pose.
       const double s0 = spec.start + i * spec.step, cols = spec.scanner.azimuth_steps;

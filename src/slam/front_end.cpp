@@ -214,8 +214,10 @@ FrontEnd::track(const Cloud& scan,
   const double gap = stamp && last_stamp_ ? *stamp - *last_stamp_ : 0.0;
   Pose motion = velocity_;
   double span = velocity_span_; // the seconds `motion` was taken over
-  if (odometry && last_odometry_)
-    motion = last_odometry_->inverse() * *odometry, span = gap;
+  if (odometry && last_odometry_) {
+    motion = last_odometry_->inverse() * *odometry;
+    span = gap;
+  }
   if (odometry)
     last_odometry_ = odometry;
   r.prediction = first ? (odometry ? *odometry : Pose::Identity()) : Pose(pose_ * motion);

@@ -58,6 +58,8 @@ medianRange(const Cloud& scan)
 FrontEndParameters
 frontEndParameters(const Parameters& p, double r)
 {
+  if (!(p.sweep_period >= 0.0 && std::isfinite(p.sweep_period)))
+    throw std::invalid_argument("Parameters::sweep_period must be zero or positive");
   FrontEndParameters f;
   f.target = p.match_target;
   f.voxel_size = orAuto(p.voxel_size, r / 20.0);
@@ -202,8 +204,6 @@ Pipeline::track(const Cloud& scan,
 void
 Pipeline::checkStamp(std::size_t index, const std::optional<double>& stamp) const
 {
-  if (!(params_.sweep_period >= 0.0 && std::isfinite(params_.sweep_period)))
-    throw std::invalid_argument("Parameters::sweep_period must be zero or positive");
   const std::string scan = "scan " + std::to_string(index);
   if (stamp && !std::isfinite(*stamp))
     throw std::invalid_argument(scan + ": time stamp is not finite");

@@ -68,7 +68,8 @@ double
 medianRange(const Cloud& scan);
 
 /** The front end's and loop closing's settings for parameters p on scans of median range
- *  r (resolves the automatic lengths). */
+ *  r (resolves the automatic lengths). frontEndParameters throws std::invalid_argument
+ *  for a negative or non-finite sweep_period. */
 FrontEndParameters
 frontEndParameters(const Parameters& p, double median_range);
 LoopClosureParameters
