@@ -14,6 +14,7 @@
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/slam/pipeline.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <gtest/gtest.h>
 #include <string>
@@ -37,14 +38,15 @@ binPath(const std::string& dir, std::size_t i)
 }
 
 /** The pipeline with parameters p over scans 0..n-1 of DIR/bin, with their odometry and
- *  time stamps if given: the final poses, or with p.close_loops false the front end's
- *  alone (`pcl_pslam run --no-loops`). */
+ *  time stamps if given (and its per-scan reports if asked): the final poses, or with
+ * p.close_loops false the front end's alone (`pcl_pslam run --no-loops`). */
 Poses
 mapSequence(const std::string& dir,
             std::size_t n,
             const slam::Parameters& p,
             const Poses* odometry = nullptr,
-            const std::vector<double>* stamps = nullptr)
+            const std::vector<double>* stamps = nullptr,
+            std::vector<slam::ScanReport>* reports = nullptr)
 {
   slam::Pipeline pipeline(p);
   for (std::size_t i = 0; i < n; ++i)
@@ -52,6 +54,8 @@ mapSequence(const std::string& dir,
                      odometry ? std::optional<Pose>((*odometry)[i]) : std::nullopt,
                      stamps ? std::optional<double>((*stamps)[i]) : std::nullopt);
   pipeline.finish();
+  if (reports)
+    *reports = pipeline.reports();
   return p.close_loops ? pipeline.poses() : pipeline.frontEndPoses();
 }
 
@@ -183,30 +187,55 @@ TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
             500.0);
 }
 
-// The same keyframes (one 10 Hz sweep each, raw) deskewed by one sweep's share of the step
-// (--deskew --sweep-period 0.1 --sweep-ccw, with times.txt): the front end then keeps every
-// step forward and finds the pull-away as scan-to-scan matching does (300 m). Measured:
-// 100 %, 302 m; not deskewed 97 %, 273 m; deskewed clockwise 96 %, 256 m; deskewed by
-// the whole step (--deskew alone) 95 %, 220 m.
-TEST(RealSequences, CarKeyframesDeskewedByOneSweep)
+/** How far pICP moved the median keyframe from the motion prior (ScanReport::correction,
+ *  translation plus rotation at the median range), from the third keyframe on. */
+double
+medianCorrection(const std::vector<slam::ScanReport>& reports)
+{
+  std::vector<double> c;
+  for (std::size_t i = 2; i < reports.size(); ++i)
+    c.push_back(reports[i].correction);
+  std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
+  return c[c.size() / 2];
+}
+
+// The same keyframes with their time stamps (times.txt): 0.4-5.5 s apart, each one raw
+// 10 Hz sweep. Constant velocity per second, not per keyframe, predicts each keyframe
+// where pICP then finds it: median correction 0.34 m (keyframes from 0, 1 or 2 on:
+// 0.31-0.43 m), where the prediction per keyframe was 1.28 m off (1.26-1.31). Deskewed by
+// one sweep's share of the step (--deskew --sweep-period 0.1) it stays there; deskewed by
+// the whole step (--deskew alone, right only for consecutive sweeps) the scans are bent
+// and it is 0.79-0.96 m. The pull-away (keyframes 1-20, 0.3-5 m/s along a street whose
+// length the scans hardly constrain) is not asserted: whether the front end follows it
+// changes with the keyframe it starts from, before this model and with it (docs/design.md,
+// "Real data").
+TEST(RealSequences, CarKeyframesPredictedByTheirTimes)
 {
   PCL_PARALLEL_REQUIRE_DATA(dir, "mulran_riverside02_keyframes/bin");
   PCL_PARALLEL_REQUIRE_DATA(times_file, "mulran_riverside02_keyframes/times.txt");
   if (kSanitized)
     GTEST_SKIP() << "332 Ouster sweeps: too slow under the sanitizers; test_slam's "
-                    "KeyframesAreDeskewedByOneSweepsShare runs the same code there";
+                    "ConstantVelocityFollowsTheTimeStamps runs the same code there";
   const std::vector<double> times = io::loadKittiTimes(times_file);
   const std::size_t n = 332;
   ASSERT_EQ(times.size(), n);
-  slam::Parameters p;
-  p.close_loops = false;
-  p.num_threads = 2;
-  p.deskew = true;
-  p.sweep_period = 0.1;
-  p.sweep_clockwise = false;
-  const auto [forward, pull_away] = carProgress(mapSequence(dir, n, p, nullptr, &times));
-  EXPECT_GT(forward, 0.99);
-  EXPECT_GT(pull_away, 285.0);
+  const auto correction = [&](double sweep_period) {
+    slam::Parameters p;
+    p.close_loops = false;
+    p.num_threads = 2;
+    p.deskew = true;
+    p.sweep_period = sweep_period;
+    std::vector<slam::ScanReport> reports;
+    EXPECT_EQ(mapSequence(dir, n, p, nullptr, &times, &reports).size(), n);
+    return medianCorrection(reports);
+  };
+  const double one_sweep = correction(0.1), whole_step = correction(0.0);
+  std::printf("mulran keyframes, median correction: deskewed by one sweep %.3f m, by the "
+              "whole step %.3f m\n",
+              one_sweep,
+              whole_step);
+  EXPECT_LT(one_sweep, 0.6);
+  EXPECT_GT(whole_step, 1.5 * one_sweep);
 }
 
 } // namespace

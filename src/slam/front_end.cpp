@@ -14,6 +14,8 @@
 
 #include <pcl/common/transforms.h>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -42,6 +44,20 @@ constexpr double kMinMotionVoxels = 0.1;
 /** Deviations kept before the prior's spread is taken from them: σ from n samples is
  *  known to about 1/sqrt(2n), 16 % at 20. */
 constexpr std::size_t kPriorSpreadSamples = 20;
+
+/** `pose` with its rotation orthonormal again (nearest through a normalised quaternion),
+ *  for each matched pose. Constant velocity multiplies each pose by a step taken from the
+ *  two before it, which compounds rounding (mulran, 332 keyframes: |RᵀR - I| grew to
+ *  1e-9, faster than linearly), and odometry read from text carries its digits' error. */
+Pose
+orthonormalized(const Pose& pose)
+{
+  Pose out = pose;
+  out.topLeftCorner<3, 3>() = Eigen::Quaterniond(Eigen::Matrix3d(pose.topLeftCorner<3, 3>()))
+                                  .normalized()
+                                  .toRotationMatrix();
+  return out;
+}
 
 /** The reduced points' k-d tree (scanner frame): the scan's one tree, for its normals,
  *  the next scan's match to it and pLUM (ParallelLUM::setSearchTree: the tree pLUM would
@@ -209,25 +225,14 @@ FrontEnd::track(const Cloud& scan,
                 std::optional<double> stamp)
 {
   FrontEndResult r;
-  // Motion prior: the odometry step, else constant velocity (KISS-ICP Sec. III-B).
   const bool first = scans_++ == 0;
   const double gap = stamp && last_stamp_ ? *stamp - *last_stamp_ : 0.0;
-  Pose motion = velocity_;
-  double span = velocity_span_; // the seconds `motion` was taken over
-  if (odometry && last_odometry_) {
-    motion = last_odometry_->inverse() * *odometry;
-    span = gap;
-  }
-  if (odometry)
-    last_odometry_ = odometry;
-  r.prediction = first ? (odometry ? *odometry : Pose::Identity()) : Pose(pose_ * motion);
+  const Motion motion = predictMotion(odometry, gap);
+  r.prediction = first ? (odometry ? *odometry : Pose::Identity()) : Pose(pose_ * motion.step);
 
-  const Cloud::Ptr frame = params_.deskew
-                               ? deskew(scan,
-                                        sweepMotion(motion, span, params_.sweep_period),
-                                        params_.num_threads,
-                                        params_.sweep_clockwise)
-                               : Cloud::Ptr(new Cloud(scan));
+  const Cloud::Ptr frame =
+      params_.deskew ? deskew(scan, motion.sweep, params_.num_threads, params_.sweep_clockwise)
+                     : Cloud::Ptr(new Cloud(scan));
   r.reduced = filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
   const auto source =
       filters::voxelCentroid(*r.reduced, params_.source_voxel_size, params_.num_threads);
@@ -254,7 +259,7 @@ FrontEnd::track(const Cloud& scan,
       matched = alignToPrevious(source, r.prediction);
     r.converged = matched.has_value();
     if (matched) {
-      r.pose = *matched;
+      r.pose = orthonormalized(*matched);
       r.fitness = icp.getFitnessScore(r.gate);
       r.information =
           information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
@@ -282,6 +287,32 @@ FrontEnd::track(const Cloud& scan,
   previous_ = scannerFrameCloud(*r.reduced, r.normals);
   previous_tree_->setInputCloudAndIndex(previous_, r.tree);
   return r;
+}
+
+FrontEnd::Motion
+FrontEnd::predictMotion(const std::optional<Pose>& odometry, double gap)
+{
+  Motion m;
+  if (odometry && last_odometry_) { // the odometry step (paper Sec. II)
+    m.step = last_odometry_->inverse() * *odometry;
+    // The sweep is at the step's end: deskewed at the velocity there, not the step's mean.
+    m.sweep = sweepMotion(odometry_step_
+                              ? extrapolateMotion(m.step, gap, *odometry_step_, odometry_span_)
+                              : m.step,
+                          gap,
+                          params_.sweep_period);
+    odometry_step_ = m.step;
+    odometry_span_ = gap;
+  }
+  else { // constant velocity (KISS-ICP Sec. III-B), per second where there are stamps
+    m.step = gap > 0.0 && velocity_span_ > 0.0
+                 ? interpolateMotion(velocity_, gap / velocity_span_)
+                 : velocity_;
+    m.sweep = sweepMotion(m.step, gap, params_.sweep_period);
+  }
+  if (odometry)
+    last_odometry_ = odometry;
+  return m;
 }
 
 bool
@@ -319,7 +350,8 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bo
 void
 FrontEnd::applyCorrection(const Pose& correction)
 {
-  pose_ = correction * pose_; // the previous scan, kept in its own frame, moves with it
+  pose_ = orthonormalized(correction *
+                          pose_); // the previous scan, kept in its own frame, moves with it
   map_.transform(correction);
 }
 

@@ -7,6 +7,7 @@
 
 #include <Eigen/Geometry>
 
+#include <cmath>
 #include <cstdint>
 
 namespace pcl_parallel {
@@ -28,14 +29,85 @@ cropRange(const Cloud& scan, double min_range, double max_range)
   return out;
 }
 
+namespace {
+
+/** A relative motion as a twist (ω, v), motion = exp([ω v]), kept with what its
+ *  exponential at s needs: exp(s ξ) = (R(s θ), s v + a(s) ω×v + b(s) ω×(ω×v)), with
+ *  a(s) = (1 - cos sθ) / θ², b(s) = (sθ - sin sθ) / θ³: the SE(3) exponential, V(s ω) s v
+ *  (Sophus' SE3::exp and SE3::log compute the same). */
+class ScrewMotion {
+public:
+  explicit ScrewMotion(const Pose& motion)
+  {
+    const Eigen::AngleAxisd aa(Eigen::Matrix3d(motion.topLeftCorner<3, 3>()));
+    theta_ = aa.angle();
+    axis_ = aa.axis();
+    const Eigen::Vector3d w = theta_ * axis_, t = motion.topRightCorner<3, 1>();
+    // v = V(ω)⁻¹ t, V⁻¹ = I - ω×/2 + c ω×ω×, c = (1 - (θ/2) cot(θ/2)) / θ²; its series
+    // below θ = 0.01, where the closed form cancels.
+    const double c =
+        theta_ < 1e-2 ? 1.0 / 12.0 + theta_ * theta_ / 720.0
+                      : (1.0 - theta_ * std::sin(theta_) / (2.0 * (1.0 - std::cos(theta_)))) /
+                            (theta_ * theta_);
+    v_ = t - 0.5 * w.cross(t) + c * w.cross(w.cross(t));
+    wv_ = w.cross(v_);
+    wwv_ = w.cross(wv_);
+  }
+
+  /** exp(s ξ) applied to p. */
+  Eigen::Vector3d
+  apply(double s, const Eigen::Vector3d& p) const
+  {
+    return Eigen::AngleAxisd(s * theta_, axis_) * p + translation(s);
+  }
+
+  Pose
+  at(double s) const
+  {
+    Pose out = Pose::Identity();
+    out.topLeftCorner<3, 3>() = Eigen::AngleAxisd(s * theta_, axis_).toRotationMatrix();
+    out.topRightCorner<3, 1>() = translation(s);
+    return out;
+  }
+
+private:
+  Eigen::Vector3d
+  translation(double s) const
+  {
+    const double x = s * theta_;
+    double a, b; // series below x = 1e-4: cancellation, and θ = 0
+    if (std::abs(x) < 1e-4) {
+      a = s * s * (0.5 - x * x / 24.0);
+      b = s * s * s * (1.0 / 6.0 - x * x / 120.0);
+    }
+    else {
+      a = (1.0 - std::cos(x)) / (theta_ * theta_);
+      b = (x - std::sin(x)) / (theta_ * theta_ * theta_);
+    }
+    return s * v_ + a * wv_ + b * wwv_;
+  }
+
+  double theta_;
+  Eigen::Vector3d axis_, v_, wv_, wwv_;
+};
+
+} // namespace
+
 Pose
 interpolateMotion(const Pose& motion, double s)
 {
-  const Eigen::AngleAxisd aa(Eigen::Matrix3d(motion.topLeftCorner<3, 3>()));
-  Pose out = Pose::Identity();
-  out.topLeftCorner<3, 3>() = Eigen::AngleAxisd(s * aa.angle(), aa.axis()).toRotationMatrix();
-  out.topRightCorner<3, 1>() = s * motion.topRightCorner<3, 1>();
-  return out;
+  return ScrewMotion(motion).at(s);
+}
+
+Pose
+extrapolateMotion(const Pose& step, double span, const Pose& previous, double previous_span)
+{
+  const bool timed = span > 0.0 && previous_span > 0.0;
+  // The previous velocity over this step's time; the change between the middles of the
+  // steps ((span + previous_span) / 2 apart) carried on by span / 2.
+  const Pose before = timed ? interpolateMotion(previous, span / previous_span) : previous;
+  return step * interpolateMotion(Pose(before.inverse() * step),
+                                  timed ? span / (span + previous_span) : 0.5);
 }
 
 Pose
@@ -50,18 +122,15 @@ Cloud::Ptr
 deskew(const Cloud& scan, const Pose& motion, unsigned num_threads, bool clockwise)
 {
   Cloud::Ptr out(new Cloud(scan));
-  const Eigen::AngleAxisd aa(Eigen::Matrix3d(motion.topLeftCorner<3, 3>()));
-  const Eigen::Vector3d t = motion.topRightCorner<3, 1>();
+  const ScrewMotion screw(motion);
   const std::int64_t n = static_cast<std::int64_t>(scan.size());
   const unsigned threads = resolveNumberOfThreads(num_threads);
 #pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 20000)
   for (std::int64_t i = 0; i < n; ++i) {
     const PointT& p = scan[i];
     const double s = sweepTime(p, clockwise) - 0.5; // motion^s, s in [-1/2, 1/2]
-    const Eigen::Vector3d q =
-        Eigen::AngleAxisd(s * aa.angle(), aa.axis()) * p.getVector3fMap().cast<double>() +
-        s * t;
-    (*out)[i].getVector3fMap() = q.cast<float>();
+    (*out)[i].getVector3fMap() =
+        screw.apply(s, p.getVector3fMap().cast<double>()).cast<float>();
   }
   return out;
 }

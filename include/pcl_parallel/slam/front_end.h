@@ -99,8 +99,8 @@ struct FrontEndResult {
 
 /**
  * \brief The front end (paper Sec. II with KISS-ICP's structure): per scan, predict the
- * pose from the odometry step or, without odometry, constant velocity; deskew; reduce;
- * match with pICP; update the local map.
+ * pose from the odometry step or, without odometry, constant velocity (in time when the
+ * scans have time stamps); deskew; reduce; match with pICP; update the local map.
  */
 class FrontEnd {
 public:
@@ -108,8 +108,9 @@ public:
   ~FrontEnd();
 
   /** Matches the next scan (scanner frame). `odometry`: its odometry pose, if known;
-   *  `stamp`: its time (s), which deskewing by sweep_period needs (without it, or when
-   *  it is not after the previous scan's, the whole predicted step is taken). */
+   *  `stamp`: its time (s). With time stamps, constant velocity is per second, not per
+   *  scan (keyframes come at uneven intervals), and deskewing by sweep_period takes one
+   *  sweep's share of the step (without them, the whole predicted step). */
   FrontEndResult
   track(const Cloud& scan,
         const std::optional<Pose>& odometry = std::nullopt,
@@ -132,6 +133,14 @@ public:
 
 private:
   struct Registration;
+  /** The predicted step since the previous scan, and the motion during this scan's sweep
+   *  (what deskewing undoes). */
+  struct Motion {
+    Pose step = Pose::Identity();
+    Pose sweep = Pose::Identity();
+  };
+  Motion
+  predictMotion(const std::optional<Pose>& odometry, double gap);
   double
   gate() const;
   /** The motion prior's standard deviations, translation and rotation (rad). */
@@ -164,6 +173,8 @@ private:
   Pose velocity_ = Pose::Identity(); ///< last matched step
   double velocity_span_ = 0.0;       ///< ... taken over this many seconds (0: unknown)
   std::optional<Pose> last_odometry_;
+  std::optional<Pose> odometry_step_; ///< the last odometry step
+  double odometry_span_ = 0.0;        ///< ... taken over this many seconds (0: unknown)
   std::optional<double> last_stamp_;
 };
 

@@ -28,10 +28,21 @@ sweepTime(const PointT& p, bool clockwise = true)
   return 0.5 * (clockwise ? 1.0 - a : 1.0 + a);
 }
 
-/** Pose at fraction s of a relative motion (s = 1: the motion; rotation about its axis,
- *  translation along a straight line). */
+/** Pose at fraction s of a relative motion at constant velocity: motion^s = exp(s log
+ *  motion) in SE(3), a screw motion (a vehicle turning at a steady rate follows a circular
+ *  arc, not the chord; KISS-ICP deskews with Sophus' SE3::exp the same way). s = 1: the
+ *  motion; s = -1: its inverse. */
 Pose
 interpolateMotion(const Pose& motion, double s);
+
+/** The motion over `span` seconds at the velocity the scanner has at the end of `step`
+ *  (taken over `span`), given the step before it (over `previous_span`): each step's
+ *  velocity is that of its middle, so their difference, carried on from the middle to the
+ *  end (constant acceleration), gives the velocity at the end. Deskewing a sweep at the
+ *  end of a step by the step's own velocity lags half a step behind a turn. Spans of 0
+ *  (times unknown): steps of equal time. */
+Pose
+extrapolateMotion(const Pose& step, double span, const Pose& previous, double previous_span);
 
 /** The motion during one sweep, at the constant velocity of `motion` taken over `span`
  *  seconds: motion^(sweep_period / span), at most the whole motion. A keyframe several
