@@ -201,8 +201,8 @@ medianCorrection(const std::vector<slam::ScanReport>& reports)
 
 // The same keyframes with their time stamps (times.txt): 0.4-5.5 s apart, each one raw
 // 10 Hz sweep. Constant velocity per second, not per keyframe, predicts each keyframe
-// where pICP then finds it: median correction 0.34 m (keyframes from 0, 1 or 2 on:
-// 0.31-0.43 m), where the prediction per keyframe was 1.28 m off (1.26-1.31). Deskewed by
+// where pICP then finds it: median correction 0.37 m (0.31-0.43 m from start keyframes
+// 0-3), where the prediction per keyframe was 1.28 m off (1.26-1.31). Deskewed by
 // one sweep's share of the step (--deskew --sweep-period 0.1) it stays there; deskewed by
 // the whole step (--deskew alone, right only for consecutive sweeps) the scans are bent
 // and it is 0.79-0.96 m. The pull-away (keyframes 1-20, 0.3-5 m/s along a street whose
