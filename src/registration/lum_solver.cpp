@@ -71,10 +71,17 @@ applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta)
   Eigen::Matrix4d d = Eigen::Matrix4d::Identity();
   d.topLeftCorner<3, 3>() = r;
   d.topRightCorner<3, 1>() = c - r * c + t + w.cross(c);
-  pose = d * pose;
-  // Keep R orthonormal over many updates.
-  const Eigen::Quaterniond q(Eigen::Matrix3d(pose.topLeftCorner<3, 3>()));
-  pose.topLeftCorner<3, 3>() = q.normalized().toRotationMatrix();
+  pose = orthonormalized(d * pose); // over many updates
+}
+
+Eigen::Matrix4d
+orthonormalized(const Eigen::Matrix4d& pose)
+{
+  Eigen::Matrix4d out = pose;
+  out.topLeftCorner<3, 3>() = Eigen::Quaterniond(Eigen::Matrix3d(pose.topLeftCorner<3, 3>()))
+                                  .normalized()
+                                  .toRotationMatrix();
+  return out;
 }
 
 void

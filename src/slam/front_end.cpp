@@ -14,8 +14,6 @@
 
 #include <pcl/common/transforms.h>
 
-#include <Eigen/Geometry>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -50,20 +48,6 @@ constexpr std::size_t kPriorSpreadSamples = 20;
  *  (test_slam ConstantVelocityOverAnUnseenStop: 3 m ATE unbounded, 1.4 cm at k = 4).
  *  Keyframes of a steady drive taken by distance and by turn reach 1/4-4 (mulran). */
 constexpr double kMaxVelocityScale = 4.0;
-
-/** `pose` with its rotation orthonormal again (nearest through a normalised quaternion),
- *  for each matched pose. Constant velocity multiplies each pose by a step taken from the
- *  two before it, which compounds rounding (mulran, 332 keyframes: |RᵀR - I| grew to
- *  1e-9, faster than linearly), and odometry read from text carries its digits' error. */
-Pose
-orthonormalized(const Pose& pose)
-{
-  Pose out = pose;
-  out.topLeftCorner<3, 3>() = Eigen::Quaterniond(Eigen::Matrix3d(pose.topLeftCorner<3, 3>()))
-                                  .normalized()
-                                  .toRotationMatrix();
-  return out;
-}
 
 /** The reduced points' k-d tree (scanner frame): the scan's one tree, for its normals,
  *  the next scan's match to it and pLUM (ParallelLUM::setSearchTree: the tree pLUM would
@@ -265,7 +249,10 @@ FrontEnd::track(const Cloud& scan,
       matched = alignToPrevious(source, r.prediction);
     r.converged = matched.has_value();
     if (matched) {
-      r.pose = orthonormalized(*matched);
+      // Constant velocity multiplies each pose by a step taken from the two before it,
+      // which compounds rounding (mulran, 332 keyframes: |RᵀR - I| grew to 1e-9, faster
+      // than linearly), and odometry read from text carries its digits' error.
+      r.pose = lum::orthonormalized(*matched);
       r.fitness = icp.getFitnessScore(r.gate);
       r.information =
           information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
@@ -359,8 +346,8 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bo
 void
 FrontEnd::applyCorrection(const Pose& correction)
 {
-  pose_ = orthonormalized(correction *
-                          pose_); // the previous scan, kept in its own frame, moves with it
+  // The previous scan, kept in its own frame, moves with it.
+  pose_ = lum::orthonormalized(correction * pose_);
   map_.transform(correction);
 }
 

@@ -48,6 +48,11 @@ applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta);
 void
 poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, double& dist);
 
+/** `pose` with its rotation orthonormal again (the nearest rotation, through a normalised
+ *  quaternion): products of many poses drift from SO(3) by rounding. */
+Eigen::Matrix4d
+orthonormalized(const Eigen::Matrix4d& pose);
+
 /** The cross-product matrix [v]x: [v]x u = v x u. */
 inline Eigen::Matrix3d
 skew(const Eigen::Vector3d& v)
