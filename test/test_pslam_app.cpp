@@ -88,6 +88,9 @@ TEST(PslamOptions, SlamSixDCommandLineInFileUnits)
   EXPECT_EQ(p.lum_iterations, 50);
   // Unset lengths keep the metre defaults whatever the files' units.
   EXPECT_DOUBLE_EQ(p.lum_final_distance, pcl_pslam::Parameters().lum_final_distance);
+  EXPECT_DOUBLE_EQ(p.icp_final, pcl_pslam::Parameters().icp_final);
+  EXPECT_DOUBLE_EQ(
+      pcl_pslam::toParameters(parse({"run", "--icp-final", "20", "d"}), 0.01).icp_final, 0.2);
   // 3DTK's long names and the app's own are the same options.
   const auto l = parse({"run",
                         "--max=500",

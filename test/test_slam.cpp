@@ -352,6 +352,32 @@ TEST(Pipeline, ConstantVelocityOverAnUnseenStop)
   EXPECT_LT(ate, 0.1);
 }
 
+/** A stop-and-go scanner: the odometry's error keeps the adaptive gate wide (10 voxels,
+ *  1.2 m on the office preset), where pairs across occlusion edges and furniture pull the
+ *  match off by centimetres; refined within 2 voxels from where the wide gate left it
+ *  (coarse to fine), the steps are millimetres. Measured (11 scans): front-end ATE
+ *  3.9 cm with the wide gate alone, 0.33 cm refined. */
+TEST(Pipeline, CoarseToFineRefinesTheWideGatesMatch)
+{
+  sim::PresetOptions o;
+  o.max_scans = test::kSanitized ? 6 : 11;
+  o.num_threads = 2;
+  const sim::SimulatedScanSet set = sim::simulatePreset("office", o);
+  slam::Parameters p;
+  p.num_threads = 2;
+  p.close_loops = false;
+  const auto ate = [&](const Poses& poses) {
+    return evaluation::absoluteTrajectoryError(poses, set.truth, evaluation::Alignment::SE3)
+        .translation.rmse;
+  };
+  const double refined = ate(runPipeline(set, p).front_end);
+  p.icp_final = 1e3; // wider than the gate: no refinement
+  const double wide = ate(runPipeline(set, p).front_end);
+  std::printf("office front end ATE: wide gate %.4f m, refined %.4f m\n", wide, refined);
+  EXPECT_LT(refined, 0.006);
+  EXPECT_LT(refined, wide / 3.0);
+}
+
 /** Odometry read from a text file with few digits is not quite a rotation; the poses the
  *  pipeline matches are (the first, which anchors the map, stays as given). */
 TEST(Pipeline, MatchedPosesAreRigid)

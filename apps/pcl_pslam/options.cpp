@@ -81,6 +81,9 @@ struct Descriptions {
        text("maximal number of pLUM (SLAM) iterations per relaxation, >= 1 (also "
             "--lum-iterations) [default " + std::to_string(d.lum_iterations) +
             "; 3DTK's default 0 skips SLAM: here --no-loops]").c_str())
+      ("icp-final", po::value<double>()->value_name("NR"),
+       "after converging within -d, the front end's match is refined within NR (coarse to "
+       "fine; NR >= -d: no refinement) [default: auto, 2 voxels]")
       ("distSLAM,lum-distance,D", po::value<double>()->value_name("NR"),
        "maximal point-to-point distance for matching with pLUM, first iteration (also "
        "--lum-distance) [default: auto, 10 voxels]")
@@ -311,6 +314,8 @@ parseCommandLine(int argc, const char* const* argv)
     o.voxel = positive(vm, "reduce", true);
   if (vm.count("dist"))
     o.icp_distance = positive(vm, "dist");
+  if (vm.count("icp-final"))
+    o.icp_final = positive(vm, "icp-final");
   if (vm.count("distSLAM"))
     o.lum_distance = positive(vm, "distSLAM");
   if (vm.count("lum-final"))
@@ -362,6 +367,7 @@ toParameters(const Options& o, double scale)
   p.min_range = o.min_range * scale;
   p.max_range = o.max_range * scale;
   p.icp_distance = length(o.icp_distance, p.icp_distance);
+  p.icp_final = length(o.icp_final, p.icp_final);
   p.icp_iterations = o.icp_iterations;
   p.loop_distance = length(o.loop_distance, p.loop_distance);
   p.loop_size = o.loop_size;

@@ -48,7 +48,7 @@ struct Options {
   std::optional<double> scale; ///< coordinates times this are metres (uos: 0.01)
   int up = -1;                 ///< vertical axis of the picture (-1: per format)
 
-  std::optional<double> voxel, icp_distance, loop_distance, lum_distance, lum_final;
+  std::optional<double> voxel, icp_distance, icp_final, loop_distance, lum_distance, lum_final;
   int icp_iterations = Parameters().icp_iterations;
   int loop_size = Parameters().loop_size;
   int lum_iterations = Parameters().lum_iterations;

@@ -184,7 +184,8 @@ inputHash(const slam::Parameters& p,
 {
   Fnv1a h;
   h.add(p.min_range), h.add(p.max_range), h.add(p.voxel_size);
-  h.add(static_cast<int>(p.match_target)), h.add(p.icp_distance), h.add(p.icp_iterations);
+  h.add(static_cast<int>(p.match_target)), h.add(p.icp_distance), h.add(p.icp_final);
+  h.add(p.icp_iterations);
   h.add(p.point_to_plane), h.add(p.normals_from_map), h.add(p.icp_epsilon), h.add(p.deskew);
   h.add(p.sweep_period), h.add(p.sweep_clockwise);
   h.add(p.close_loops), h.add(p.loop_distance), h.add(p.loop_size), h.add(p.min_overlap);

@@ -118,7 +118,8 @@ withNormals(const Cloud& reduced, const std::vector<Eigen::Vector3f>& normals)
 }
 
 /** A match's gate and, with the adaptive threshold, its Geman-McClure kernel (scale
- *  sigma / 3, KISS-ICP) and motion prior of the given spread (translation, rotation). */
+ *  sigma / 3 = gate / 9, KISS-ICP) and motion prior of the given spread (translation,
+ *  rotation). */
 void
 configure(Icp& icp,
           double gate,
@@ -137,6 +138,33 @@ configure(Icp& icp,
                        (scale / sigma_t) * (scale / sigma_t),
                        (scale / sigma_r) * (scale / sigma_r));
   }
+}
+
+/** The match refined within the final gate from where the wide gate left it (coarse to
+ *  fine; docs/design.md, "Coarse to fine"); the wide gate's result where there is no
+ *  narrower gate or the refinement does not converge. */
+Pose
+refine(Icp& icp,
+       const Pose& matched,
+       double gate,
+       double final_gate,
+       bool adaptive,
+       const Pose& prediction,
+       const std::optional<std::pair<double, double>>& prior_spread)
+{
+  if (!(final_gate > 0.0))
+    return matched;
+  // The kernel's scale (gate / 9) stays at or above the residual spread the wide gate
+  // measured, so sparse or noisy scans keep their inliers' weight.
+  if (icp.getFinalWeight() > 0.0)
+    final_gate =
+        std::max(final_gate, 9.0 * std::sqrt(icp.getFinalError() / icp.getFinalWeight()));
+  if (!(final_gate < gate))
+    return matched;
+  configure(icp, final_gate, adaptive, prediction, prior_spread);
+  Cloud aligned;
+  icp.alignDouble(aligned, matched);
+  return icp.hasConverged() ? Pose(icp.getFinalTransformationDouble()) : matched;
 }
 
 /** pICP's body-frame Hessian (rotation first) over the residual variance, in the pose
@@ -243,10 +271,16 @@ FrontEnd::track(const Cloud& scan,
       Cloud aligned;
       icp.alignDouble(aligned, initialGuess(source, r.prediction, odometry.has_value()));
       if (icp.hasConverged())
-        matched = Pose(icp.getFinalTransformationDouble());
+        matched = refine(icp,
+                         Pose(icp.getFinalTransformationDouble()),
+                         r.gate,
+                         params_.final_correspondence_distance,
+                         icp_->threshold != nullptr,
+                         r.prediction,
+                         priorSpreadIfUsed());
     }
     else
-      matched = alignToPrevious(source, r.prediction);
+      matched = alignToPrevious(source, r.prediction, true);
     r.converged = matched.has_value();
     if (matched) {
       // Constant velocity multiplies each pose by a step taken from the two before it,
@@ -318,13 +352,14 @@ FrontEnd::hasPrevious() const
 }
 
 std::optional<Pose>
-FrontEnd::alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction)
+FrontEnd::alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction, bool refined)
 {
   // In the previous scan's frame (its pose is still pose_), on the tree built with it.
   const Pose to_previous = pose_.inverse();
+  const bool adaptive = icp_->threshold != nullptr;
+  const auto prior_spread = priorSpreadIfUsed();
   Icp& icp = icp_->to_previous;
-  configure(
-      icp, gate(), icp_->threshold != nullptr, to_previous * prediction, priorSpreadIfUsed());
+  configure(icp, gate(), adaptive, to_previous * prediction, prior_spread);
   icp.setInputSource(source);
   icp.setSearchMethodTarget(previous_tree_, true);
   icp.setInputTarget(previous_);
@@ -332,7 +367,16 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction)
   icp.alignDouble(aligned, to_previous * prediction);
   if (!icp.hasConverged())
     return std::nullopt;
-  return Pose(pose_ * icp.getFinalTransformationDouble());
+  const Pose matched(icp.getFinalTransformationDouble());
+  if (!refined)
+    return Pose(pose_ * matched);
+  return Pose(pose_ * refine(icp,
+                             matched,
+                             gate(),
+                             params_.final_correspondence_distance,
+                             adaptive,
+                             to_previous * prediction,
+                             prior_spread));
 }
 
 Pose
@@ -340,7 +384,7 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bo
 {
   if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
     return prediction;
-  return alignToPrevious(source, prediction).value_or(prediction);
+  return alignToPrevious(source, prediction, false).value_or(prediction);
 }
 
 void

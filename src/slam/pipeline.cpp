@@ -70,6 +70,8 @@ frontEndParameters(const Parameters& p, double r)
   // far walls that pin rotations (docs/design.md, "Local map"). Unbounded: 5 r.
   f.map_distance = std::isfinite(p.max_range) ? p.max_range : 5.0 * r;
   f.max_correspondence_distance = orAuto(p.icp_distance, 10.0 * f.voxel_size);
+  f.final_correspondence_distance =
+      std::min(f.max_correspondence_distance, orAuto(p.icp_final, 2.0 * f.voxel_size));
   f.max_iterations = p.icp_iterations;
   f.point_to_plane = p.point_to_plane;
   f.normals_from_map = p.normals_from_map;

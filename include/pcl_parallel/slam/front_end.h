@@ -32,6 +32,11 @@ struct FrontEndParameters {
   double map_voxel_size = 0.3;    ///< local map voxel
   int map_points_per_voxel = 20;  ///< local map density
   double max_correspondence_distance = 0.5; ///< pICP gate (the first, when adaptive)
+  /** A match whose gate is wider than this is refined from its result within this gate
+   *  (coarse to fine): the wide gate is the prediction's basin, the narrow one keeps
+   *  pairs across occlusion edges and unseen surfaces out of the final pose
+   *  (docs/design.md, "Coarse to fine"). 0: no refinement. */
+  double final_correspondence_distance = 0.0;
   /** KISS-ICP's adaptive gate (Vizzo et al. 2023, Sec. III-C): 3 sigma of how far the
    *  matches moved the scans from the motion prior, Geman-McClure kernel of scale
    *  sigma / 3. Off: the fixed gate and no kernel. */
@@ -155,10 +160,10 @@ private:
   initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry);
   bool
   hasPrevious() const;
-  /** pICP of the source from the prediction against the previous scan; the world pose,
-   *  or none if it did not converge. */
+  /** pICP of the source from the prediction against the previous scan, \a refined
+   *  within the final gate; the world pose, or none if it did not converge. */
   std::optional<Pose>
-  alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction);
+  alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction, bool refined);
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;

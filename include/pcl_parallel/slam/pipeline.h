@@ -31,6 +31,7 @@ struct Parameters {
   MatchTarget match_target =
       MatchTarget::kLocalMap;    ///< [--metascan] vs the paper's scan-to-scan
   double icp_distance = 0.0;     ///< [-d] pICP gate; auto 10 voxels
+  double icp_final = 0.0;        ///< [--icp-final] then refined within; auto 2 voxels
   int icp_iterations = 50;       ///< [-i]
   bool point_to_plane = true;    ///< front end pICP point-to-plane (else point-to-point)
   bool normals_from_map = false; ///< see FrontEndParameters::normals_from_map
