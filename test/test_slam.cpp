@@ -81,6 +81,27 @@ defaultRun()
   return run;
 }
 
+/** The first max_scans (every stride-th) of a preset, simulated on 2 threads. */
+sim::SimulatedScanSet
+presetScans(const std::string& name, int max_scans, int stride = 1)
+{
+  sim::PresetOptions o;
+  o.max_scans = max_scans;
+  o.stride = stride;
+  o.num_threads = 2;
+  return sim::simulatePreset(name, o);
+}
+
+/** The default pipeline on 2 threads without loop closing: the front end alone. */
+slam::Parameters
+frontEndOnly()
+{
+  slam::Parameters p;
+  p.num_threads = 2;
+  p.close_loops = false;
+  return p;
+}
+
 // The front end (scan-to-map pICP from the odometry) has lower ATE and RPE than the
 // odometry it was given, in translation and rotation, by at least 2x.
 TEST(Pipeline, FrontEndBeatsOdometry)
@@ -196,9 +217,7 @@ TEST(Pipeline, SegmentedFrontEndJoinsByTheSegmentsOwnSteps)
  *  metres). */
 TEST(Pipeline, SegmentedWithoutOdometryJoinsSegmentsInFramesOfTheirOwn)
 {
-  sim::PresetOptions o;
-  o.max_scans = test::kSanitized ? 18 : 60;
-  const sim::SimulatedScanSet set = sim::simulatePreset("kitti", o);
+  const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 18 : 60);
   const std::size_t n = set.scans.size();
   slam::Parameters p;
   p.num_threads = 2;
@@ -234,19 +253,13 @@ TEST(Pipeline, SegmentedWithoutOdometryJoinsSegmentsInFramesOfTheirOwn)
  *  them worse than not deskewing at all. The first 30 keyframes (135 m, a turn). */
 TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
 {
-  sim::PresetOptions o;
-  o.stride = 5;
-  o.max_scans = test::kSanitized ? 12 : 30;
-  o.num_threads = 2;
-  const sim::SimulatedScanSet set = sim::simulatePreset("kitti", o);
+  const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 12 : 30, 5);
   ASSERT_EQ(set.timestamps[1], 0.5);
   struct Errors {
     double ate, rpe;
   };
   const auto frontEnd = [&](bool deskew, double sweep_period) {
-    slam::Parameters p;
-    p.num_threads = 2;
-    p.close_loops = false;
+    slam::Parameters p = frontEndOnly();
     p.deskew = deskew;
     p.sweep_period = sweep_period;
     slam::Pipeline pipeline(p);
@@ -281,10 +294,7 @@ TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
  *  step (the median correction without the stamps shows it). */
 TEST(Pipeline, ConstantVelocityFollowsTheTimeStamps)
 {
-  sim::PresetOptions o;
-  o.max_scans = test::kSanitized ? 13 : 30;
-  o.num_threads = 2;
-  const sim::SimulatedScanSet set = sim::simulatePreset("kitti", o);
+  const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 13 : 30);
   std::vector<std::size_t> kept;
   for (std::size_t i = 0; i < set.scans.size(); i += (kept.size() % 2 == 1 ? 1 : 2))
     kept.push_back(i);
@@ -292,10 +302,7 @@ TEST(Pipeline, ConstantVelocityFollowsTheTimeStamps)
   for (const std::size_t i : kept)
     truth.push_back(set.truth[i]);
   const auto frontEnd = [&](bool stamps) {
-    slam::Parameters p;
-    p.num_threads = 2;
-    p.close_loops = false;
-    slam::Pipeline pipeline(p);
+    slam::Pipeline pipeline(frontEndOnly());
     for (const std::size_t i : kept)
       pipeline.addScan(*set.scans[i],
                        std::nullopt,
@@ -332,14 +339,8 @@ TEST(Pipeline, ConstantVelocityFollowsTheTimeStamps)
  *  the front end keeps the drive. */
 TEST(Pipeline, ConstantVelocityOverAnUnseenStop)
 {
-  sim::PresetOptions o;
-  o.max_scans = test::kSanitized ? 10 : 20;
-  o.num_threads = 2;
-  const sim::SimulatedScanSet set = sim::simulatePreset("kitti", o);
-  slam::Parameters p;
-  p.num_threads = 2;
-  p.close_loops = false;
-  slam::Pipeline pipeline(p);
+  const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 10 : 20);
+  slam::Pipeline pipeline(frontEndOnly());
   const std::size_t stop = set.scans.size() / 2;
   for (std::size_t i = 0; i < set.scans.size(); ++i)
     pipeline.addScan(*set.scans[i], std::nullopt, set.timestamps[i] + (i >= stop ? 0.9 : 0.0));
@@ -359,13 +360,8 @@ TEST(Pipeline, ConstantVelocityOverAnUnseenStop)
  *  3.9 cm with the wide gate alone, 0.33 cm refined. */
 TEST(Pipeline, CoarseToFineRefinesTheWideGatesMatch)
 {
-  sim::PresetOptions o;
-  o.max_scans = test::kSanitized ? 6 : 11;
-  o.num_threads = 2;
-  const sim::SimulatedScanSet set = sim::simulatePreset("office", o);
-  slam::Parameters p;
-  p.num_threads = 2;
-  p.close_loops = false;
+  const sim::SimulatedScanSet set = presetScans("office", test::kSanitized ? 6 : 11);
+  slam::Parameters p = frontEndOnly();
   const auto ate = [&](const Poses& poses) {
     return evaluation::absoluteTrajectoryError(poses, set.truth, evaluation::Alignment::SE3)
         .translation.rmse;
@@ -558,10 +554,7 @@ TEST(Pipeline, MapIsTheKeptScansAtTheirPoses)
 TEST(Pipeline, ReportsCorrectionAndGate)
 {
   const auto& set = corridorSet();
-  slam::Parameters p;
-  p.num_threads = 2;
-  p.close_loops = false;
-  slam::Pipeline pipeline(p);
+  slam::Pipeline pipeline(frontEndOnly());
   for (std::size_t i = 0; i < 10; ++i)
     pipeline.addScan(*set.scans[i], set.truth[i]);
   const auto& reports = pipeline.reports();
