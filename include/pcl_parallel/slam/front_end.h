@@ -34,9 +34,10 @@ struct FrontEndParameters {
   double max_correspondence_distance = 0.5; ///< pICP gate (the first, when adaptive)
   /** A match whose gate is wider than this is refined from its result within this gate
    *  (coarse to fine): the wide gate is the prediction's basin, the narrow one keeps
-   *  pairs across occlusion edges and unseen surfaces out of the final pose
+   *  pairs across occlusion edges and unseen surfaces out of the final pose. Never
+   *  below 9x the wide match's residual RMS, so the kernel (gate / 9) keeps the inliers
    *  (docs/design.md, "Coarse to fine"). 0: no refinement. */
-  double final_correspondence_distance = 0.0;
+  double final_correspondence_distance = 0.2; ///< 2 voxels, as the pipeline's default
   /** KISS-ICP's adaptive gate (Vizzo et al. 2023, Sec. III-C): 3 sigma of how far the
    *  matches moved the scans from the motion prior, Geman-McClure kernel of scale
    *  sigma / 3. Off: the fixed gate and no kernel. */
