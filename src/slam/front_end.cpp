@@ -140,18 +140,25 @@ configure(Icp& icp,
   }
 }
 
-/** The match refined within the final gate from where the wide gate left it (coarse to
- *  fine; docs/design.md, "Coarse to fine"); the wide gate's result where there is no
- *  narrower gate or the refinement does not converge. */
-Pose
-refine(Icp& icp,
-       const Pose& matched,
-       double gate,
-       double final_gate,
-       bool adaptive,
-       const Pose& prediction,
-       const std::optional<std::pair<double, double>>& prior_spread)
+/** pICP from `guess` within `gate` (configure()), then refined from there within
+ *  `final_gate` where that is narrower (coarse to fine; docs/design.md, "Coarse to
+ *  fine"; 0: not refined). None if the wide match did not converge; its result if the
+ *  refinement does not. */
+std::optional<Pose>
+align(Icp& icp,
+      const Pose& guess,
+      double gate,
+      double final_gate,
+      bool adaptive,
+      const Pose& prediction,
+      const std::optional<std::pair<double, double>>& prior_spread)
 {
+  configure(icp, gate, adaptive, prediction, prior_spread);
+  Cloud aligned;
+  icp.alignDouble(aligned, guess);
+  if (!icp.hasConverged())
+    return std::nullopt;
+  const Pose matched(icp.getFinalTransformationDouble());
   if (!(final_gate > 0.0))
     return matched;
   // The kernel's scale (gate / 9) stays at or above the residual spread the wide gate
@@ -162,7 +169,6 @@ refine(Icp& icp,
   if (!(final_gate < gate))
     return matched;
   configure(icp, final_gate, adaptive, prediction, prior_spread);
-  Cloud aligned;
   icp.alignDouble(aligned, matched);
   return icp.hasConverged() ? Pose(icp.getFinalTransformationDouble()) : matched;
 }
@@ -267,17 +273,13 @@ FrontEnd::track(const Cloud& scan,
       icp.setInputSource(source);
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
-      configure(icp, r.gate, icp_->threshold != nullptr, r.prediction, priorSpreadIfUsed());
-      Cloud aligned;
-      icp.alignDouble(aligned, initialGuess(source, r.prediction, odometry.has_value()));
-      if (icp.hasConverged())
-        matched = refine(icp,
-                         Pose(icp.getFinalTransformationDouble()),
-                         r.gate,
-                         params_.final_correspondence_distance,
-                         icp_->threshold != nullptr,
-                         r.prediction,
-                         priorSpreadIfUsed());
+      matched = align(icp,
+                      initialGuess(source, r.prediction, odometry.has_value()),
+                      r.gate,
+                      params_.final_correspondence_distance,
+                      icp_->threshold != nullptr,
+                      r.prediction,
+                      priorSpreadIfUsed());
     }
     else
       matched = alignToPrevious(source, r.prediction, true);
@@ -356,27 +358,21 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction,
 {
   // In the previous scan's frame (its pose is still pose_), on the tree built with it.
   const Pose to_previous = pose_.inverse();
-  const bool adaptive = icp_->threshold != nullptr;
-  const auto prior_spread = priorSpreadIfUsed();
   Icp& icp = icp_->to_previous;
-  configure(icp, gate(), adaptive, to_previous * prediction, prior_spread);
   icp.setInputSource(source);
   icp.setSearchMethodTarget(previous_tree_, true);
   icp.setInputTarget(previous_);
-  Cloud aligned;
-  icp.alignDouble(aligned, to_previous * prediction);
-  if (!icp.hasConverged())
-    return std::nullopt;
-  const Pose matched(icp.getFinalTransformationDouble());
-  if (!refined)
-    return Pose(pose_ * matched);
-  return Pose(pose_ * refine(icp,
-                             matched,
+  const Pose guess = to_previous * prediction;
+  const auto matched = align(icp,
+                             guess,
                              gate(),
-                             params_.final_correspondence_distance,
-                             adaptive,
-                             to_previous * prediction,
-                             prior_spread));
+                             refined ? params_.final_correspondence_distance : 0.0,
+                             icp_->threshold != nullptr,
+                             guess,
+                             priorSpreadIfUsed());
+  if (!matched)
+    return std::nullopt;
+  return Pose(pose_ * *matched);
 }
 
 Pose
