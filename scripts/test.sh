@@ -53,18 +53,22 @@ asan() {
   export ASAN_OPTIONS=detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1
   export LSAN_OPTIONS=suppressions=$PWD/test/sanitizers/lsan.supp:print_suppressions=0
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+  # No MPI: its tests run only in the release stage (test/CMakeLists.txt), so its units
+  # would be compiled for nothing.
   stage asan-build cmake_build build-asan -DCMAKE_BUILD_TYPE=Debug \
-    -DPCL_PARALLEL_SANITIZE=address,undefined -DPCL_PARALLEL_BUILD_APPS=OFF
+    -DPCL_PARALLEL_SANITIZE=address,undefined -DPCL_PARALLEL_BUILD_APPS=OFF \
+    -DPCL_PARALLEL_WITH_MPI=OFF
   stage asan-ctest ctest --test-dir build-asan --output-on-failure --no-tests=error -j2
   unset ASAN_OPTIONS LSAN_OPTIONS UBSAN_OPTIONS
 }
 
 tsan() {
-  # OMP_TOOL_LIBRARIES (Archer) is set on the tests by test/CMakeLists.txt.
+  # OMP_TOOL_LIBRARIES (Archer) is set on the tests by test/CMakeLists.txt. No MPI, as in
+  # asan.
   export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 ignore_noninstrumented_modules=1 suppressions=$PWD/test/sanitizers/tsan.supp"
   export CC=clang-14 CXX=clang++-14
   stage tsan-build cmake_build build-tsan -DCMAKE_BUILD_TYPE=Debug \
-    -DPCL_PARALLEL_SANITIZE=thread -DPCL_PARALLEL_BUILD_APPS=OFF
+    -DPCL_PARALLEL_SANITIZE=thread -DPCL_PARALLEL_BUILD_APPS=OFF -DPCL_PARALLEL_WITH_MPI=OFF
   stage tsan-ctest ctest --test-dir build-tsan --output-on-failure --no-tests=error -j2 -L tsan
   unset TSAN_OPTIONS CC CXX
 }

@@ -2,6 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "../extern_templates.h"
+
 #include <pcl_parallel/point_types.h>
 #include <pcl_parallel/registration/impl/correspondence_estimation.hpp>
 

@@ -9,6 +9,8 @@
 #pragma GCC diagnostic ignored "-Warray-bounds"
 #pragma GCC diagnostic ignored "-Wuse-after-free"
 #endif
+#include "../extern_templates.h"
+
 #include <pcl_parallel/point_types.h>
 #include <pcl_parallel/registration/impl/icp.hpp>
 
