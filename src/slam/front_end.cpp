@@ -254,10 +254,13 @@ FrontEnd::track(const Cloud& scan,
   const Motion motion = predictMotion(odometry, gap);
   r.prediction = first ? (odometry ? *odometry : Pose::Identity()) : Pose(pose_ * motion.step);
 
-  const Cloud::Ptr frame =
-      params_.deskew ? deskew(scan, motion.sweep, params_.num_threads, params_.sweep_clockwise)
-                     : Cloud::Ptr(new Cloud(scan));
-  r.reduced = filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
+  // The first scan comes before any motion is known: it is deskewed again once the first
+  // step is, here from the odometry, else after the match (docs/design.md, "The first scan").
+  if (params_.deskew && first)
+    first_scan_.reset(new Cloud(scan));
+  else if (first_scan_ && odometry)
+    r.first_scan = deskewFirstAgain(motion.sweep);
+  r.reduced = reduce(scan, motion.sweep);
   const auto source =
       filters::voxelCentroid(*r.reduced, params_.source_voxel_size, params_.num_threads);
   r.source_points = source->size();
@@ -300,22 +303,57 @@ FrontEnd::track(const Cloud& scan,
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);
   velocity_span_ = gap;
   last_stamp_ = stamp;
+  if (first_scan_ && !first) { // both scans were matched as they came, neither deskewed
+    const Pose sweep = sweepMotion(velocity_, gap, params_.sweep_period);
+    r.first_scan = deskewFirstAgain(sweep);
+    r.reduced = reduce(scan, sweep);
+  }
   pose_ = r.pose;
 
-  // The scan's one tree and its normals, once; then into the map, and kept in the
+  const ReducedScan kept = keep(r.reduced);
+  r.tree = kept.tree;
+  r.normals = kept.normals;
+  return r;
+}
+
+ReducedScan
+FrontEnd::deskewFirstAgain(const Pose& sweep)
+{
+  map_.clear(); // of the first scan alone, at pose_
+  ReducedScan out = keep(reduce(*first_scan_, sweep));
+  first_scan_.reset();
+  return out;
+}
+
+Cloud::Ptr
+FrontEnd::reduce(const Cloud& scan, const Pose& sweep) const
+{
+  const Cloud::Ptr frame =
+      params_.deskew ? deskew(scan, sweep, params_.num_threads, params_.sweep_clockwise)
+                     : Cloud::Ptr(new Cloud(scan));
+  return filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
+}
+
+ReducedScan
+FrontEnd::keep(const Cloud::Ptr& reduced)
+{
+  // The scan's one tree and its normals, once; then into the map at pose_, and kept in the
   // scanner frame for the next scan's match to it.
-  r.tree = scanTree(*r.reduced, params_.num_threads);
-  r.normals = reducedNormals(*r.tree, r.reduced->size(), params_.num_threads);
+  ReducedScan kept;
+  kept.reduced = reduced;
+  kept.tree = scanTree(*reduced, params_.num_threads);
+  kept.normals = reducedNormals(*kept.tree, reduced->size(), params_.num_threads);
+  const bool to_map = params_.target == MatchTarget::kLocalMap;
   if (to_map) {
-    const MapCloud::Ptr world = withNormals(*r.reduced, r.normals);
+    const MapCloud::Ptr world = withNormals(*reduced, kept.normals);
     pcl::transformPointCloudWithNormals(*world, *world, pose_);
     map_.update(*world, pose_.topRightCorner<3, 1>());
   }
   if (to_map && !params_.guess_from_previous_scan)
-    return r; // the previous scan is not matched
-  previous_ = scannerFrameCloud(*r.reduced, r.normals);
-  previous_tree_->setInputCloudAndIndex(previous_, r.tree);
-  return r;
+    return kept; // the previous scan is not matched
+  previous_ = scannerFrameCloud(*reduced, kept.normals);
+  previous_tree_->setInputCloudAndIndex(previous_, kept.tree);
+  return kept;
 }
 
 FrontEnd::Motion

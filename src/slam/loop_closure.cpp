@@ -110,17 +110,11 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
   const auto v = impl_->lum.addPointCloud(std::const_pointer_cast<Cloud>(scan),
                                           Eigen::Matrix4f(pose.cast<float>()));
   impl_->lum.setPoseMatrix(v, pose); // keep the double pose
+  impl_->trees.emplace_back();
   if (own) {
-    if (params_.lum_point_to_plane && !normals.empty())
-      impl_->lum.setPointNormals(v, std::move(normals));
-    if (tree)
-      impl_->lum.setSearchTree(v, std::move(tree));
-    impl_->trees.push_back(impl_->lum.getSearchTree(v));
+    setScan(v, scan, std::move(normals), std::move(tree));
     num_points = scan->size();
-    impl_->kept_points += num_points;
   }
-  else
-    impl_->trees.emplace_back();
   impl_->points += num_points;
   borrowed_.push_back(0);
   scans_.push_back(scan);
@@ -140,6 +134,40 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
       constrained_.push_back(static_cast<std::uint32_t>(j));
     }
   }
+}
+
+void
+LoopCloser::setScan(std::size_t v,
+                    const Cloud::ConstPtr& scan,
+                    std::vector<Eigen::Vector3f> normals,
+                    std::shared_ptr<const KdTreeIndex> tree)
+{
+  impl_->lum.setPointCloud(v, std::const_pointer_cast<Cloud>(scan));
+  if (params_.lum_point_to_plane && !normals.empty())
+    impl_->lum.setPointNormals(v, std::move(normals));
+  if (tree)
+    impl_->lum.setSearchTree(v, std::move(tree));
+  impl_->trees[v] = impl_->lum.getSearchTree(v);
+  impl_->kept_points += scan->size();
+}
+
+void
+LoopCloser::replaceFirstScan(const Cloud::ConstPtr& scan,
+                             std::vector<Eigen::Vector3f> normals,
+                             std::shared_ptr<const KdTreeIndex> tree)
+{
+  if (scans_.size() != 1)
+    throw std::logic_error("LoopCloser::replaceFirstScan: " + std::to_string(scans_.size()) +
+                           " scans, not one");
+  if (!owns(0))
+    return;
+  if (!scan)
+    throw std::invalid_argument("LoopCloser::replaceFirstScan: no points");
+  impl_->points -= scans_[0]->size();
+  impl_->kept_points -= scans_[0]->size();
+  impl_->points += scan->size();
+  setScan(0, scan, std::move(normals), std::move(tree));
+  scans_[0] = scan;
 }
 
 void

@@ -242,6 +242,12 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
   auto stage = Clock::now();
+  if (fe.first_scan && index == 1) { // the first scan deskewed again (FrontEnd::track)
+    reports_[0].reduced_points = fe.first_scan->reduced->size();
+    loops_->replaceFirstScan(fe.first_scan->reduced,
+                             std::move(fe.first_scan->normals),
+                             std::move(fe.first_scan->tree));
+  }
   loops_->addScan(fe.reduced,
                   pose,
                   std::move(fe.normals),

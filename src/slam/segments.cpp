@@ -73,8 +73,11 @@ matchSegment(const Segment& segment,
     // The segment is mapped as the online pipeline maps a sequence: its own loops closed
     // as they come, the front end continuing from the corrected poses.
     MatchedScan m = front_end.track(*scan.cloud, scan.odometry, scan.stamp);
-    if (i >= segment.begin)
+    if (i >= segment.begin) {
       own.push_back(m);
+      if (segment.first < segment.begin) // the scan it deskewed again is the last segment's
+        own.back().front_end.first_scan.reset();
+    }
     front_end.addTracked(std::move(m));
     if (matched)
       matched(i - segment.first + 1);

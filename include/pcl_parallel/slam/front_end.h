@@ -82,9 +82,8 @@ struct FrontEndParameters {
 };
 
 /** What the front end did with one scan. */
-struct FrontEndResult {
-  Pose pose;          ///< matched pose (world)
-  Pose prediction;    ///< where the motion prior put it
+/** A scan as the front end reduced it: deskewed and reduced, with its tree and normals. */
+struct ReducedScan {
   Cloud::Ptr reduced; ///< deskewed, reduced at voxel_size, scanner frame
   /** The reduced points' normals (scanner frame, from their 10 nearest reduced points),
    *  zero where a neighbourhood is no plane: pLUM takes them (LoopCloser::addScan). */
@@ -92,6 +91,14 @@ struct FrontEndResult {
   /** The reduced points' k-d tree (scanner frame): built once, for the normals, the next
    *  scan's match to this one and pLUM (LoopCloser::addScan). */
   std::shared_ptr<const KdTreeIndex> tree;
+};
+
+struct FrontEndResult {
+  Pose pose;                               ///< matched pose (world)
+  Pose prediction;                         ///< where the motion prior put it
+  Cloud::Ptr reduced;                      ///< as ReducedScan's
+  std::vector<Eigen::Vector3f> normals;    ///< as ReducedScan's
+  std::shared_ptr<const KdTreeIndex> tree; ///< as ReducedScan's
   std::size_t source_points = 0;
   bool converged = true; ///< false: pICP failed and the prediction was kept
   double fitness = 0.0;  ///< mean squared distance of matched pairs (pICP's fitness)
@@ -101,6 +108,9 @@ struct FrontEndResult {
    *  or to the previous scan, is known. Zero when pICP did not run or failed. */
   Information information = Information::Zero();
   double information_pairs = 0.0; ///< ... from this many pairs (sum of robust weights)
+  /** With deskewing, on the second scan: the first scan deskewed again, now that the
+   *  first step is known (it came before any motion was), to replace the one kept. */
+  std::optional<ReducedScan> first_scan;
 };
 
 /**
@@ -161,6 +171,17 @@ private:
   initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry);
   bool
   hasPrevious() const;
+  /** The scan deskewed by the sweep's motion (params_.deskew) and reduced. */
+  Cloud::Ptr
+  reduce(const Cloud& scan, const Pose& sweep) const;
+  /** The first scan deskewed by `sweep` and reduced, the map and previous scan made of it
+   *  again (pose_ still the first scan's). */
+  ReducedScan
+  deskewFirstAgain(const Pose& sweep);
+  /** Builds the reduced scan's tree and normals and puts it into the map at pose_ (and
+   *  keeps it as the previous scan where that is matched). */
+  ReducedScan
+  keep(const Cloud::Ptr& reduced);
   /** pICP of the source from the prediction against the previous scan, \a refined
    *  within the final gate; the world pose, or none if it did not converge. */
   std::optional<Pose>
@@ -182,6 +203,7 @@ private:
   std::optional<Pose> odometry_step_; ///< the last odometry step
   double odometry_span_ = 0.0;        ///< ... taken over this many seconds (0: unknown)
   std::optional<double> last_stamp_;
+  Cloud::Ptr first_scan_; ///< the first scan as given, until the first step is known
 };
 
 } // namespace slam

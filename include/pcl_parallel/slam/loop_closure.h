@@ -146,6 +146,15 @@ public:
           std::size_t num_points = 0,
           std::shared_ptr<const KdTreeIndex> tree = nullptr);
 
+  /** Replaces the first scan's points (and normals and tree, as addScan takes them) while
+   *  it is the only one: the front end deskews the first scan again once the first step is
+   *  known (FrontEndResult::first_scan). Not collective: a process that does not keep the
+   *  scan ignores it. Throws std::logic_error with more or fewer scans. */
+  void
+  replaceFirstScan(const Cloud::ConstPtr& scan,
+                   std::vector<Eigen::Vector3f> normals = {},
+                   std::shared_ptr<const KdTreeIndex> tree = nullptr);
+
   /** Looks for loop links of the newest scan; adds the accepted ones to the graph and,
    *  with distribute_error and an error above overlap_distance, moves the poses since
    *  the loop's start to close it. Returns every pair tried. */
@@ -208,6 +217,12 @@ private:
    *  the measured pose of the newest in i's frame (16) and the overlap, on every process. */
   std::vector<double>
   matchPair(std::uint32_t i);
+  /** Puts a kept scan's points, normals and tree into pLUM's vertex v. */
+  void
+  setScan(std::size_t v,
+          const Cloud::ConstPtr& scan,
+          std::vector<Eigen::Vector3f> normals,
+          std::shared_ptr<const KdTreeIndex> tree);
   /** Collective: scan i's points from its owner to process `to`, which keeps them unless
    *  it held them already (a no-op without an exchange or if `to` owns them). */
   void
