@@ -81,7 +81,6 @@ struct FrontEndParameters {
   unsigned num_threads = 0;
 };
 
-/** What the front end did with one scan. */
 /** A scan as the front end reduced it: deskewed and reduced, with its tree and normals. */
 struct ReducedScan {
   Cloud::Ptr reduced; ///< deskewed, reduced at voxel_size, scanner frame
@@ -93,6 +92,7 @@ struct ReducedScan {
   std::shared_ptr<const KdTreeIndex> tree;
 };
 
+/** What the front end did with one scan. */
 struct FrontEndResult {
   Pose pose;                               ///< matched pose (world)
   Pose prediction;                         ///< where the motion prior put it
