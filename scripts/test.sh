@@ -6,10 +6,11 @@
 #
 # Stages (each in its own build directory, reused by later runs):
 #   release  build/       Release build of everything; ctest (unit tests + install_consumer)
-#   asan     build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (GCC, -O1 -g),
-#                         whole test suite, leaks checked, any UBSan finding fails
-#   tsan     build-tsan/  ThreadSanitizer (clang-14, LLVM libomp + Archer, -O1 -g), only
-#                         the tests labelled "tsan" in test/CMakeLists.txt
+#   asan     build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (GCC, -O1 -g1, no
+#                         MPI), the test suite but MPI's, leaks checked, any UBSan
+#                         finding fails
+#   tsan     build-tsan/  ThreadSanitizer (clang-14, LLVM libomp + Archer, -O1 -g1, no MPI),
+#                         only the tests labelled "tsan" in test/CMakeLists.txt
 #   fuzz     build-fuzz/  libFuzzer + ASan/UBSan (clang-14) on every file reader
 #                         (test/fuzz), FUZZ_SECONDS (default 15) each, nproc at a time,
 #                         from seeds written by test/fuzz/write_fuzz_seeds; a finding
