@@ -260,9 +260,9 @@ FrontEnd::track(const Cloud& scan,
     first_scan_.reset(new Cloud(scan));
   else if (first_scan_ && odometry)
     r.first_scan = deskewFirstAgain(motion.sweep);
-  r.reduced = reduce(scan, motion.sweep);
+  Cloud::Ptr reduced = reduce(scan, motion.sweep);
   const auto source =
-      filters::voxelCentroid(*r.reduced, params_.source_voxel_size, params_.num_threads);
+      filters::voxelCentroid(*reduced, params_.source_voxel_size, params_.num_threads);
   r.source_points = source->size();
 
   r.pose = r.prediction;
@@ -306,13 +306,11 @@ FrontEnd::track(const Cloud& scan,
   if (first_scan_ && !first) { // both scans were matched as they came, neither deskewed
     const Pose sweep = sweepMotion(velocity_, gap, params_.sweep_period);
     r.first_scan = deskewFirstAgain(sweep);
-    r.reduced = reduce(scan, sweep);
+    reduced = reduce(scan, sweep);
   }
   pose_ = r.pose;
 
-  const ReducedScan kept = keep(r.reduced);
-  r.tree = kept.tree;
-  r.normals = kept.normals;
+  r.scan = keep(reduced);
   return r;
 }
 

@@ -190,7 +190,7 @@ Pipeline::track(const Cloud& scan,
   const FrontEndResult& fe = out.front_end;
   // The front end's own step: chained without the loop closures' corrections.
   out.step = tracked_ == 0 ? fe.pose : Pose(before.inverse() * fe.pose);
-  report.reduced_points = fe.reduced->size();
+  report.reduced_points = fe.scan.reduced->size();
   report.source_points = fe.source_points;
   report.converged = fe.converged;
   report.fitness = fe.fitness;
@@ -242,19 +242,19 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
   auto stage = Clock::now();
-  if (fe.first_scan && index == 1) { // the first scan deskewed again (FrontEnd::track)
-    reports_[0].reduced_points = fe.first_scan->reduced->size();
+  if (fe.first_scan) { // the first scan deskewed again (FrontEnd::track)
     loops_->replaceFirstScan(fe.first_scan->reduced,
                              std::move(fe.first_scan->normals),
                              std::move(fe.first_scan->tree));
+    reports_.front().reduced_points = fe.first_scan->reduced->size();
   }
-  loops_->addScan(fe.reduced,
+  loops_->addScan(fe.scan.reduced,
                   pose,
-                  std::move(fe.normals),
+                  std::move(fe.scan.normals),
                   fe.information,
                   fe.information_pairs,
                   report.reduced_points,
-                  std::move(fe.tree));
+                  std::move(fe.scan.tree));
   if (params_.close_loops) {
     report.loops = loops_->detect();
     const auto found = std::find_if(

@@ -94,11 +94,9 @@ struct ReducedScan {
 
 /** What the front end did with one scan. */
 struct FrontEndResult {
-  Pose pose;                               ///< matched pose (world)
-  Pose prediction;                         ///< where the motion prior put it
-  Cloud::Ptr reduced;                      ///< as ReducedScan's
-  std::vector<Eigen::Vector3f> normals;    ///< as ReducedScan's
-  std::shared_ptr<const KdTreeIndex> tree; ///< as ReducedScan's
+  Pose pose;        ///< matched pose (world)
+  Pose prediction;  ///< where the motion prior put it
+  ReducedScan scan; ///< the scan deskewed and reduced, with its tree and normals
   std::size_t source_points = 0;
   bool converged = true; ///< false: pICP failed and the prediction was kept
   double fitness = 0.0;  ///< mean squared distance of matched pairs (pICP's fitness)

@@ -130,11 +130,11 @@ public:
   setExchange(std::shared_ptr<ScanExchange> exchange);
 
   /** Adds the next scan (reduced, scanner frame) at its front-end pose, with its points'
-   *  normals if the front end has them (FrontEndResult::normals; pLUM estimates them
+   *  normals if the front end has them (ReducedScan::normals; pLUM estimates them
    *  otherwise, from the reduced points), and the information of its match from that
    *  many pairs (FrontEndResult::information, information_pairs; zero: none), which
    *  with sequence_constraints holds its pose relative to the previous scan, and its
-   *  k-d tree if the front end built it (FrontEndResult::tree; pLUM builds it otherwise).
+   *  k-d tree if the front end built it (ReducedScan::tree; pLUM builds it otherwise).
    *  With an exchange, a scan another process owns comes as null with its `num_points`.
    *  Collective with an exchange, as detect() and relax(). */
   void

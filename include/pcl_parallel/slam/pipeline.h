@@ -167,7 +167,7 @@ public:
   /** addScan's second half for a scan another pipeline's front end matched: adds it to
    *  the pose graph at the previous scan's current pose times `scan.step` (the first
    *  scan at its front-end pose), detects loops, relaxes. Returns the scan's index. With
-   *  an exchange, a scan another process owns comes without points (front_end.reduced
+   *  an exchange, a scan another process owns comes without points (front_end.scan.reduced
    *  null, report.reduced_points its size), and the call is collective. */
   std::size_t
   addMatched(MatchedScan scan);
