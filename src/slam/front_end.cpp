@@ -301,6 +301,8 @@ FrontEnd::track(const Cloud& scan,
     }
   }
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);
+  if (velocity_.topRightCorner<3, 1>().norm() >= params_.voxel_size)
+    heading_ = velocity_.topRightCorner<3, 1>().normalized();
   velocity_span_ = gap;
   last_stamp_ = stamp;
   if (first_scan_ && !first) { // both scans were matched as they came, neither deskewed
@@ -390,7 +392,10 @@ FrontEnd::hasPrevious() const
 }
 
 std::optional<Pose>
-FrontEnd::alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction, bool refined)
+FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
+                          const Pose& prediction,
+                          bool refined,
+                          const Pose* prior_mean)
 {
   // In the previous scan's frame (its pose is still pose_), on the tree built with it.
   const Pose to_previous = pose_.inverse();
@@ -404,7 +409,7 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction,
                              gate(),
                              refined ? params_.final_correspondence_distance : 0.0,
                              icp_->threshold != nullptr,
-                             guess,
+                             prior_mean ? Pose(to_previous * *prior_mean) : guess,
                              priorSpreadIfUsed());
   if (!matched)
     return std::nullopt;
@@ -416,7 +421,38 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bo
 {
   if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
     return prediction;
-  return alignToPrevious(source, prediction, false).value_or(prediction);
+  std::optional<Pose> guess = alignToPrevious(source, prediction, false);
+  if (!params_.speed_hypotheses)
+    return guess.value_or(prediction);
+  // Travel: along the predicted step, or the way the scanner last moved (in its frame).
+  const Eigen::Vector3d step = (pose_.inverse() * prediction).topRightCorner<3, 1>();
+  const Eigen::Vector3d travel = step.norm() >= params_.voxel_size ? step.normalized() : heading_;
+  const double gate = this->gate(), sigma = gate / 3.0;
+  // Starts closer than the refinement gate lie in the prediction's own basin.
+  const double same = std::max(params_.final_correspondence_distance, params_.voxel_size);
+  if (travel.isZero() || !(2.0 * sigma > same))
+    return guess.value_or(prediction);
+  double best = guess ? icp_->to_previous.getFitnessScore(gate)
+                      : std::numeric_limits<double>::infinity();
+  for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
+    if (!(std::abs(k) * sigma > same))
+      continue;
+    Pose start = prediction;
+    start.topRightCorner<3, 1>() += pose_.topLeftCorner<3, 3>() * (k * sigma * travel);
+    // The prior stays at the prediction: what the motion model believes, not the start.
+    const std::optional<Pose> other = alignToPrevious(source, start, false, &prediction);
+    if (!other)
+      continue;
+    const double fitness = icp_->to_previous.getFitnessScore(gate);
+    // A start that ends where the best so far did is the same solution, not a rival.
+    const bool rival = !guess || (other->topRightCorner<3, 1>() -
+                                  guess->topRightCorner<3, 1>()).norm() > same;
+    if (rival && fitness < best) {
+      best = fitness;
+      guess = other;
+    }
+  }
+  return guess.value_or(prediction);
 }
 
 void

@@ -57,6 +57,15 @@ struct FrontEndParameters {
    *  reinforces itself; a single previous scan holds no such copy (docs/design.md,
    *  "Real data"). Ignored with odometry, whose step is the guess. */
   bool guess_from_previous_scan = true;
+  /** With guess_from_previous_scan: that match also starts from the prediction moved
+   *  along the direction of travel by -2, -1, +1 and +2 sigma of the adaptive gate, and
+   *  the start whose match fits the previous scan best (pICP's fitness within the gate)
+   *  gives the guess. Constant velocity misses a change of speed (a car pulling away
+   *  between keyframes 0.5 s apart, 5-8 m), and along a street a start metres short
+   *  converges to a false fit near the previous pose, which then sets the velocity
+   *  (docs/design.md, "Speed hypotheses"). Starts within the refinement gate of the
+   *  prediction are not tried, so a narrow gate costs nothing. */
+  bool speed_hypotheses = true;
   /** Point-to-plane pICP instead of point-to-point. */
   bool point_to_plane = true;
   /** Point-to-plane normals: false (default) estimates them once per scan from its
@@ -164,7 +173,7 @@ private:
   std::optional<std::pair<double, double>>
   priorSpreadIfUsed() const;
   /** Where the match starts: the prediction, or its match to the previous scan
-   *  (guess_from_previous_scan). */
+   *  (guess_from_previous_scan), the best of the speed hypotheses' (speed_hypotheses). */
   Pose
   initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry);
   bool
@@ -181,9 +190,13 @@ private:
   ReducedScan
   keep(const Cloud::Ptr& reduced);
   /** pICP of the source from the prediction against the previous scan, \a refined
-   *  within the final gate; the world pose, or none if it did not converge. */
+   *  within the final gate, its motion prior at \a prior_mean (null: the prediction);
+   *  the world pose, or none if it did not converge. */
   std::optional<Pose>
-  alignToPrevious(const Cloud::ConstPtr& source, const Pose& prediction, bool refined);
+  alignToPrevious(const Cloud::ConstPtr& source,
+                  const Pose& prediction,
+                  bool refined,
+                  const Pose* prior_mean = nullptr);
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;
@@ -192,6 +205,9 @@ private:
    *  one built for its normals. */
   MapCloud::Ptr previous_;
   pcl::shared_ptr<search::KdTree<MapPoint>> previous_tree_;
+  /** The direction of the last step longer than a voxel, in the scanner's frame: where
+   *  speed hypotheses go when the predicted step is too short to have one. */
+  Eigen::Vector3d heading_ = Eigen::Vector3d::Zero();
   MapCloud::ConstPtr target_; ///< what pICP's target tree was built from
   std::size_t scans_ = 0;
   Pose pose_ = Pose::Identity();
