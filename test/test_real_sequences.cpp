@@ -189,15 +189,29 @@ TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
   const Poses poses = mapSequence(dir, n);
   ASSERT_EQ(poses.size(), n);
   const auto [forward, pull_away] = carProgress(poses);
-  std::printf("mulran without time stamps: %.1f %% of the steps forward, %.0f m to keyframe "
-              "60, the last pose %.0f m from the first\n",
-              100.0 * forward,
-              pull_away,
-              (poses.back().topRightCorner<3, 1>() - poses.front().topRightCorner<3, 1>()).norm());
+  std::printf(
+      "mulran without time stamps: %.1f %% of the steps forward, %.0f m to keyframe "
+      "60, the last pose %.0f m from the first\n",
+      100.0 * forward,
+      pull_away,
+      (poses.back().topRightCorner<3, 1>() - poses.front().topRightCorner<3, 1>()).norm());
   EXPECT_GT(forward, 0.95);
   EXPECT_GT(pull_away, 200.0);
   EXPECT_GT((poses.back().topRightCorner<3, 1>() - poses.front().topRightCorner<3, 1>()).norm(),
             500.0);
+}
+
+/** The front end alone on 2 threads, deskewed by one sweep of sweep_period seconds (0: by
+ *  the whole step), as `pcl_pslam run --no-loops --deskew [--sweep-period S]`. */
+slam::Parameters
+deskewedFrontEnd(double sweep_period)
+{
+  slam::Parameters p;
+  p.close_loops = false;
+  p.num_threads = 2;
+  p.deskew = true;
+  p.sweep_period = sweep_period;
+  return p;
 }
 
 /** How far pICP moved the median keyframe from the motion prior (ScanReport::correction,
@@ -233,13 +247,10 @@ TEST(RealSequences, CarKeyframesPredictedByTheirTimes)
   const std::size_t n = 332;
   ASSERT_EQ(times.size(), n);
   const auto correction = [&](double sweep_period) {
-    slam::Parameters p;
-    p.close_loops = false;
-    p.num_threads = 2;
-    p.deskew = true;
-    p.sweep_period = sweep_period;
     std::vector<slam::ScanReport> reports;
-    EXPECT_EQ(mapSequence(dir, n, p, nullptr, &times, &reports).size(), n);
+    EXPECT_EQ(
+        mapSequence(dir, n, deskewedFrontEnd(sweep_period), nullptr, &times, &reports).size(),
+        n);
     return medianCorrection(reports);
   };
   const double one_sweep = correction(0.1), whole_step = correction(0.0);
@@ -271,11 +282,7 @@ TEST(RealSequences, CarPullsAwayFromAnyStartKeyframe)
   const std::vector<double> times = io::loadKittiTimes(times_file);
   const std::size_t n = 70;
   ASSERT_GE(times.size(), n);
-  slam::Parameters p;
-  p.close_loops = false;
-  p.num_threads = 2;
-  p.deskew = true;
-  p.sweep_period = 0.1;
+  slam::Parameters p = deskewedFrontEnd(0.1);
   for (std::size_t first = 0; first < 4; ++first) {
     const Poses poses = mapSequence(dir, n, p, nullptr, &times, nullptr, first);
     ASSERT_EQ(poses.size(), n - first);

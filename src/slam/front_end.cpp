@@ -426,14 +426,15 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bo
     return guess.value_or(prediction);
   // Travel: along the predicted step, or the way the scanner last moved (in its frame).
   const Eigen::Vector3d step = (pose_.inverse() * prediction).topRightCorner<3, 1>();
-  const Eigen::Vector3d travel = step.norm() >= params_.voxel_size ? step.normalized() : heading_;
+  const Eigen::Vector3d travel =
+      step.norm() >= params_.voxel_size ? step.normalized() : heading_;
   const double gate = this->gate(), sigma = gate / 3.0;
   // Starts closer than the refinement gate lie in the prediction's own basin.
   const double same = std::max(params_.final_correspondence_distance, params_.voxel_size);
   if (travel.isZero() || !(2.0 * sigma > same))
     return guess.value_or(prediction);
-  double best = guess ? icp_->to_previous.getFitnessScore(gate)
-                      : std::numeric_limits<double>::infinity();
+  double best =
+      guess ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
   for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
     if (!(std::abs(k) * sigma > same))
       continue;
@@ -445,8 +446,8 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bo
       continue;
     const double fitness = icp_->to_previous.getFitnessScore(gate);
     // A start that ends where the best so far did is the same solution, not a rival.
-    const bool rival = !guess || (other->topRightCorner<3, 1>() -
-                                  guess->topRightCorner<3, 1>()).norm() > same;
+    const bool rival =
+        !guess || (other->topRightCorner<3, 1>() - guess->topRightCorner<3, 1>()).norm() > same;
     if (rival && fitness < best) {
       best = fitness;
       guess = other;
