@@ -109,6 +109,7 @@ writeMatched(Writer& w, const slam::MatchedScan& m)
   w.put<std::uint8_t>(fe.converged);
   w.put(fe.fitness);
   w.put(fe.gate);
+  w.put(fe.start_offset);
   const slam::ScanReport& r = m.report;
   w.put<std::uint64_t>(r.points);
   w.put<std::uint64_t>(r.reduced_points);
@@ -146,6 +147,7 @@ readMatched(Reader& in)
   fe.converged = in.get<std::uint8_t>() != 0;
   fe.fitness = in.get<double>();
   fe.gate = in.get<double>();
+  fe.start_offset = in.get<double>();
   slam::ScanReport& r = m.report;
   r.points = in.get<std::uint64_t>();
   r.reduced_points = in.get<std::uint64_t>();
@@ -153,6 +155,7 @@ readMatched(Reader& in)
   r.converged = fe.converged;
   r.fitness = fe.fitness;
   r.gate = fe.gate;
+  r.start_offset = fe.start_offset;
   r.correction = in.get<double>();
   r.seconds = in.get<double>();
   return m;

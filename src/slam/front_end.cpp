@@ -277,7 +277,7 @@ FrontEnd::track(const Cloud& scan,
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
       matched = align(icp,
-                      initialGuess(source, r.prediction, odometry.has_value()),
+                      initialGuess(source, r.prediction, odometry.has_value(), r.start_offset),
                       r.gate,
                       params_.final_correspondence_distance,
                       icp_->threshold != nullptr,
@@ -417,7 +417,10 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
 }
 
 Pose
-FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry)
+FrontEnd::initialGuess(const Cloud::ConstPtr& source,
+                       const Pose& prediction,
+                       bool odometry,
+                       double& start_offset)
 {
   if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
     return prediction;
@@ -451,6 +454,7 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bo
     if (rival && fitness < best) {
       best = fitness;
       guess = other;
+      start_offset = k * sigma;
     }
   }
   return guess.value_or(prediction);

@@ -195,6 +195,7 @@ Pipeline::track(const Cloud& scan,
   report.converged = fe.converged;
   report.fitness = fe.fitness;
   report.gate = fe.gate;
+  report.start_offset = fe.start_offset;
   report.correction = registration::motionDisplacement(fe.prediction.inverse() * fe.pose,
                                                        loop_params_.median_range);
   times_.front_end += seconds(stage);

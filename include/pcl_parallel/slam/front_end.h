@@ -110,6 +110,9 @@ struct FrontEndResult {
   bool converged = true; ///< false: pICP failed and the prediction was kept
   double fitness = 0.0;  ///< mean squared distance of matched pairs (pICP's fitness)
   double gate = 0.0;     ///< the correspondence distance used
+  /** Where the winning start of the speed hypotheses lay along the direction of travel,
+   *  from the prediction (scan units; 0: the prediction's, or none tried). */
+  double start_offset = 0.0;
   /** The match's information (point-to-plane: pICP's final Hessian over its residual
    *  variance, without the motion prior): how well the scan's pose relative to the map,
    *  or to the previous scan, is known. Zero when pICP did not run or failed. */
@@ -175,7 +178,10 @@ private:
   /** Where the match starts: the prediction, or its match to the previous scan
    *  (guess_from_previous_scan), the best of the speed hypotheses' (speed_hypotheses). */
   Pose
-  initialGuess(const Cloud::ConstPtr& source, const Pose& prediction, bool odometry);
+  initialGuess(const Cloud::ConstPtr& source,
+               const Pose& prediction,
+               bool odometry,
+               double& start_offset);
   bool
   hasPrevious() const;
   /** The scan deskewed by the sweep's motion (params_.deskew) and reduced. */

@@ -87,6 +87,9 @@ struct ScanReport {
   /** How far pICP moved the scan from the motion prior (translation plus rotation at the
    *  median range, as the adaptive gate measures it). */
   double correction = 0.0;
+  /** FrontEndResult::start_offset: the speed hypothesis pICP started from (0: the
+   *  prediction). */
+  double start_offset = 0.0;
   double seconds = 0.0;             ///< all stages for this scan
   std::vector<LoopCandidate> loops; ///< loop pairs tried
   int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
