@@ -284,8 +284,20 @@ FrontEnd::track(const Cloud& scan,
                       r.prediction,
                       priorSpreadIfUsed());
     }
-    else
-      matched = alignToPrevious(source, r.prediction, true);
+    else { // the speed hypotheses' best start refined, if one beats the prediction's
+      Eigen::Vector3d travel;
+      const double sigma = odometry ? 0.0 : hypothesisSpacing(r.prediction, travel);
+      std::optional<Pose> better;
+      if (sigma > 0.0)
+        better = bestHypothesis(source,
+                                r.prediction,
+                                alignToPrevious(source, r.prediction, false),
+                                travel,
+                                sigma,
+                                r.start_offset);
+      matched = better ? alignToPrevious(source, *better, true, &r.prediction)
+                       : alignToPrevious(source, r.prediction, true);
+    }
     r.converged = matched.has_value();
     if (matched) {
       // Constant velocity multiplies each pose by a step taken from the two before it,
@@ -416,28 +428,37 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
   return Pose(pose_ * *matched);
 }
 
-Pose
-FrontEnd::initialGuess(const Cloud::ConstPtr& source,
-                       const Pose& prediction,
-                       bool odometry,
-                       double& start_offset)
+double
+FrontEnd::hypothesisSpacing(const Pose& prediction, Eigen::Vector3d& travel) const
 {
-  if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
-    return prediction;
-  std::optional<Pose> guess = alignToPrevious(source, prediction, false);
-  if (!params_.speed_hypotheses)
-    return guess.value_or(prediction);
+  if (!params_.speed_hypotheses || !hasPrevious())
+    return 0.0;
   // Travel: along the predicted step, or the way the scanner last moved (in its frame).
   const Eigen::Vector3d step = (pose_.inverse() * prediction).topRightCorner<3, 1>();
-  const Eigen::Vector3d travel =
-      step.norm() >= params_.voxel_size ? step.normalized() : heading_;
-  const double gate = this->gate(), sigma = gate / 3.0;
-  // Starts closer than the refinement gate lie in the prediction's own basin.
-  const double same = std::max(params_.final_correspondence_distance, params_.voxel_size);
-  if (travel.isZero() || !(2.0 * sigma > same))
-    return guess.value_or(prediction);
+  travel = step.norm() >= params_.voxel_size ? step.normalized() : heading_;
+  const double sigma = gate() / 3.0;
+  return travel.isZero() || !(2.0 * sigma > sameSolution()) ? 0.0 : sigma;
+}
+
+double
+FrontEnd::sameSolution() const
+{
+  // Starts or matches closer than the refinement gate lie in one basin.
+  return std::max(params_.final_correspondence_distance, params_.voxel_size);
+}
+
+std::optional<Pose>
+FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
+                         const Pose& prediction,
+                         const std::optional<Pose>& own,
+                         const Eigen::Vector3d& travel,
+                         double sigma,
+                         double& start_offset)
+{
+  const double gate = this->gate(), same = sameSolution();
   double best =
-      guess ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
+      own ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
+  std::optional<Pose> winner;
   for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
     if (!(std::abs(k) * sigma > same))
       continue;
@@ -449,15 +470,35 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source,
       continue;
     const double fitness = icp_->to_previous.getFitnessScore(gate);
     // A start that ends where the best so far did is the same solution, not a rival.
+    const std::optional<Pose>& leader = winner ? winner : own;
     const bool rival =
-        !guess || (other->topRightCorner<3, 1>() - guess->topRightCorner<3, 1>()).norm() > same;
+        !leader ||
+        (other->topRightCorner<3, 1>() - leader->topRightCorner<3, 1>()).norm() > same;
     if (rival && fitness < best) {
       best = fitness;
-      guess = other;
+      winner = other;
       start_offset = k * sigma;
     }
   }
-  return guess.value_or(prediction);
+  return winner;
+}
+
+Pose
+FrontEnd::initialGuess(const Cloud::ConstPtr& source,
+                       const Pose& prediction,
+                       bool odometry,
+                       double& start_offset)
+{
+  if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
+    return prediction;
+  const std::optional<Pose> own = alignToPrevious(source, prediction, false);
+  Eigen::Vector3d travel;
+  const double sigma = hypothesisSpacing(prediction, travel);
+  if (sigma > 0.0)
+    if (const auto better =
+            bestHypothesis(source, prediction, own, travel, sigma, start_offset))
+      return *better;
+  return own.value_or(prediction);
 }
 
 void

@@ -57,7 +57,8 @@ struct FrontEndParameters {
    *  reinforces itself; a single previous scan holds no such copy (docs/design.md,
    *  "Real data"). Ignored with odometry, whose step is the guess. */
   bool guess_from_previous_scan = true;
-  /** With guess_from_previous_scan: that match also starts from the prediction moved
+  /** Without odometry, the match to the previous scan (the map match's guess, or with
+   *  kPreviousScan the match itself) also starts from the prediction moved
    *  along the direction of travel by -2, -1, +1 and +2 sigma of the adaptive gate, and
    *  the start whose match fits the previous scan best (pICP's fitness within the gate)
    *  gives the guess. Constant velocity misses a change of speed (a car pulling away
@@ -182,6 +183,25 @@ private:
                const Pose& prediction,
                bool odometry,
                double& start_offset);
+  /** The speed hypotheses' spacing (sigma of the gate) and direction of travel (scanner
+   *  frame) for this prediction; 0 where none is tried (off, no previous scan, no
+   *  direction, or a gate whose hypotheses all start inside the refinement gate). */
+  double
+  hypothesisSpacing(const Pose& prediction, Eigen::Vector3d& travel) const;
+  /** How close two starts or matches lie in one basin: the refinement gate, at least a
+   *  voxel. */
+  double
+  sameSolution() const;
+  /** Right after `own`, the prediction's match to the previous scan: the best of the
+   *  speed hypotheses' matches if one fits better and ends elsewhere (start_offset: where
+   *  it started along the travel), else none. */
+  std::optional<Pose>
+  bestHypothesis(const Cloud::ConstPtr& source,
+                 const Pose& prediction,
+                 const std::optional<Pose>& own,
+                 const Eigen::Vector3d& travel,
+                 double sigma,
+                 double& start_offset);
   bool
   hasPrevious() const;
   /** The scan deskewed by the sweep's motion (params_.deskew) and reduced. */
