@@ -24,7 +24,10 @@
 #include <limits>
 #include <locale>
 #include <random>
+#include <string>
 #include <unistd.h>
+#include <utility>
+#include <vector>
 
 using namespace pcl_parallel::io;
 
@@ -507,6 +510,139 @@ TEST_F(TempFiles, PlyReaderMatchesPclOnWhatPclWritesAndTheBunny)
 
 // What PCL's writer does not write: big-endian, double coordinates, a face list element
 // before the vertices (skipped by its declared layout), and the same in ascii.
+/** A PCL blob of float32 x, y, z and further scalar fields `extra` (name, PCL datatype),
+ *  `n` points of value(i, field) each, field 0-2 the coordinates. */
+template <typename Value>
+pcl::PCLPointCloud2
+blob(std::size_t n, const std::vector<std::pair<std::string, std::uint8_t>>& extra, Value value)
+{
+  pcl::PCLPointCloud2 c;
+  std::vector<std::pair<std::string, std::uint8_t>> fields = {
+      {"x", pcl::PCLPointField::FLOAT32},
+      {"y", pcl::PCLPointField::FLOAT32},
+      {"z", pcl::PCLPointField::FLOAT32}};
+  fields.insert(fields.end(), extra.begin(), extra.end());
+  std::uint32_t offset = 0;
+  for (const auto& [name, type] : fields) {
+    pcl::PCLPointField f;
+    f.name = name;
+    f.offset = offset;
+    f.datatype = type;
+    f.count = 1;
+    c.fields.push_back(f);
+    offset += static_cast<std::uint32_t>(pcl::getFieldSize(type));
+  }
+  c.point_step = offset;
+  c.width = static_cast<std::uint32_t>(n);
+  c.height = 1;
+  c.row_step = c.point_step * c.width;
+  c.data.resize(c.row_step);
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t f = 0; f < fields.size(); ++f) {
+      unsigned char* at = &c.data[i * c.point_step + c.fields[f].offset];
+      const double v = value(i, f);
+      if (fields[f].second == pcl::PCLPointField::FLOAT32) {
+        const float x = static_cast<float>(v);
+        std::memcpy(at, &x, sizeof x);
+      }
+      else if (fields[f].second == pcl::PCLPointField::FLOAT64)
+        std::memcpy(at, &v, sizeof v);
+      else { // UINT32
+        const auto u = static_cast<std::uint32_t>(v);
+        std::memcpy(at, &u, sizeof u);
+      }
+    }
+  return c;
+}
+
+// Per-point times as drivers write them: Ouster's "t" (uint32 ns) beside an absolute
+// "timestamp" (float64) it is preferred to, in the three PCD encodings PCL writes; NaN
+// points and the range filter drop their times with them, in point order.
+TEST_F(TempFiles, PcdReaderKeepsEachPointsTime)
+{
+  const std::size_t n = 20;
+  const auto value = [](std::size_t i, std::size_t f) {
+    switch (f) {
+    case 0:
+      return i == 5 ? std::nan("") : static_cast<double>(i); // range i along x
+    case 1:
+    case 2:
+      return 0.0;
+    case 3:
+      return 1000.0 * static_cast<double>(i) + 7.0; // t [ns]
+    default:
+      return 1.7e9 + 0.001 * static_cast<double>(i); // timestamp [s]
+    }
+  };
+  const auto both =
+      blob(n,
+           {{"t", pcl::PCLPointField::UINT32}, {"timestamp", pcl::PCLPointField::FLOAT64}},
+           value);
+  const auto absolute = blob(n,
+                             {{"timestamp", pcl::PCLPointField::FLOAT64}},
+                             [&](auto i, auto f) { return value(i, f == 3 ? 4 : f); });
+  pcl::PCDWriter writer;
+  for (int mode = 0; mode < 3; ++mode) {
+    SCOPED_TRACE("encoding " + std::to_string(mode));
+    const auto path = [&](const char* name) {
+      return (dir_ / (name + std::to_string(mode) + ".pcd")).string();
+    };
+    const auto write = [&](const std::string& file, const pcl::PCLPointCloud2& c) {
+      if (mode == 0)
+        return writer.writeASCII(
+            file, c, Eigen::Vector4f::Zero(), Eigen::Quaternionf::Identity(), 17);
+      return mode == 1 ? writer.writeBinary(file, c) : writer.writeBinaryCompressed(file, c);
+    };
+    ASSERT_EQ(write(path("both"), both), 0);
+    ASSERT_EQ(write(path("absolute"), absolute), 0);
+    std::vector<double> times = {42.0};
+    const auto cloud = loadScan(path("both"), 1.5, 1e9, &times);
+    ASSERT_EQ(cloud->size(), n - 3); // 0, 1 out of range, 5 not finite
+    ASSERT_EQ(times.size(), cloud->size());
+    for (std::size_t k = 0; k < cloud->size(); ++k) {
+      const auto i = static_cast<std::size_t>((*cloud)[k].x);
+      EXPECT_EQ(times[k], value(i, 3)) << "point " << k;
+    }
+    loadScan(path("absolute"), 1.5, 1e9, &times);
+    ASSERT_EQ(times.size(), n - 3);
+    EXPECT_NEAR(times.back() - times.front(), 0.001 * 17, 1e-6); // 2 .. 19
+    EXPECT_EQ(loadScan(path("both"))->size(), n - 1); // times not asked for: as before
+  }
+}
+
+// PLY: a vertex property named as a time field, in ASCII and binary; a kept point whose
+// time is not a number is an error naming the file and line, a dropped one is not.
+TEST_F(TempFiles, PlyReaderKeepsEachPointsTimeAndRejectsNonFiniteOnes)
+{
+  const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                             "property float y\nproperty float z\nproperty double time\n"
+                             "end_header\n";
+  std::vector<double> times;
+  loadScan(write("a.ply", header + "1 0 0 0.25\nnan 0 0 nan\n2 0 0 0.5\n"), 0.0, 1e9, &times);
+  EXPECT_EQ(times, (std::vector<double>{0.25, 0.5}));
+  const std::string bad = write("bad.ply", header + "1 0 0 0.25\n2 0 0 nan\n3 0 0 1\n");
+  const std::string message =
+      messageOf<std::runtime_error>([&] { loadScan(bad, 0.0, 1e9, &times); });
+  EXPECT_TRUE(mentions(message, bad + ":10")) << message;
+  EXPECT_TRUE(mentions(message, "time")) << message;
+  EXPECT_EQ(loadScan(bad)->size(), 3u); // without times, the time is not read
+  // Little-endian binary, Ouster's uint32 "t" after the coordinates.
+  std::string binary = "ply\nformat binary_little_endian 1.0\nelement vertex 2\n"
+                       "property float x\nproperty float y\nproperty float z\n"
+                       "property uint t\nend_header\n";
+  for (const std::uint32_t i : {1u, 2u}) {
+    const float xyz[3] = {static_cast<float>(i), 0, 0};
+    const std::uint32_t t = 50000000u * i;
+    binary.append(reinterpret_cast<const char*>(xyz), sizeof xyz);
+    binary.append(reinterpret_cast<const char*>(&t), sizeof t);
+  }
+  loadScan(write("b.ply", binary), 0.0, 1e9, &times);
+  EXPECT_EQ(times, (std::vector<double>{5e7, 1e8}));
+  // Formats without per-point times leave none.
+  loadScan(write("c.xyz", "1 2 3\n"), 0.0, 1e9, &times);
+  EXPECT_TRUE(times.empty());
+}
+
 TEST_F(TempFiles, PlyReaderSkipsElementsByTheirLayout)
 {
   const auto be32 = [](std::uint32_t v) {

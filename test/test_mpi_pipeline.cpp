@@ -31,7 +31,7 @@ slam::ScanSource
 source(const sim::SimulatedScanSet& set)
 {
   return [&set](std::size_t i) {
-    return slam::SourceScan{set.scans[i], set.odometry[i], std::nullopt};
+    return slam::SourceScan{set.scans[i], set.odometry[i], std::nullopt, {}};
   };
 }
 

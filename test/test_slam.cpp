@@ -175,7 +175,7 @@ TEST(Pipeline, SegmentedFrontEndJoinsByTheSegmentsOwnSteps)
   slam::Parameters p;
   p.num_threads = 2;
   const slam::ScanSource read = [&](std::size_t i) {
-    return slam::SourceScan{set.scans[i], set.odometry[i], std::nullopt};
+    return slam::SourceScan{set.scans[i], set.odometry[i], std::nullopt, {}};
   };
   auto segmented = slam::mapSegments(p, n, 10, 3, read);
   segmented->finish();
@@ -226,7 +226,7 @@ TEST(Pipeline, SegmentedWithoutOdometryJoinsSegmentsInFramesOfTheirOwn)
   p.num_threads = 2;
   p.deskew = true;
   const slam::ScanSource read = [&](std::size_t i) {
-    return slam::SourceScan{set.scans[i], std::nullopt, std::nullopt};
+    return slam::SourceScan{set.scans[i], std::nullopt, std::nullopt, {}};
   };
   auto segmented = slam::mapSegments(p, n, n / 3, 5, read);
   segmented->finish();
@@ -289,6 +289,47 @@ TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
   EXPECT_LT(sweep.rpe, 0.8 * none.rpe);
   EXPECT_GT(whole.ate, none.ate);
   EXPECT_GT(whole.rpe, none.rpe);
+}
+
+// Per-point times given with the scans (as a driver's time field, in ns; here the
+// simulator's own sweep times), with the points in another order and some cropped:
+// deskewed as by azimuth. The same times reversed (a head turning the other way) are
+// worse: the times are used, each with its point.
+TEST(Pipeline, DeskewsByThePointsTimesWhenGiven)
+{
+  const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 6 : 30);
+  const auto frontEnd = [&](int times) { // 0: none (azimuth), 1: the sweep's, -1: reversed
+    slam::Parameters p = frontEndOnly();
+    p.deskew = true;
+    p.min_range = 4.0;
+    slam::Pipeline pipeline(p);
+    std::mt19937 rng(11);
+    for (std::size_t i = 0; i < set.scans.size(); ++i) {
+      Cloud scan = *set.scans[i];
+      std::vector<double> t;
+      if (times != 0) {
+        std::shuffle(scan.begin(), scan.end(), rng);
+        for (const auto& q : scan)
+          t.push_back(
+              std::round(1e8 * (times > 0 ? slam::sweepTime(q) : 1 - slam::sweepTime(q))));
+      }
+      pipeline.addScan(scan, set.odometry[i], std::nullopt, t);
+    }
+    return evaluation::absoluteTrajectoryError(
+               pipeline.frontEndPoses(), set.truth, evaluation::Alignment::SE3)
+        .translation.rmse;
+  };
+  const double azimuth = frontEnd(0), timed = frontEnd(1);
+  if (test::kSanitized)
+    return;
+  const double reversed = frontEnd(-1);
+  std::printf("kitti, front end ATE [m]: deskewed by azimuth %.4f, by the points' times %.4f, "
+              "by reversed times %.4f\n",
+              azimuth,
+              timed,
+              reversed);
+  EXPECT_NEAR(timed, azimuth, 0.1 * azimuth);
+  EXPECT_GT(reversed, 1.5 * timed);
 }
 
 /** Keyframes at uneven intervals (kitti's 10 Hz sweeps, 1 and 2 sweeps apart in turn: 0.9
@@ -662,6 +703,17 @@ TEST(Pipeline, BadInputIsAClearError)
   p.sweep_period = -0.1;
   slam::Pipeline negative(p);
   EXPECT_THROW(negative.addScan(one, std::nullopt, 0.0), std::invalid_argument);
+
+  // Point times: one per point, finite.
+  p.sweep_period = 0.0;
+  slam::Pipeline timed(p);
+  std::vector<double> times(one.size(), 1.0);
+  EXPECT_THROW(timed.addScan(one, std::nullopt, std::nullopt, {1.0, 2.0}),
+               std::invalid_argument);
+  times[7] = NAN;
+  EXPECT_THROW(timed.addScan(one, std::nullopt, std::nullopt, times), std::invalid_argument);
+  times[7] = 2.0;
+  EXPECT_EQ(timed.addScan(one, std::nullopt, std::nullopt, times), 0u);
 }
 
 // The first scan is replaced while it is alone (points and the tree pLUM searches), and
@@ -877,6 +929,56 @@ TEST(Preprocess, DeskewUndoesAConstantVelocitySweep)
   EXPECT_NEAR(slam::sweepTime(pcl::PointXYZ(0, 1, 0), false), 0.75, 1e-12);
 }
 
+// Per-point times for a pattern the azimuth does not give (a solid-state LiDAR's, or a
+// head that does not start facing backwards): deskewing by them undoes the sweep, by
+// azimuth it does not.
+TEST(Preprocess, DeskewByPointTimesUndoesAnyScanPattern)
+{
+  const Pose motion = helixPose(1.0);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-10, 10), when(0, 1);
+  Cloud measured, standing;
+  std::vector<float> times;
+  for (int k = 0; k < 1000; ++k) {
+    const pcl::PointXYZ p(u(rng), u(rng), 0.1f * u(rng));
+    const float t = when(rng);
+    pcl::PointXYZ q; // the scanner at time t, in the mid-sweep frame
+    q.getVector3fMap() = (helixPose(t - 0.5) * p.getVector3fMap().cast<double>().homogeneous())
+                             .head<3>()
+                             .cast<float>();
+    measured.push_back(p);
+    standing.push_back(q);
+    times.push_back(t);
+  }
+  const auto fixed = slam::deskew(measured, times, motion, 2);
+  const auto by_azimuth = slam::deskew(measured, motion, 2);
+  double worst_by_azimuth = 0.0;
+  for (std::size_t k = 0; k < fixed->size(); ++k) {
+    EXPECT_LT(((*fixed)[k].getVector3fMap() - standing[k].getVector3fMap()).norm(), 1e-4);
+    worst_by_azimuth = std::max<double>(
+        worst_by_azimuth,
+        ((*by_azimuth)[k].getVector3fMap() - standing[k].getVector3fMap()).norm());
+  }
+  EXPECT_GT(worst_by_azimuth, 0.5);
+  EXPECT_THROW(slam::deskew(measured, std::vector<float>(3, 0.5f), motion),
+               std::invalid_argument);
+}
+
+// A driver's times in any unit and origin (Ouster's ns from the sweep's start, absolute
+// seconds) are the same fractions of the sweep.
+TEST(Preprocess, SweepFractionsSpanTheSweepInAnyUnit)
+{
+  const std::vector<float> expected = {0.5f, 0.0f, 1.0f, 0.25f};
+  EXPECT_EQ(slam::sweepFractions({5e7, 0, 1e8, 2.5e7}), expected);
+  const auto absolute = slam::sweepFractions({1.7e9 + 0.05, 1.7e9, 1.7e9 + 0.1, 1.7e9 + 0.025});
+  ASSERT_EQ(absolute.size(), expected.size());
+  for (std::size_t k = 0; k < expected.size(); ++k)
+    EXPECT_NEAR(absolute[k], expected[k], 1e-5); // 1.7e9 s holds 0.24 us
+  EXPECT_EQ(slam::sweepFractions({3, 3}), (std::vector<float>{0.5f, 0.5f})); // no skew
+  EXPECT_TRUE(slam::sweepFractions({}).empty());
+  EXPECT_THROW(slam::sweepFractions({0, NAN}), std::invalid_argument);
+}
+
 // A keyframe's skew is one sweep's share of the step since the previous keyframe.
 namespace {
 // A screw about z whose turn and climb rates grow linearly in time (t in seconds):
@@ -929,6 +1031,11 @@ TEST(Preprocess, CropRangeKeepsFiniteInRange)
   const auto out = slam::cropRange(c, 1.0, 50.0);
   ASSERT_EQ(out->size(), 1u);
   EXPECT_EQ((*out)[0].x, 3.0f);
+  // With times, the kept points' own.
+  std::vector<float> kept = {9.0f};
+  EXPECT_EQ(slam::cropRange(c, 1.0, 50.0, {0.1f, 0.2f, 0.3f, 0.4f}, kept)->size(), 1u);
+  EXPECT_EQ(kept, std::vector<float>{0.2f});
+  EXPECT_THROW(slam::cropRange(c, 1.0, 50.0, {0.1f}, kept), std::invalid_argument);
 }
 
 } // namespace

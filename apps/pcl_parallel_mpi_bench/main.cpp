@@ -186,7 +186,7 @@ runPslam(int argc, char** argv)
     Eigen::Matrix4d odometry;
     auto scan = reader.scan(i, odometry);
     read_seconds += now() - t;
-    return slam::SourceScan{scan, odometry, std::nullopt};
+    return slam::SourceScan{scan, odometry, std::nullopt, {}};
   };
   pcl_parallel::mpi::SegmentsReport report;
   MPI_Barrier(MPI_COMM_WORLD);

@@ -207,12 +207,12 @@ openDirectory(const Options& o)
 }
 
 Cloud::Ptr
-readScan(const Input& in, std::size_t k)
+readScan(const Input& in, std::size_t k, std::vector<double>* point_times)
 {
   const std::string& file = in.files.at(k);
   Cloud::Ptr cloud;
   try {
-    cloud = pcl_parallel::io::loadScan(file, in.min_range, in.max_range);
+    cloud = pcl_parallel::io::loadScan(file, in.min_range, in.max_range, point_times);
   }
   catch (const std::exception& e) {
     throw DataError(withoutPrefix(e.what()));

@@ -28,11 +28,12 @@ struct Input {
   std::vector<double> stamps;     ///< per scan: time (s), or the number when none given
   bool has_stamps = false;
   double read_seconds = 0.0; ///< time spent reading scans (by this rank; filled by the caller)
-  std::string format;        ///< "3d", "bin", ...
-  double scale = 1.0;        ///< file coordinates times scale = metres
-  int up = 2;                ///< vertical axis
-  bool frames_3dtk = false;  ///< data in 3DTK's frame and units: .frames in those
-  double min_range = 0.0;    ///< -M, files' units
+  std::size_t timed_scans = 0; ///< scans read with per-point times (likewise)
+  std::string format;          ///< "3d", "bin", ...
+  double scale = 1.0;          ///< file coordinates times scale = metres
+  int up = 2;                  ///< vertical axis
+  bool frames_3dtk = false;    ///< data in 3DTK's frame and units: .frames in those
+  double min_range = 0.0;      ///< -M, files' units
   double max_range = std::numeric_limits<double>::infinity(); ///< -m, files' units
 
   std::size_t
@@ -50,10 +51,12 @@ struct Input {
 Input
 openDirectory(const Options& o);
 
-/** Scan k of `in`, in metres, within the range limits. Throws DataError naming the file
- *  when it cannot be parsed or has no finite points within the limits. */
+/** Scan k of `in`, in metres, within the range limits; with `point_times`, the points'
+ *  times from the file's time field (io::loadScan), or none. Throws DataError naming the
+ *  file when it cannot be parsed, has no finite points within the limits, or (with
+ *  `point_times`) a kept point's time is not finite. */
 Cloud::Ptr
-readScan(const Input& in, std::size_t k);
+readScan(const Input& in, std::size_t k, std::vector<double>* point_times = nullptr);
 
 /** Every scan of `in` (small sets and tests; `run` streams them). */
 std::vector<Cloud::Ptr>

@@ -130,9 +130,12 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
                                   o.dir + " or its parent");
     params.mpi = ranks.size() > 1;
     // Streamed: each scan is read when the pipeline takes it, and dropped after.
+    // Per-point times only matter to deskewing: read then, if the files have them.
     auto read = [&](std::size_t k) {
       const auto start = std::chrono::steady_clock::now();
-      auto scan = pcl_pslam::readScan(in, k);
+      pcl_parallel::slam::SourceScan scan;
+      scan.cloud = pcl_pslam::readScan(in, k, params.deskew ? &scan.point_times : nullptr);
+      in.timed_scans += scan.point_times.empty() ? 0 : 1;
       in.read_seconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       return scan;
@@ -150,6 +153,13 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     for (const auto& report : r.reports)
       points += report.points;
     const std::string read_time = std::to_string(in.read_seconds).substr(0, 4) + " s";
+    if (params.deskew && r.ranks == 1)
+      progress.note(in.timed_scans == in.size() ? "deskewed by the points' time field"
+                    : in.timed_scans == 0
+                        ? "deskewed by azimuth (the scans have no per-point time field)"
+                        : "deskewed by the points' time field in " +
+                              std::to_string(in.timed_scans) + " of " +
+                              std::to_string(in.size()) + " scans, else by azimuth");
     progress.note(std::to_string(points) + " points read" +
                   (r.ranks > 1 ? " by " + std::to_string(r.ranks) + " ranks (rank 0's in " +
                                      read_time + ")"

@@ -107,7 +107,9 @@ struct Descriptions {
        "match each scan against its predecessor only (the paper's and slam6D's default)")
       ("deskew", po::bool_switch(&o.deskew),
        "deskew scans taken while moving (spinning LiDAR) by the predicted motion, "
-       "assuming consecutive sweeps; for keyframes add --sweep-period")
+       "assuming consecutive sweeps; for keyframes add --sweep-period. Each point's time "
+       "in the sweep comes from a PCD/PLY time field (t, time, timestamp, time_stamp, "
+       "offset_time) when the scan has one, else from its azimuth")
       ("sweep-period", po::value<double>()->value_name("SEC"),
        "with --deskew: one sweep takes SEC seconds (0.1 for a 10 Hz LiDAR), so keyframes "
        "seconds apart are deskewed by one sweep's share of the step; needs time stamps "

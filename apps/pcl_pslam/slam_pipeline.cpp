@@ -37,8 +37,7 @@ run(const ScanReader& read,
     throw std::invalid_argument("pcl_pslam: " + std::to_string(params.stamps.size()) +
                                 " time stamps for " + std::to_string(n) + " scans");
   const slam::ScanSource source = [&](std::size_t i) {
-    slam::SourceScan s;
-    s.cloud = read(i);
+    slam::SourceScan s = read(i);
     if (!s.cloud || s.cloud->empty())
       throw std::invalid_argument("pcl_pslam: scan " + std::to_string(i) + " is empty");
     if (params.odometry)
@@ -87,7 +86,7 @@ run(const ScanReader& read,
     owned.reset(new slam::Pipeline(params));
     for (std::size_t i = 0; i < n; ++i) {
       const slam::SourceScan s = source(i);
-      owned->addScan(*s.cloud, s.odometry, s.stamp);
+      owned->addScan(*s.cloud, s.odometry, s.stamp, s.point_times);
       if (progress)
         progress("icp", static_cast<int>(i + 1), static_cast<int>(n));
     }
@@ -118,7 +117,12 @@ run(const std::vector<Cloud::Ptr>& scans,
     const Parameters& params,
     const Progress& progress)
 {
-  return run([&](std::size_t k) { return scans[k]; }, scans.size(), initial, params, progress);
+  const auto read = [&](std::size_t k) {
+    pcl_parallel::slam::SourceScan s;
+    s.cloud = scans[k];
+    return s;
+  };
+  return run(read, scans.size(), initial, params, progress);
 }
 
 } // namespace pcl_pslam

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <pcl_parallel/slam/pipeline.h>
+#include <pcl_parallel/slam/segments.h>
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -69,8 +70,9 @@ struct Result {
   std::size_t max_kept_scans = 0; ///< MPI: the most scans whose points one rank keeps
 };
 
-/** Scan k (0-based), read when the pipeline needs it. */
-using ScanReader = std::function<Cloud::Ptr(std::size_t k)>;
+/** Scan k (0-based), read when the pipeline needs it: its points and, if the file has
+ *  them, their times (`point_times`; odometry and stamp come from run's arguments). */
+using ScanReader = std::function<pcl_parallel::slam::SourceScan(std::size_t k)>;
 
 /** Streams scans 0..n-1 through slam::Pipeline from initial poses (odometry, when
  *  params.odometry; the first pose is kept fixed), then finish(): each scan is read,

@@ -7,11 +7,14 @@
  */
 #pragma once
 
+#include <pcl_parallel/io/scan_io.h>
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
 #include <Eigen/Core>
 
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
@@ -269,13 +272,29 @@ forEachLine(const std::string& path, F&& f)
     fail(path, line_no, "read error");
 }
 
+constexpr std::size_t kNoField = static_cast<std::size_t>(-1);
+
+/** The index in `fields` of the preferred per-point time field (kPointTimeFields) that
+ *  `single` accepts (one number a point), or kNoField. */
+template <typename Field, typename Single>
+std::size_t
+timeField(const std::vector<Field>& fields, Single single)
+{
+  for (const std::string_view name : kPointTimeFields)
+    for (std::size_t i = 0; i < fields.size(); ++i)
+      if (fields[i].name == name && single(fields[i]))
+        return i;
+  return kNoField;
+}
+
 /** Appends scan points that pass the one range filter of every reader: finite coordinates
  *  and a range sqrt(x²+y²+z²) from the scanner origin within [min_range, max_range].
  *  The range is computed in double before the point is narrowed to float, so a reader of
  *  double text and a reader of float binaries cut at the same place. A kept point with a
  *  coordinate beyond float's range (finite in double, inf as float) is an error naming the
- *  file and line, never an inf in a cloud marked dense. finish() sets the header fields of
- *  an unorganised, dense cloud. */
+ *  file and line, never an inf in a cloud marked dense. With keepTimes, each kept point's
+ *  time is kept beside it and must be finite. finish() sets the header fields of an
+ *  unorganised, dense cloud. */
 class RangeFilteredCloud {
 public:
   RangeFilteredCloud(const std::string& path, double min_range, double max_range)
@@ -291,9 +310,18 @@ public:
     cloud_->reserve(n);
   }
 
+  /** Keeps the time of each point add() keeps in `times` (cleared), in point order. */
+  void
+  keepTimes(std::vector<double>* times)
+  {
+    times_ = times;
+    if (times_)
+      times_->clear();
+  }
+
   /** line: the line (text formats) or point (binary formats, from 1) for the error. */
   void
-  add(double x, double y, double z, std::size_t line)
+  add(double x, double y, double z, std::size_t line, double time = 0.0)
   {
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
       return;
@@ -303,6 +331,11 @@ public:
     constexpr double kFloatMax = std::numeric_limits<float>::max();
     if (std::abs(x) > kFloatMax || std::abs(y) > kFloatMax || std::abs(z) > kFloatMax)
       fail(path_, line, "coordinate beyond float's range (3.4e38)");
+    if (times_) {
+      if (!std::isfinite(time))
+        fail(path_, line, "the point's time is not a finite number");
+      times_->push_back(time);
+    }
     cloud_->push_back(
         pcl::PointXYZ(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)));
   }
@@ -318,6 +351,7 @@ public:
 
 private:
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud_;
+  std::vector<double>* times_ = nullptr;
   std::string path_;
   double min_range_, max_range_;
 };

@@ -48,8 +48,9 @@ struct PcdHeader {
   std::size_t points = 0;
   std::size_t point_step = 0; ///< bytes of one point in the binary layouts
   PcdData data = PcdData::Ascii;
-  std::array<std::size_t, 3> xyz{}; ///< the indices of x, y and z in fields
-  std::size_t lines = 0;            ///< header lines, DATA included
+  std::array<std::size_t, 3> xyz{};    ///< the indices of x, y and z in fields
+  std::size_t time = detail::kNoField; ///< the index of the per-point time field
+  std::size_t lines = 0;               ///< header lines, DATA included
   std::streamoff body = 0;
 };
 
@@ -189,6 +190,7 @@ readPcdHeader(const std::string& path, std::ifstream& in)
       fail(path, 0, "field \"" + name + "\" is not a single float32 or float64");
     h.xyz[a] = static_cast<std::size_t>(f - h.fields.begin());
   }
+  h.time = detail::timeField(h.fields, [](const PcdField& f) { return f.count == 1; });
   if (in.eof()) { // DATA was the last line, without a line end: an empty body
     in.clear();
     in.seekg(0, std::ios::end);
@@ -215,7 +217,7 @@ readAscii(const std::string& path,
     Fields fields(line);
     std::string_view v;
     std::size_t k = 0;
-    double p[3];
+    double p[3], time = 0.0;
     while (fields.next(v)) {
       for (std::size_t a = 0; a < 3; ++a)
         if (k == first[h.xyz[a]] && !parseNumber(v, p[a]))
@@ -223,6 +225,8 @@ readAscii(const std::string& path,
                line_no,
                std::string(1, static_cast<char>('x' + a)) +
                    " is not a number: " + detail::quoted(v));
+      if (h.time != detail::kNoField && k == first[h.time] && !parseNumber(v, time))
+        fail(path, line_no, h.fields[h.time].name + " is not a number: " + detail::quoted(v));
       ++k;
     }
     if (k == 0)
@@ -234,7 +238,7 @@ readAscii(const std::string& path,
                std::to_string(per_line));
     if (++read > h.points)
       fail(path, line_no, "more point lines than the header's " + std::to_string(h.points));
-    cloud.add(p[0], p[1], p[2], line_no);
+    cloud.add(p[0], p[1], p[2], line_no, time);
   }
   if (in.bad())
     fail(path, line_no, "read error");
@@ -299,27 +303,37 @@ readBinary(const std::string& path,
   const unsigned char* data = compressed ? unpacked.data() : body.data();
   // Point i's field f: interleaved at i * point_step + offset, or, decompressed, in f's
   // block at points * offset + i * size.
+  const auto value = [&](std::size_t field, std::size_t i) {
+    const PcdField& f = h.fields[field];
+    const std::size_t at =
+        compressed ? h.points * f.offset + i * f.type.size : i * h.point_step + f.offset;
+    return detail::binaryValue(data + at, f.type); // PCL writes the host order: little
+  };
+  const bool timed = h.time != detail::kNoField;
   cloud.reserve(h.points);
-  for (std::size_t i = 0; i < h.points; ++i) {
-    double p[3];
-    for (std::size_t a = 0; a < 3; ++a) {
-      const PcdField& f = h.fields[h.xyz[a]];
-      const std::size_t at =
-          compressed ? h.points * f.offset + i * f.type.size : i * h.point_step + f.offset;
-      p[a] = detail::binaryValue(data + at, f.type); // PCL writes the host order: little
-    }
-    cloud.add(p[0], p[1], p[2], i + 1);
-  }
+  for (std::size_t i = 0; i < h.points; ++i)
+    cloud.add(value(h.xyz[0], i),
+              value(h.xyz[1], i),
+              value(h.xyz[2], i),
+              i + 1,
+              timed ? value(h.time, i) : 0.0);
 }
 
 } // namespace
 
 pcl::PointCloud<pcl::PointXYZ>::Ptr
-loadPcdScan(const std::string& path, double min_range, double max_range)
+loadPcdScan(const std::string& path,
+            double min_range,
+            double max_range,
+            std::vector<double>* point_times)
 {
   std::ifstream in = detail::openOrThrow(path, std::ios::in | std::ios::binary);
   const PcdHeader h = readPcdHeader(path, in);
   detail::RangeFilteredCloud cloud(path, min_range, max_range);
+  if (point_times)
+    point_times->clear();
+  if (h.time != detail::kNoField)
+    cloud.keepTimes(point_times);
   if (h.data == PcdData::Ascii)
     readAscii(path, in, h, cloud);
   else

@@ -51,8 +51,9 @@ enum class PlyFormat { Ascii, LittleEndian, BigEndian };
 struct PlyHeader {
   PlyFormat format = PlyFormat::Ascii;
   std::vector<PlyElement> elements;
-  std::size_t vertex = 0;           ///< index of the vertex element
-  std::array<std::size_t, 3> xyz{}; ///< x, y, z among its properties
+  std::size_t vertex = 0;              ///< index of the vertex element
+  std::array<std::size_t, 3> xyz{};    ///< x, y, z among its properties
+  std::size_t time = detail::kNoField; ///< the per-point time among them
   std::size_t lines = 0;
 };
 
@@ -185,6 +186,7 @@ readPlyHeader(const std::string& path, std::ifstream& in, std::uintmax_t file_si
       fail(path, 0, "field \"" + name + "\" is not a single float32 or float64");
     h.xyz[a] = static_cast<std::size_t>(p - props.begin());
   }
+  h.time = detail::timeField(vertex->properties, [](const PlyProperty& p) { return !p.list; });
   return h;
 }
 
@@ -211,7 +213,7 @@ readAscii(const std::string& path,
       } while (line.find_first_not_of(detail::kSpace) == std::string::npos);
       Fields fields(line);
       std::string_view token;
-      double xyz[3] = {0, 0, 0};
+      double xyz[3] = {0, 0, 0}, time = 0.0;
       const auto next = [&](double& value) {
         if (!fields.next(token) || !parseNumber(token, value))
           fail(path,
@@ -232,11 +234,13 @@ readAscii(const std::string& path,
         for (std::size_t a = 0; a < 3; ++a)
           if (e == h.vertex && k == h.xyz[a])
             xyz[a] = value;
+        if (e == h.vertex && k == h.time)
+          time = value;
       }
       if (fields.next(token))
         fail(path, line_no, "more values than the header declares: " + detail::quoted(line));
       if (e == h.vertex)
-        cloud.add(xyz[0], xyz[1], xyz[2], line_no);
+        cloud.add(xyz[0], xyz[1], xyz[2], line_no, time);
     }
   }
   if (in.bad())
@@ -270,7 +274,7 @@ readBinary(const std::string& path,
     if (e == h.vertex)
       cloud.reserve(std::min(element.count, body.size()));
     for (std::size_t i = 0; i < element.count; ++i) {
-      double xyz[3] = {0, 0, 0};
+      double xyz[3] = {0, 0, 0}, time = 0.0;
       for (std::size_t k = 0; k < element.properties.size(); ++k) {
         const PlyProperty& p = element.properties[k];
         if (p.list) { // skipped: length, then the items
@@ -286,9 +290,11 @@ readBinary(const std::string& path,
         for (std::size_t a = 0; a < 3; ++a)
           if (e == h.vertex && k == h.xyz[a])
             xyz[a] = value;
+        if (e == h.vertex && k == h.time)
+          time = value;
       }
       if (e == h.vertex)
-        cloud.add(xyz[0], xyz[1], xyz[2], i + 1);
+        cloud.add(xyz[0], xyz[1], xyz[2], i + 1, time);
     }
   }
 }
@@ -296,7 +302,10 @@ readBinary(const std::string& path,
 } // namespace
 
 pcl::PointCloud<pcl::PointXYZ>::Ptr
-loadPlyScan(const std::string& path, double min_range, double max_range)
+loadPlyScan(const std::string& path,
+            double min_range,
+            double max_range,
+            std::vector<double>* point_times)
 {
   std::error_code ec;
   const std::uintmax_t size = std::filesystem::file_size(path, ec);
@@ -305,6 +314,10 @@ loadPlyScan(const std::string& path, double min_range, double max_range)
   std::ifstream in = detail::openOrThrow(path, std::ios::in | std::ios::binary);
   const PlyHeader h = readPlyHeader(path, in, size);
   detail::RangeFilteredCloud cloud(path, min_range, max_range);
+  if (point_times)
+    point_times->clear();
+  if (h.time != detail::kNoField)
+    cloud.keepTimes(point_times);
   if (h.format == PlyFormat::Ascii)
     readAscii(path, in, h, cloud);
   else

@@ -215,8 +215,13 @@ loadKittiPoses(const std::string& path)
 }
 
 pcl::PointCloud<pcl::PointXYZ>::Ptr
-loadScan(const std::string& path, double min_range, double max_range)
+loadScan(const std::string& path,
+         double min_range,
+         double max_range,
+         std::vector<double>* point_times)
 {
+  if (point_times)
+    point_times->clear();
   const Extension* ext = findExtension(path);
   if (!ext) {
     std::string supported;
@@ -236,9 +241,9 @@ loadScan(const std::string& path, double min_range, double max_range)
     case Format::Kitti:
       return loadKittiScan(path, min_range, max_range);
     case Format::Pcd:
-      return loadPcdScan(path, min_range, max_range);
+      return loadPcdScan(path, min_range, max_range, point_times);
     case Format::Ply:
-      return loadPlyScan(path, min_range, max_range);
+      return loadPlyScan(path, min_range, max_range, point_times);
     }
     fail(path, 0, "internal error: unhandled scan format"); // unreachable: the switch is total
   });

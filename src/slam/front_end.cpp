@@ -246,8 +246,12 @@ FrontEnd::~FrontEnd() = default;
 FrontEndResult
 FrontEnd::track(const Cloud& scan,
                 const std::optional<Pose>& odometry,
-                std::optional<double> stamp)
+                std::optional<double> stamp,
+                const std::vector<float>& sweep_times)
 {
+  if (!sweep_times.empty() && sweep_times.size() != scan.size())
+    throw std::invalid_argument("FrontEnd::track: " + std::to_string(sweep_times.size()) +
+                                " point times for " + std::to_string(scan.size()) + " points");
   FrontEndResult r;
   const bool first = scans_++ == 0;
   const double gap = stamp && last_stamp_ ? *stamp - *last_stamp_ : 0.0;
@@ -256,11 +260,13 @@ FrontEnd::track(const Cloud& scan,
 
   // The first scan comes before any motion is known: it is deskewed again once the first
   // step is, here from the odometry, else after the match (docs/design.md, "The first scan").
-  if (params_.deskew && first)
+  if (params_.deskew && first) {
     first_scan_.reset(new Cloud(scan));
+    first_scan_times_ = sweep_times;
+  }
   else if (first_scan_ && odometry)
     r.first_scan = deskewFirstAgain(motion.sweep);
-  Cloud::Ptr reduced = reduce(scan, motion.sweep);
+  Cloud::Ptr reduced = reduce(scan, sweep_times, motion.sweep);
   const auto source =
       filters::voxelCentroid(*reduced, params_.source_voxel_size, params_.num_threads);
   r.source_points = source->size();
@@ -320,7 +326,7 @@ FrontEnd::track(const Cloud& scan,
   if (first_scan_ && !first) { // both scans were matched as they came, neither deskewed
     const Pose sweep = sweepMotion(velocity_, gap, params_.sweep_period);
     r.first_scan = deskewFirstAgain(sweep);
-    reduced = reduce(scan, sweep);
+    reduced = reduce(scan, sweep_times, sweep);
   }
   pose_ = r.pose;
 
@@ -332,17 +338,21 @@ ReducedScan
 FrontEnd::deskewFirstAgain(const Pose& sweep)
 {
   map_.clear(); // of the first scan alone, at pose_
-  ReducedScan out = keep(reduce(*first_scan_, sweep));
+  ReducedScan out = keep(reduce(*first_scan_, first_scan_times_, sweep));
   first_scan_.reset();
+  first_scan_times_.clear();
   return out;
 }
 
 Cloud::Ptr
-FrontEnd::reduce(const Cloud& scan, const Pose& sweep) const
+FrontEnd::reduce(const Cloud& scan,
+                 const std::vector<float>& sweep_times,
+                 const Pose& sweep) const
 {
   const Cloud::Ptr frame =
-      params_.deskew ? deskew(scan, sweep, params_.num_threads, params_.sweep_clockwise)
-                     : Cloud::Ptr(new Cloud(scan));
+      !params_.deskew       ? Cloud::Ptr(new Cloud(scan))
+      : sweep_times.empty() ? deskew(scan, sweep, params_.num_threads, params_.sweep_clockwise)
+                            : deskew(scan, sweep_times, sweep, params_.num_threads);
   return filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
 }
 

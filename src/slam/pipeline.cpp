@@ -140,10 +140,11 @@ Pipeline::setExchange(std::shared_ptr<ScanExchange> exchange)
 std::size_t
 Pipeline::addScan(const Cloud& scan,
                   const std::optional<Pose>& odometry,
-                  std::optional<double> stamp)
+                  std::optional<double> stamp,
+                  const std::vector<double>& point_times)
 {
   const auto start = Clock::now();
-  const std::size_t index = addTracked(track(scan, odometry, stamp));
+  const std::size_t index = addTracked(track(scan, odometry, stamp, point_times));
   reports_.back().seconds = seconds(start);
   return index;
 }
@@ -158,7 +159,8 @@ Pipeline::addTracked(MatchedScan scan)
 MatchedScan
 Pipeline::track(const Cloud& scan,
                 const std::optional<Pose>& odometry,
-                std::optional<double> stamp)
+                std::optional<double> stamp,
+                const std::vector<double>& point_times)
 {
   const auto start = Clock::now();
   const std::size_t index = first_index_ + tracked_;
@@ -169,13 +171,29 @@ Pipeline::track(const Cloud& scan,
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 ": odometry given for some scans but not for others");
   checkStamp(index, stamp);
+  if (!point_times.empty() && point_times.size() != scan.size())
+    throw std::invalid_argument("scan " + std::to_string(index) + ": " +
+                                std::to_string(point_times.size()) + " point times for " +
+                                std::to_string(scan.size()) + " points");
+  if (!std::all_of(
+          point_times.begin(), point_times.end(), [](double t) { return std::isfinite(t); }))
+    throw std::invalid_argument("scan " + std::to_string(index) +
+                                ": a point time is not finite");
   has_odometry_ = odometry.has_value();
   last_stamp_ = stamp;
 
   MatchedScan out;
   ScanReport& report = out.report;
   report.points = scan.size();
-  const Cloud::Ptr cropped = cropRange(scan, params_.min_range, params_.max_range);
+  // Sweep times over the whole scan as given, then cropped with their points.
+  std::vector<float> sweep_times;
+  const Cloud::Ptr cropped = point_times.empty()
+                                 ? cropRange(scan, params_.min_range, params_.max_range)
+                                 : cropRange(scan,
+                                             params_.min_range,
+                                             params_.max_range,
+                                             sweepFractions(point_times),
+                                             sweep_times);
   if (cropped->empty())
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 " has no finite points in range");
@@ -186,7 +204,7 @@ Pipeline::track(const Cloud& scan,
   // Front end: predict, deskew, reduce, match (paper Sec. II; KISS-ICP Sec. III).
   const auto stage = Clock::now();
   const Pose before = front_end_->lastPose(); // after any loop correction
-  out.front_end = front_end_->track(*cropped, odometry, stamp);
+  out.front_end = front_end_->track(*cropped, odometry, stamp, sweep_times);
   const FrontEndResult& fe = out.front_end;
   // The front end's own step: chained without the loop closures' corrections.
   out.step = tracked_ == 0 ? fe.pose : Pose(before.inverse() * fe.pose);

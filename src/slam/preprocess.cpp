@@ -7,25 +7,85 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 
 namespace pcl_parallel {
 namespace slam {
 
+namespace {
+
+/** cropRange; with `times`, their kept ones into `kept_times`. */
 Cloud::Ptr
-cropRange(const Cloud& scan, double min_range, double max_range)
+crop(const Cloud& scan,
+     double min_range,
+     double max_range,
+     const std::vector<float>* times,
+     std::vector<float>* kept_times)
 {
   Cloud::Ptr out(new Cloud);
   out->reserve(scan.size());
   const double lo = min_range * min_range, hi = max_range * max_range;
-  for (const auto& p : scan) {
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const auto& p = scan[i];
     if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
       continue;
     const double r2 = double(p.x) * p.x + double(p.y) * p.y + double(p.z) * p.z;
-    if (r2 >= lo && r2 <= hi)
+    if (r2 >= lo && r2 <= hi) {
       out->push_back(p);
+      if (times)
+        kept_times->push_back((*times)[i]);
+    }
   }
+  return out;
+}
+
+void
+requireOnePerPoint(const Cloud& scan, std::size_t times, const char* function)
+{
+  if (times != scan.size())
+    throw std::invalid_argument(std::string(function) + ": " + std::to_string(times) +
+                                " point times for " + std::to_string(scan.size()) + " points");
+}
+
+} // namespace
+
+Cloud::Ptr
+cropRange(const Cloud& scan, double min_range, double max_range)
+{
+  return crop(scan, min_range, max_range, nullptr, nullptr);
+}
+
+Cloud::Ptr
+cropRange(const Cloud& scan,
+          double min_range,
+          double max_range,
+          const std::vector<float>& times,
+          std::vector<float>& kept_times)
+{
+  requireOnePerPoint(scan, times.size(), "cropRange");
+  kept_times.clear();
+  return crop(scan, min_range, max_range, &times, &kept_times);
+}
+
+std::vector<float>
+sweepFractions(const std::vector<double>& times)
+{
+  for (std::size_t i = 0; i < times.size(); ++i)
+    if (!std::isfinite(times[i]))
+      throw std::invalid_argument("sweepFractions: the time of point " + std::to_string(i) +
+                                  " is not a finite number");
+  std::vector<float> out(times.size(), 0.5f);
+  if (times.empty())
+    return out;
+  const auto [lo, hi] = std::minmax_element(times.begin(), times.end());
+  const double first = *lo, span = *hi - *lo;
+  if (span > 0.0)
+    for (std::size_t i = 0; i < times.size(); ++i)
+      out[i] = static_cast<float>((times[i] - first) / span);
   return out;
 }
 
@@ -118,8 +178,12 @@ sweepMotion(const Pose& motion, double span, double sweep_period)
   return interpolateMotion(motion, sweep_period / span);
 }
 
+namespace {
+
+/** p' = motion^(t - 1/2) p with t = time(i, p) for each point i. */
+template <typename Time>
 Cloud::Ptr
-deskew(const Cloud& scan, const Pose& motion, unsigned num_threads, bool clockwise)
+deskewAt(const Cloud& scan, const Pose& motion, unsigned num_threads, Time time)
 {
   Cloud::Ptr out(new Cloud(scan));
   const ScrewMotion screw(motion);
@@ -128,11 +192,33 @@ deskew(const Cloud& scan, const Pose& motion, unsigned num_threads, bool clockwi
 #pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 20000)
   for (std::int64_t i = 0; i < n; ++i) {
     const PointT& p = scan[i];
-    const double s = sweepTime(p, clockwise) - 0.5; // motion^s, s in [-1/2, 1/2]
+    const double s = time(i, p) - 0.5; // motion^s, s in [-1/2, 1/2]
     (*out)[i].getVector3fMap() =
         screw.apply(s, p.getVector3fMap().cast<double>()).cast<float>();
   }
   return out;
+}
+
+} // namespace
+
+Cloud::Ptr
+deskew(const Cloud& scan, const Pose& motion, unsigned num_threads, bool clockwise)
+{
+  return deskewAt(scan, motion, num_threads, [clockwise](std::int64_t, const PointT& p) {
+    return sweepTime(p, clockwise);
+  });
+}
+
+Cloud::Ptr
+deskew(const Cloud& scan,
+       const std::vector<float>& sweep_times,
+       const Pose& motion,
+       unsigned num_threads)
+{
+  requireOnePerPoint(scan, sweep_times.size(), "deskew");
+  return deskewAt(scan, motion, num_threads, [&](std::int64_t i, const PointT&) {
+    return static_cast<double>(sweep_times[static_cast<std::size_t>(i)]);
+  });
 }
 
 } // namespace slam

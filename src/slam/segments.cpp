@@ -72,7 +72,7 @@ matchSegment(const Segment& segment,
       throw std::invalid_argument("scan " + std::to_string(i) + " could not be read");
     // The segment is mapped as the online pipeline maps a sequence: its own loops closed
     // as they come, the front end continuing from the corrected poses.
-    MatchedScan m = front_end.track(*scan.cloud, scan.odometry, scan.stamp);
+    MatchedScan m = front_end.track(*scan.cloud, scan.odometry, scan.stamp, scan.point_times);
     if (i >= segment.begin) {
       own.push_back(m);
       if (segment.first < segment.begin) // the scan it deskewed again is the last segment's

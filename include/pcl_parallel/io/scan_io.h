@@ -16,6 +16,13 @@
 namespace pcl_parallel {
 namespace io {
 
+/** The per-point time fields that loadPcdScan and loadPlyScan read, in order of
+ *  preference (the first present wins): Ouster's "t" (ns from the sweep's start),
+ *  Velodyne's "time" (s), "timestamp" (Hesai, Livox: absolute s), "time_stamp", Livox's
+ *  "offset_time" (ns). */
+inline constexpr const char* kPointTimeFields[] = {
+    "t", "time", "timestamp", "time_stamp", "offset_time"};
+
 /** Reads a plain-text point list (.xyz, .txt): one point per line, "x y z" separated by
  *  spaces, tabs or commas (one comma between two fields), so both the usual xyz exports
  *  and CSV without a header read. Further columns (intensity, RGB, labels) are ignored
@@ -62,11 +69,16 @@ loadKittiScan(const std::string& path,
  *  valid PCD header (a keyword twice or unknown, SIZE/TYPE/COUNT not one value a field,
  *  an invalid type, POINTS against WIDTH x HEIGHT), x, y or z is missing or not a single
  *  float, an ASCII line has another number of values than the fields take, or the body
- *  holds fewer points than the header (or, compressed, does not decompress to them). */
+ *  holds fewer points than the header (or, compressed, does not decompress to them).
+ *  With `point_times`, it receives the time of each returned point from the file's
+ *  per-point time field as stored (see kPointTimeFields for the names; the unit is the
+ *  driver's), or is left empty when there is none; a kept point whose time is not a finite
+ *  number is then an error naming the file and point. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadPcdScan(const std::string& path,
             double min_range = 0.0,
-            double max_range = std::numeric_limits<double>::infinity());
+            double max_range = std::numeric_limits<double>::infinity(),
+            std::vector<double>* point_times = nullptr);
 
 /** Reads a PLY scan (.ply; ascii, binary_little_endian or binary_big_endian): the vertex
  *  element's x, y, z (float or double), other properties and elements skipped by their
@@ -76,11 +88,12 @@ loadPcdScan(const std::string& path,
  *  the header is not a valid PLY header (no "ply" line, a format other than 1.0, an
  *  unknown keyword or type, element counts beyond the file size, no vertex element with
  *  x, y, z as single floats), or the data ends before the vertices do or does not match
- *  the declared properties. */
+ *  the declared properties. `point_times` as loadPcdScan's, from a vertex property. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadPlyScan(const std::string& path,
             double min_range = 0.0,
-            double max_range = std::numeric_limits<double>::infinity());
+            double max_range = std::numeric_limits<double>::infinity(),
+            std::vector<double>* point_times = nullptr);
 
 /** Reads a KITTI odometry poses file (poses/NN.txt): one pose a line, 12 numbers, the
  *  first three rows of [R|t] in row-major order, p_world = R·p + t (the left camera's
@@ -101,11 +114,13 @@ loadKittiPoses(const std::string& path);
  *  exist, is not a regular file, or cannot be parsed (also for PCD/PLY files without x, y,
  *  z fields), when a PCD/PLY header claims more points than the file size can hold, and
  *  when memory runs out (no
- *  bare std::bad_alloc). */
+ *  bare std::bad_alloc). `point_times`, if given, receives the per-point times of PCD and
+ *  PLY scans that have a time field (loadPcdScan); it stays empty for the other formats. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadScan(const std::string& path,
          double min_range = 0.0,
-         double max_range = std::numeric_limits<double>::infinity());
+         double max_range = std::numeric_limits<double>::infinity(),
+         std::vector<double>* point_times = nullptr);
 
 /** True when loadScan supports the extension of \a path (case-insensitive); looks at the
  *  name only, not the file, so it serves to filter a directory listing. */

@@ -137,11 +137,15 @@ public:
   /** Matches the next scan (scanner frame). `odometry`: its odometry pose, if known;
    *  `stamp`: its time (s). With time stamps, constant velocity is per second, not per
    *  scan (keyframes come at uneven intervals), and deskewing by sweep_period takes one
-   *  sweep's share of the step (without them, the whole predicted step). */
+   *  sweep's share of the step (without them, the whole predicted step). `sweep_times`:
+   *  each point's time in its sweep (sweepFractions), deskewing by those instead of the
+   *  azimuth; empty: by azimuth (sweep_clockwise). Throws std::invalid_argument for
+   *  sweep_times of another size than the scan's. */
   FrontEndResult
   track(const Cloud& scan,
         const std::optional<Pose>& odometry = std::nullopt,
-        std::optional<double> stamp = std::nullopt);
+        std::optional<double> stamp = std::nullopt,
+        const std::vector<float>& sweep_times = {});
 
   /** Moves the front end's state (last pose, map) by a rigid correction, e.g. after
    *  loop closing moved the latest scan from last pose to correction * last pose. */
@@ -204,9 +208,10 @@ private:
                  double& start_offset);
   bool
   hasPrevious() const;
-  /** The scan deskewed by the sweep's motion (params_.deskew) and reduced. */
+  /** The scan deskewed by the sweep's motion (params_.deskew; at its points' sweep times
+   *  when given, else by azimuth) and reduced. */
   Cloud::Ptr
-  reduce(const Cloud& scan, const Pose& sweep) const;
+  reduce(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
   /** The first scan deskewed by `sweep` and reduced, the map and previous scan made of it
    *  again (pose_ still the first scan's). */
   ReducedScan
@@ -244,6 +249,7 @@ private:
   double odometry_span_ = 0.0;        ///< ... taken over this many seconds (0: unknown)
   std::optional<double> last_stamp_;
   Cloud::Ptr first_scan_; ///< the first scan as given, until the first step is known
+  std::vector<float> first_scan_times_; ///< its points' sweep times, if given
 };
 
 } // namespace slam

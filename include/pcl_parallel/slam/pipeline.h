@@ -144,14 +144,18 @@ public:
   ~Pipeline();
 
   /** Adds the next scan (scanner frame) with its odometry pose and its time stamp (s),
-   *  if known: either every scan has one or none. Returns the scan's index. Throws
-   *  std::invalid_argument for a scan with no points left after cropping, a non-finite
-   *  odometry pose or stamp, or, when deskewing by a sweep period, a missing stamp or one
-   *  not after the previous scan's. */
+   *  if known: either every scan has one or none. `point_times`: each point's time as the
+   *  driver gives it (any unit and origin, e.g. a PCD's "t" field; io::loadScan reads
+   *  them), which deskewing then uses instead of the azimuth (sweepFractions); empty: none.
+   *  Returns the scan's index. Throws std::invalid_argument for a scan with no points
+   *  left after cropping, a non-finite odometry pose, stamp or point time, point times of
+   *  another count than the points, or, when deskewing by a sweep period, a missing stamp
+   *  or one not after the previous scan's. */
   std::size_t
   addScan(const Cloud& scan,
           const std::optional<Pose>& odometry = std::nullopt,
-          std::optional<double> stamp = std::nullopt);
+          std::optional<double> stamp = std::nullopt,
+          const std::vector<double>& point_times = {});
 
   /** addScan's first half: crops the scan and runs the front end on it (the pose graph
    *  is not touched). A pipeline used for this alone matches a segment of a sequence
@@ -159,7 +163,8 @@ public:
   MatchedScan
   track(const Cloud& scan,
         const std::optional<Pose>& odometry = std::nullopt,
-        std::optional<double> stamp = std::nullopt);
+        std::optional<double> stamp = std::nullopt,
+        const std::vector<double>& point_times = {});
 
   /** addScan's second half for a scan this pipeline's track() matched: adds it to the
    *  pose graph at its front-end pose, detects loops, relaxes, and moves the front end to

@@ -9,6 +9,7 @@
 #include <pcl_parallel/slam/types.h>
 
 #include <cmath>
+#include <vector>
 
 namespace pcl_parallel {
 namespace slam {
@@ -16,6 +17,21 @@ namespace slam {
 /** The finite points whose distance from the scanner lies in [min_range, max_range]. */
 Cloud::Ptr
 cropRange(const Cloud& scan, double min_range, double max_range);
+/** ... and the times of the points kept (`times`: one per point of `scan`). */
+Cloud::Ptr
+cropRange(const Cloud& scan,
+          double min_range,
+          double max_range,
+          const std::vector<float>& times,
+          std::vector<float>& kept_times);
+
+/** Per-point times in any unit and origin (a driver's time field: ns, s, absolute s) as
+ *  fractions of the sweep, 0 at the earliest and 1 at the latest point (as KISS-ICP
+ *  normalises per-point timestamps). All equal: 0.5 each, the sweep's middle, which
+ *  deskewing leaves where it is. Throws std::invalid_argument for a time that is not
+ *  finite. */
+std::vector<float>
+sweepFractions(const std::vector<double>& times);
 
 /** Time of a point within its sweep, in [0, 1], for a spinning LiDAR that starts facing
  *  backwards (-x) and turns clockwise seen from +z (KITTI's Velodyne; KISS-ICP derives
@@ -61,6 +77,15 @@ sweepMotion(const Pose& motion, double span, double sweep_period);
  */
 Cloud::Ptr
 deskew(const Cloud& scan, const Pose& motion, unsigned num_threads = 0, bool clockwise = true);
+/** ... with each point's sweep time t from `sweep_times` (sweepFractions, one per point)
+ *  instead of its azimuth: any scan pattern (a solid-state LiDAR's, a head turning either
+ *  way) with per-point times. Throws std::invalid_argument for a size other than the
+ *  scan's. */
+Cloud::Ptr
+deskew(const Cloud& scan,
+       const std::vector<float>& sweep_times,
+       const Pose& motion,
+       unsigned num_threads = 0);
 
 } // namespace slam
 } // namespace pcl_parallel

@@ -33,12 +33,13 @@ struct Segment {
 std::vector<Segment>
 splitSequence(std::size_t num_scans, std::size_t segment_size, std::size_t overlap);
 
-/** A scan of a sequence (scanner frame) with its odometry pose and time stamp (s), if
- *  known (as Pipeline::addScan takes them). */
+/** A scan of a sequence (scanner frame) with its odometry pose, time stamp (s) and
+ *  per-point times, if known (as Pipeline::addScan takes them). */
 struct SourceScan {
   Cloud::Ptr cloud;
   std::optional<Pose> odometry;
   std::optional<double> stamp;
+  std::vector<double> point_times;
 };
 
 /** Scan i of a sequence; throws on a scan that cannot be read. */
