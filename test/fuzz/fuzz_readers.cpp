@@ -192,9 +192,16 @@ read(const std::string& path)
   }
   else {
     // The scan formats through loadScan (the extension picks the reader), once unfiltered
-    // and once with a range filter.
+    // and once with a range filter and the per-point times: one finite time a point, or
+    // none.
     checkCloud(*loadScan(path));
-    checkCloud(*loadScan(path, 0.5, 100.0));
+    std::vector<double> times;
+    const auto timed = loadScan(path, 0.5, 100.0, &times);
+    checkCloud(*timed);
+    if (!times.empty() &&
+        (times.size() != timed->size() ||
+         !std::all_of(times.begin(), times.end(), [](double t) { return std::isfinite(t); })))
+      std::abort();
   }
 }
 

@@ -130,6 +130,16 @@ main(int argc, char** argv)
   seed("ply", "ascii", slurp(ply));
   pcl::io::savePLYFileBinary(ply, cloud);
   seed("ply", "binary", slurp(ply));
+  // Per-point time fields (Ouster's uint32 "t", Velodyne's float "time").
+  seed("pcd",
+       "time_field",
+       "VERSION .7\nFIELDS x y z t\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH 3\n"
+       "HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 3\nDATA ascii\n1 0 0 0\n0 2 0 50000\n"
+       "0 0 3 100000\n");
+  seed("ply",
+       "time_field",
+       "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+       "property float z\nproperty float time\nend_header\n1 0 0 0\n0 2 0 0.05\n");
   fs::remove(pcd);
   fs::remove(ply);
   return 0;
