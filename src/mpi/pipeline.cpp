@@ -151,11 +151,7 @@ readMatched(Reader& in)
   slam::ScanReport& r = m.report;
   r.points = in.get<std::uint64_t>();
   r.reduced_points = in.get<std::uint64_t>();
-  r.source_points = fe.source_points;
-  r.converged = fe.converged;
-  r.fitness = fe.fitness;
-  r.gate = fe.gate;
-  r.start_offset = fe.start_offset;
+  r.setMatch(fe);
   r.correction = in.get<double>();
   r.seconds = in.get<double>();
   return m;

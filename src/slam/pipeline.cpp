@@ -209,11 +209,7 @@ Pipeline::track(const Cloud& scan,
   // The front end's own step: chained without the loop closures' corrections.
   out.step = tracked_ == 0 ? fe.pose : Pose(before.inverse() * fe.pose);
   report.reduced_points = fe.scan.reduced->size();
-  report.source_points = fe.source_points;
-  report.converged = fe.converged;
-  report.fitness = fe.fitness;
-  report.gate = fe.gate;
-  report.start_offset = fe.start_offset;
+  report.setMatch(fe);
   report.correction = registration::motionDisplacement(fe.prediction.inverse() * fe.pose,
                                                        loop_params_.median_range);
   times_.front_end += seconds(stage);

@@ -95,6 +95,18 @@ struct ScanReport {
   int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
   /** After finish(): LoopCloser::sequenceChi2() of this scan (-1: no constraint). */
   double sequence_chi2 = -1.0;
+
+  /** Takes the match's figures from the front end's result: source points, convergence,
+   *  fitness, gate and start offset (one place for the pipeline and the MPI reader). */
+  void
+  setMatch(const FrontEndResult& fe)
+  {
+    source_points = fe.source_points;
+    converged = fe.converged;
+    fitness = fe.fitness;
+    gate = fe.gate;
+    start_offset = fe.start_offset;
+  }
 };
 
 /** A scan after the front end (Pipeline::track), as the loop-closing half takes it
