@@ -298,7 +298,8 @@ TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
 TEST(Pipeline, DeskewsByThePointsTimesWhenGiven)
 {
   const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 6 : 30);
-  const auto frontEnd = [&](int times) { // 0: none (azimuth), 1: the sweep's, -1: reversed
+  enum class Times { kNone, kSweep, kReversed, kZero };
+  const auto frontEnd = [&](Times times) {
     slam::Parameters p = frontEndOnly();
     p.deskew = true;
     p.min_range = 4.0;
@@ -307,22 +308,30 @@ TEST(Pipeline, DeskewsByThePointsTimesWhenGiven)
     for (std::size_t i = 0; i < set.scans.size(); ++i) {
       Cloud scan = *set.scans[i];
       std::vector<double> t;
-      if (times != 0) {
+      if (times == Times::kZero)
+        t.assign(scan.size(), 0.0);
+      else if (times != Times::kNone) {
         std::shuffle(scan.begin(), scan.end(), rng);
-        for (const auto& q : scan)
-          t.push_back(
-              std::round(1e8 * (times > 0 ? slam::sweepTime(q) : 1 - slam::sweepTime(q))));
+        for (const auto& q : scan) {
+          const double s = slam::sweepTime(q);
+          t.push_back(std::round(1e8 * (times == Times::kSweep ? s : 1 - s)));
+        }
       }
       pipeline.addScan(scan, set.odometry[i], std::nullopt, t);
     }
-    return evaluation::absoluteTrajectoryError(
-               pipeline.frontEndPoses(), set.truth, evaluation::Alignment::SE3)
+    return pipeline.frontEndPoses();
+  };
+  const auto ate = [&](const Poses& poses) {
+    return evaluation::absoluteTrajectoryError(poses, set.truth, evaluation::Alignment::SE3)
         .translation.rmse;
   };
-  const double azimuth = frontEnd(0), timed = frontEnd(1);
+  const Poses by_azimuth = frontEnd(Times::kNone);
+  const double azimuth = ate(by_azimuth), timed = ate(frontEnd(Times::kSweep));
+  // Times all equal (a driver that leaves the field zero) tell nothing: by azimuth.
+  EXPECT_EQ(frontEnd(Times::kZero), by_azimuth);
   if (test::kSanitized)
     return;
-  const double reversed = frontEnd(-1);
+  const double reversed = ate(frontEnd(Times::kReversed));
   std::printf("kitti, front end ATE [m]: deskewed by azimuth %.4f, by the points' times %.4f, "
               "by reversed times %.4f\n",
               azimuth,
@@ -977,6 +986,9 @@ TEST(Preprocess, SweepFractionsSpanTheSweepInAnyUnit)
   EXPECT_EQ(slam::sweepFractions({3, 3}), (std::vector<float>{0.5f, 0.5f})); // no skew
   EXPECT_TRUE(slam::sweepFractions({}).empty());
   EXPECT_THROW(slam::sweepFractions({0, NAN}), std::invalid_argument);
+  EXPECT_TRUE(slam::spansSweep({0, 0, 1e-9}));
+  EXPECT_FALSE(slam::spansSweep({3, 3, 3}));
+  EXPECT_FALSE(slam::spansSweep({}));
 }
 
 // A keyframe's skew is one sweep's share of the step since the previous keyframe.

@@ -16,6 +16,7 @@
 #include "slam_pipeline.h"
 
 #include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/slam/preprocess.h>
 
 #include <pcl/console/print.h>
 
@@ -135,7 +136,7 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
       const auto start = std::chrono::steady_clock::now();
       pcl_parallel::slam::SourceScan scan;
       scan.cloud = pcl_pslam::readScan(in, k, params.deskew ? &scan.point_times : nullptr);
-      in.timed_scans += scan.point_times.empty() ? 0 : 1;
+      in.timed_scans += pcl_parallel::slam::spansSweep(scan.point_times) ? 1 : 0;
       in.read_seconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       return scan;
@@ -156,7 +157,7 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     if (params.deskew && r.ranks == 1)
       progress.note(in.timed_scans == in.size() ? "deskewed by the points' time field"
                     : in.timed_scans == 0
-                        ? "deskewed by azimuth (the scans have no per-point time field)"
+                        ? "deskewed by azimuth (no per-point times in the scans)"
                         : "deskewed by the points' time field in " +
                               std::to_string(in.timed_scans) + " of " +
                               std::to_string(in.size()) + " scans, else by azimuth");

@@ -187,7 +187,7 @@ Pipeline::track(const Cloud& scan,
   report.points = scan.size();
   // Sweep times over the whole scan as given, then cropped with their points.
   std::vector<float> sweep_times;
-  const Cloud::Ptr cropped = point_times.empty()
+  const Cloud::Ptr cropped = !spansSweep(point_times)
                                  ? cropRange(scan, params_.min_range, params_.max_range)
                                  : cropRange(scan,
                                              params_.min_range,

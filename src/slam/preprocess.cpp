@@ -53,6 +53,12 @@ requireOnePerPoint(const Cloud& scan, std::size_t times, const char* function)
 
 } // namespace
 
+bool
+spansSweep(const std::vector<double>& times)
+{
+  return std::any_of(times.begin(), times.end(), [&](double t) { return t != times.front(); });
+}
+
 Cloud::Ptr
 cropRange(const Cloud& scan, double min_range, double max_range)
 {

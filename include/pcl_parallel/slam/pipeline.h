@@ -158,7 +158,8 @@ public:
   /** Adds the next scan (scanner frame) with its odometry pose and its time stamp (s),
    *  if known: either every scan has one or none. `point_times`: each point's time as the
    *  driver gives it (any unit and origin, e.g. a PCD's "t" field; io::loadScan reads
-   *  them), which deskewing then uses instead of the azimuth (sweepFractions); empty: none.
+   *  them), which deskewing then uses instead of the azimuth (sweepFractions); empty or
+   *  all equal (spansSweep): by azimuth.
    *  Returns the scan's index. Throws std::invalid_argument for a scan with no points
    *  left after cropping, a non-finite odometry pose, stamp or point time, point times of
    *  another count than the points, or, when deskewing by a sweep period, a missing stamp

@@ -33,6 +33,12 @@ cropRange(const Cloud& scan,
 std::vector<float>
 sweepFractions(const std::vector<double>& times);
 
+/** True when per-point times span a sweep: at least two different values. Times all
+ *  equal (a driver that leaves its time field zero) say nothing of when a point was
+ *  measured. */
+bool
+spansSweep(const std::vector<double>& times);
+
 /** Time of a point within its sweep, in [0, 1], for a spinning LiDAR that starts facing
  *  backwards (-x) and turns clockwise seen from +z (KITTI's Velodyne; KISS-ICP derives
  *  KITTI's timestamps the same way): t = (1 - atan2(y, x) / pi) / 2, 0.5 facing forwards;
