@@ -783,6 +783,34 @@ TEST(ScanSetWriter, KittiRoundTrip)
   fs::remove_all(dir);
 }
 
+// PCD: the same points as the .bin, each with its time in the sweep as Ouster's "t" (ns
+// from the sweep's start), which the PCD reader gives back; odometry and truth as KITTI.
+TEST(ScanSetWriter, PcdRoundTripWithPointTimes)
+{
+  PresetOptions o;
+  o.max_scans = 2;
+  const SimulatedScanSet set = simulatePreset("kitti", o);
+  ASSERT_EQ(set.point_times.size(), 2u);
+  const fs::path dir = tempDir("pcd");
+  writeScanSet(set, dir.string(), ScanSetFormat::Pcd);
+  EXPECT_EQ(pcl_parallel::io::loadKittiPoses((dir / "odometry.txt").string()), set.odometry);
+  EXPECT_EQ(pcl_parallel::io::loadKittiPoses((dir / "ground_truth.txt").string()), set.truth);
+  for (std::size_t i = 0; i < 2; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "%06zu.pcd", i);
+    std::vector<double> times;
+    const auto cloud = pcl_parallel::io::loadScan((dir / name).string(), 0.0, 1e9, &times);
+    ASSERT_EQ(cloud->size(), set.scans[i]->size());
+    ASSERT_EQ(times.size(), cloud->size());
+    for (std::size_t k = 0; k < cloud->size(); ++k) {
+      ASSERT_EQ((*cloud)[k].getVector3fMap(), (*set.scans[i])[k].getVector3fMap());
+      ASSERT_NEAR(times[k], 1e9 * set.scanner.sweep_period * set.point_times[i][k], 0.5);
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir / "000000.bin"));
+  fs::remove_all(dir);
+}
+
 TEST(ScanSetWriter, ErrorsNameTheProblem)
 {
   SimulatedScanSet set;

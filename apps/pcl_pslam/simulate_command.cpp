@@ -12,6 +12,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <iterator>
+#include <utility>
 
 namespace pcl_pslam {
 
@@ -20,7 +22,7 @@ namespace po = boost::program_options;
 int
 simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err)
 {
-  std::string preset, dir;
+  std::string preset, dir, format = "auto";
   std::uint32_t seed = 1;
   unsigned threads = 0;
   po::options_description visible("simulate options");
@@ -28,13 +30,19 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
                         po::value(&preset)->value_name("NAME"),
                         "office, hannover, riegl or kitti (see --list)")(
       "seed", po::value(&seed)->default_value(1), "random seed; the same seed, the same files")(
+      "format,f",
+      po::value(&format)->value_name("F")->default_value("auto"),
+      "auto (uos for stop-and-go presets, kitti for kitti), uos, kitti (NNNNNN.bin), or pcd "
+      "(NNNNNN.pcd with each point's time in a uint32 field t, ns from the sweep's start, as "
+      "Ouster's driver writes it)")(
       "threads,t", po::value(&threads)->default_value(0), "threads, 0 = all cores")(
       "list", "the presets, one line each")("help,h", "this text");
   po::options_description all;
   all.add(visible).add_options()("dir", po::value(&dir));
   po::positional_options_description positional;
   positional.add("dir", 1);
-  const std::string usage = "usage: pcl_pslam simulate --preset NAME [--seed N] OUT_DIR\n";
+  const std::string usage =
+      "usage: pcl_pslam simulate --preset NAME [--seed N] [--format F] OUT_DIR\n";
   po::variables_map vm;
   try {
     po::store(po::command_line_parser(args).options(all).positional(positional).run(), vm);
@@ -47,7 +55,7 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
   if (vm.count("help")) {
     out << usage
         << "\nWrites the scans (uos scanNNN.3d + .pose for stop-and-go presets, "
-           "KITTI NNNNNN.bin + odometry.txt + times.txt for kitti) and "
+           "KITTI NNNNNN.bin + odometry.txt + times.txt for kitti; --format to choose) and "
            "ground_truth.txt (KITTI poses) into OUT_DIR, which `pcl_pslam run "
            "OUT_DIR` reads back.\n\n"
         << visible;
@@ -67,13 +75,24 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
     err << "pcl_pslam simulate: unknown preset '" << preset << "' (see --list)\n";
     return 2;
   }
+  using pcl_parallel::sim::ScanSetFormat;
+  const std::pair<const char*, ScanSetFormat> formats[] = {{"auto", ScanSetFormat::Auto},
+                                                           {"uos", ScanSetFormat::Uos},
+                                                           {"kitti", ScanSetFormat::Kitti},
+                                                           {"pcd", ScanSetFormat::Pcd}};
+  const auto chosen = std::find_if(
+      std::begin(formats), std::end(formats), [&](const auto& f) { return format == f.first; });
+  if (chosen == std::end(formats)) {
+    err << "pcl_pslam simulate: unknown --format '" << format << "' (auto, uos, kitti, pcd)\n";
+    return 2;
+  }
   try {
     const auto start = std::chrono::steady_clock::now();
     pcl_parallel::sim::PresetOptions options;
     options.seed = seed;
     options.num_threads = threads;
     const auto set = pcl_parallel::sim::simulatePreset(preset, options);
-    pcl_parallel::sim::writeScanSet(set, dir);
+    pcl_parallel::sim::writeScanSet(set, dir, chosen->second);
     std::size_t points = 0;
     for (const auto& s : set.scans)
       points += s->size();

@@ -184,20 +184,48 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
     }
   }
   else {
+    const bool pcd = format == ScanSetFormat::Pcd;
     std::vector<unsigned char> bytes;
+    const auto put = [&](std::uint32_t u) { // little-endian on any host
+      for (int b = 0; b < 4; ++b)
+        bytes.push_back(static_cast<unsigned char>(u >> (8 * b)));
+    };
+    const auto bits = [](float v) {
+      std::uint32_t u;
+      std::memcpy(&u, &v, 4);
+      return u;
+    };
     for (std::size_t i = 0; i < n; ++i) {
+      const auto& scan = *set.scans[i];
       bytes.clear();
-      bytes.reserve(16 * set.scans[i]->size());
-      for (const auto& p : *set.scans[i])
-        for (const float v : {p.x, p.y, p.z, 0.0f}) { // little-endian on any host
-          std::uint32_t u;
-          std::memcpy(&u, &v, 4);
-          for (int b = 0; b < 4; ++b)
-            bytes.push_back(static_cast<unsigned char>(u >> (8 * b)));
-        }
-      AtomicFile bin((root / numbered("%06u.bin", i)).string());
-      bin.write(bytes.data(), bytes.size());
-      bin.commit();
+      bytes.reserve(16 * scan.size() + 256);
+      if (pcd) {
+        const std::string size = std::to_string(scan.size());
+        const std::string header =
+            "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z t\n"
+            "SIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH " +
+            size + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + size + "\nDATA binary\n";
+        bytes.insert(bytes.end(), header.begin(), header.end());
+      }
+      const bool timed = pcd && !set.point_times.empty();
+      if (timed && set.point_times[i].size() != scan.size())
+        throw std::invalid_argument(
+            "pcl_parallel::sim: writeScanSet: scan " + std::to_string(i) + " has " +
+            std::to_string(set.point_times[i].size()) + " point times for " +
+            std::to_string(scan.size()) + " points");
+      for (std::size_t k = 0; k < scan.size(); ++k) {
+        const auto& p = scan[k];
+        put(bits(p.x)), put(bits(p.y)), put(bits(p.z));
+        if (!pcd)
+          put(bits(0.0f)); // intensity
+        else               // ns from the sweep's start
+          put(timed ? static_cast<std::uint32_t>(
+                          std::llround(1e9 * set.scanner.sweep_period * set.point_times[i][k]))
+                    : 0u);
+      }
+      AtomicFile file((root / numbered(pcd ? "%06u.pcd" : "%06u.bin", i)).string());
+      file.write(bytes.data(), bytes.size());
+      file.commit();
     }
     io::writeKittiPoses((root / "odometry.txt").string(), set.odometry);
     std::string times;

@@ -16,7 +16,7 @@ namespace sim {
 
 /** Which files writeScanSet writes: Auto is Kitti for a set taken while moving (it has
  *  point_times), Uos otherwise. */
-enum class ScanSetFormat { Auto, Uos, Kitti };
+enum class ScanSetFormat { Auto, Uos, Kitti, Pcd };
 
 /** 3DTK's left-handed frame (x right, y up, z forward) from ours (x forward, y left, z
  *  up): x' = -y, y' = z, z' = x (a reflection, det -1). */
@@ -39,8 +39,11 @@ toUosFrame(const Eigen::Matrix4d& pose);
  *   intensity 0; raw, skewed sweeps for a moving set), odometry.txt (KITTI pose lines
  *   of the odometry, the sensor's own frame, no camera calibration), times.txt (one
  *   timestamp a scan, seconds, the mid-sweep time).
- * - both: ground_truth.txt, the true poses as KITTI pose lines in the frame and units the
- *   reader produces (Uos: 3DTK's axes, metres; Kitti: the sensor frame, metres), i.e.
+ * - Pcd: as Kitti, but NNNNNN.pcd (binary PCD: float32 x y z, uint32 t, each point's
+ *   time in ns from the sweep's start, as Ouster's driver writes it; 0 for a stop-and-go
+ *   set) instead of the .bin files.
+ * - all: ground_truth.txt, the true poses as KITTI pose lines in the frame and units the
+ *   reader produces (Uos: 3DTK's axes, metres; Kitti, Pcd: the sensor frame, metres), i.e.
  *   what `pcl_pslam run DIR` should recover.
  * Creates dir if needed. Throws std::runtime_error naming the file that cannot be
  * written, std::invalid_argument for a set whose sizes disagree.
