@@ -132,11 +132,16 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     params.mpi = ranks.size() > 1;
     // Streamed: each scan is read when the pipeline takes it, and dropped after.
     // Per-point times only matter to deskewing: read then, if the files have them.
+    // Segments read their overlap scans again: each scan is counted once.
+    std::vector<bool> timed(in.size(), false);
     auto read = [&](std::size_t k) {
       const auto start = std::chrono::steady_clock::now();
       pcl_parallel::slam::SourceScan scan;
       scan.cloud = pcl_pslam::readScan(in, k, params.deskew ? &scan.point_times : nullptr);
-      in.timed_scans += pcl_parallel::slam::spansSweep(scan.point_times) ? 1 : 0;
+      if (!timed[k] && pcl_parallel::slam::spansSweep(scan.point_times)) {
+        timed[k] = true;
+        ++in.timed_scans;
+      }
       in.read_seconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       return scan;
