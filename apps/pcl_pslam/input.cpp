@@ -228,6 +228,22 @@ readScan(const Input& in, std::size_t k, std::vector<double>* point_times)
   return cloud;
 }
 
+std::string
+deskewNote(const Input& in, bool deskew)
+{
+  if (!deskew)
+    return in.timed_scans == 0
+               ? ""
+               : "the scans carry per-point times: --deskew would deskew each "
+                 "point by its own (unless they are motion-compensated already)";
+  if (in.timed_scans == in.size())
+    return "deskewed by the points' time field";
+  if (in.timed_scans == 0)
+    return "deskewed by azimuth (no per-point times in the scans)";
+  return "deskewed by the points' time field in " + std::to_string(in.timed_scans) + " of " +
+         std::to_string(in.size()) + " scans, else by azimuth";
+}
+
 std::vector<Cloud::Ptr>
 readAllScans(const Input& in)
 {

@@ -28,12 +28,14 @@ struct Input {
   std::vector<double> stamps;     ///< per scan: time (s), or the number when none given
   bool has_stamps = false;
   double read_seconds = 0.0; ///< time spent reading scans (by this rank; filled by the caller)
-  std::size_t timed_scans = 0; ///< scans read with per-point times (likewise)
-  std::string format;          ///< "3d", "bin", ...
-  double scale = 1.0;          ///< file coordinates times scale = metres
-  int up = 2;                  ///< vertical axis
-  bool frames_3dtk = false;    ///< data in 3DTK's frame and units: .frames in those
-  double min_range = 0.0;      ///< -M, files' units
+  /** Scans whose per-point times span a sweep (likewise; without --deskew only the first
+   *  scan is looked at). */
+  std::size_t timed_scans = 0;
+  std::string format;       ///< "3d", "bin", ...
+  double scale = 1.0;       ///< file coordinates times scale = metres
+  int up = 2;               ///< vertical axis
+  bool frames_3dtk = false; ///< data in 3DTK's frame and units: .frames in those
+  double min_range = 0.0;   ///< -M, files' units
   double max_range = std::numeric_limits<double>::infinity(); ///< -m, files' units
 
   std::size_t
@@ -57,6 +59,12 @@ openDirectory(const Options& o);
  *  `point_times`) a kept point's time is not finite. */
 Cloud::Ptr
 readScan(const Input& in, std::size_t k, std::vector<double>* point_times = nullptr);
+
+/** What the run did about deskewing, from in.timed_scans (counted as the scans were
+ *  read): by the points' times, by azimuth, or both; without deskewing, a hint when the
+ *  first scan carries per-point times. Empty: nothing to say. */
+std::string
+deskewNote(const Input& in, bool deskew);
 
 /** Every scan of `in` (small sets and tests; `run` streams them). */
 std::vector<Cloud::Ptr>

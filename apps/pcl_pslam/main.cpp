@@ -131,17 +131,23 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
                                   o.dir + " or its parent");
     params.mpi = ranks.size() > 1;
     // Streamed: each scan is read when the pipeline takes it, and dropped after.
-    // Per-point times only matter to deskewing: read then, if the files have them.
-    // Segments read their overlap scans again: each scan is counted once.
+    // Per-point times only matter to deskewing: read then (without --deskew, the first
+    // scan's, to tell the user they are there). Segments read their overlap scans again:
+    // each scan is counted once.
     std::vector<bool> timed(in.size(), false);
+    bool looked = false;
     auto read = [&](std::size_t k) {
       const auto start = std::chrono::steady_clock::now();
       pcl_parallel::slam::SourceScan scan;
-      scan.cloud = pcl_pslam::readScan(in, k, params.deskew ? &scan.point_times : nullptr);
+      const bool times = params.deskew || !looked;
+      looked = true;
+      scan.cloud = pcl_pslam::readScan(in, k, times ? &scan.point_times : nullptr);
       if (!timed[k] && pcl_parallel::slam::spansSweep(scan.point_times)) {
         timed[k] = true;
         ++in.timed_scans;
       }
+      if (!params.deskew)
+        scan.point_times.clear();
       in.read_seconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       return scan;
@@ -159,13 +165,9 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     for (const auto& report : r.reports)
       points += report.points;
     const std::string read_time = std::to_string(in.read_seconds).substr(0, 4) + " s";
-    if (params.deskew && r.ranks == 1)
-      progress.note(in.timed_scans == in.size() ? "deskewed by the points' time field"
-                    : in.timed_scans == 0
-                        ? "deskewed by azimuth (no per-point times in the scans)"
-                        : "deskewed by the points' time field in " +
-                              std::to_string(in.timed_scans) + " of " +
-                              std::to_string(in.size()) + " scans, else by azimuth");
+    if (r.ranks == 1)
+      if (const std::string note = pcl_pslam::deskewNote(in, params.deskew); !note.empty())
+        progress.note(note);
     progress.note(std::to_string(points) + " points read" +
                   (r.ranks > 1 ? " by " + std::to_string(r.ranks) + " ranks (rank 0's in " +
                                      read_time + ")"

@@ -450,8 +450,8 @@ writeOutputs(const Options& o,
       {"odometry", in.odometry},
       {"poses_file", o.poses_file},
       {"timestamps", in.has_stamps},
-      {"scans_with_point_times", // counted where read: rank 0 alone under MPI
-       r.ranks > 1 ? nlohmann::json(nullptr) : nlohmann::json(in.timed_scans)},
+      {"scans_with_point_times", // counted where read (rank 0 alone under MPI), with --deskew
+       r.ranks > 1 || !o.deskew ? nlohmann::json(nullptr) : nlohmann::json(in.timed_scans)},
       {"first", o.first},
       {"last", o.last},
       {"min_range", o.min_range},
