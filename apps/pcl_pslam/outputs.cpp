@@ -521,6 +521,7 @@ writeOutputs(const Options& o,
     s["icp_gate"] = rep.gate;
     s["icp_correction"] = rep.correction;
     s["icp_start_offset"] = rep.start_offset;
+    s["icp_start_turn"] = rep.start_turn;
     s["icp_source_points"] = rep.source_points;
     s["seconds"] = rep.seconds;
     s["lum_iterations"] = rep.lum_iterations;

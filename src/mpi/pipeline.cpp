@@ -110,6 +110,7 @@ writeMatched(Writer& w, const slam::MatchedScan& m)
   w.put(fe.fitness);
   w.put(fe.gate);
   w.put(fe.start_offset);
+  w.put(fe.start_turn);
   const slam::ScanReport& r = m.report;
   w.put<std::uint64_t>(r.points);
   w.put<std::uint64_t>(r.reduced_points);
@@ -148,6 +149,7 @@ readMatched(Reader& in)
   fe.fitness = in.get<double>();
   fe.gate = in.get<double>();
   fe.start_offset = in.get<double>();
+  fe.start_turn = in.get<double>();
   slam::ScanReport& r = m.report;
   r.points = in.get<std::uint64_t>();
   r.reduced_points = in.get<std::uint64_t>();

@@ -283,24 +283,19 @@ FrontEnd::track(const Cloud& scan,
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
       matched = align(icp,
-                      initialGuess(source, r.prediction, odometry.has_value(), r.start_offset),
+                      initialGuess(source, r.prediction, odometry.has_value(), r),
                       r.gate,
                       params_.final_correspondence_distance,
                       icp_->threshold != nullptr,
                       r.prediction,
                       priorSpreadIfUsed());
     }
-    else { // the speed hypotheses' best start refined, if one beats the prediction's
-      Eigen::Vector3d travel;
-      const double sigma = odometry ? 0.0 : hypothesisSpacing(r.prediction, travel);
+    else { // the hypotheses' best start refined, if one beats the prediction's
+      const Hypotheses h = odometry ? Hypotheses() : hypotheses(*source, r.prediction);
       std::optional<Pose> better;
-      if (sigma > 0.0)
-        better = bestHypothesis(source,
-                                r.prediction,
-                                alignToPrevious(source, r.prediction, false),
-                                travel,
-                                sigma,
-                                r.start_offset);
+      if (h.any())
+        better = bestHypothesis(
+            source, r.prediction, alignToPrevious(source, r.prediction, false), h, r);
       matched = better ? alignToPrevious(source, *better, true, &r.prediction)
                        : alignToPrevious(source, r.prediction, true);
     }
@@ -438,16 +433,30 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
   return Pose(pose_ * *matched);
 }
 
-double
-FrontEnd::hypothesisSpacing(const Pose& prediction, Eigen::Vector3d& travel) const
+FrontEnd::Hypotheses
+FrontEnd::hypotheses(const Cloud& source, const Pose& prediction) const
 {
-  if (!params_.speed_hypotheses || !hasPrevious())
-    return 0.0;
-  // Travel: along the predicted step, or the way the scanner last moved (in its frame).
-  const Eigen::Vector3d step = (pose_.inverse() * prediction).topRightCorner<3, 1>();
-  travel = step.norm() >= params_.voxel_size ? step.normalized() : heading_;
-  const double sigma = gate() / 3.0;
-  return travel.isZero() || !(2.0 * sigma > sameSolution()) ? 0.0 : sigma;
+  Hypotheses h;
+  if (!params_.speed_hypotheses || !hasPrevious() || source.empty())
+    return h;
+  const double same = sameSolution();
+  const Pose step = pose_.inverse() * prediction;
+  // Speed: along the predicted step, or the way the scanner last moved (in its frame).
+  const Eigen::Vector3d t = step.topRightCorner<3, 1>();
+  h.travel = t.norm() >= params_.voxel_size ? t.normalized() : heading_;
+  if (!h.travel.isZero() && 2.0 * gate() / 3.0 > same)
+    h.sigma = gate() / 3.0;
+  // Turn rate: the predicted turn stopped or doubled moves the scan's points at its median
+  // range by the turn's angle times that range; tried where that leaves the refinement gate.
+  std::vector<float> ranges(source.size());
+  for (std::size_t i = 0; i < source.size(); ++i)
+    ranges[i] = source[i].getVector3fMap().norm();
+  std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
+  h.range = ranges[ranges.size() / 2];
+  const Eigen::AngleAxisd turn(Eigen::Matrix3d(step.topLeftCorner<3, 3>()));
+  if (turn.angle() * h.range > same)
+    h.turn = turn;
+  return h;
 }
 
 double
@@ -461,35 +470,43 @@ std::optional<Pose>
 FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
                          const Pose& prediction,
                          const std::optional<Pose>& own,
-                         const Eigen::Vector3d& travel,
-                         double sigma,
-                         double& start_offset)
+                         const Hypotheses& h,
+                         FrontEndResult& r)
 {
   const double gate = this->gate(), same = sameSolution();
   double best =
       own ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
   std::optional<Pose> winner;
-  for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
-    if (!(std::abs(k) * sigma > same))
-      continue;
-    Pose start = prediction;
-    start.topRightCorner<3, 1>() += pose_.topLeftCorner<3, 3>() * (k * sigma * travel);
-    // The prior stays at the prediction: what the motion model believes, not the start.
+  // The prior stays at the prediction: what the motion model believes, not the start.
+  const auto tryStart = [&](const Pose& start, double offset, double turn) {
     const std::optional<Pose> other = alignToPrevious(source, start, false, &prediction);
     if (!other)
-      continue;
+      return;
     const double fitness = icp_->to_previous.getFitnessScore(gate);
     // A start that ends where the best so far did is the same solution, not a rival.
     const std::optional<Pose>& leader = winner ? winner : own;
     const bool rival =
-        !leader ||
-        (other->topRightCorner<3, 1>() - leader->topRightCorner<3, 1>()).norm() > same;
+        !leader || registration::motionDisplacement(leader->inverse() * *other, h.range) > same;
     if (rival && fitness < best) {
       best = fitness;
       winner = other;
-      start_offset = k * sigma;
+      r.start_offset = offset;
+      r.start_turn = turn;
     }
-  }
+  };
+  for (const double k : {-2.0, -1.0, 1.0, 2.0})
+    if (h.sigma > 0.0 && std::abs(k) * h.sigma > same) {
+      Pose start = prediction;
+      start.topRightCorner<3, 1>() += pose_.topLeftCorner<3, 3>() * (k * h.sigma * h.travel);
+      tryStart(start, k * h.sigma, 0.0);
+    }
+  for (const double k : {-1.0, 1.0}) // the predicted turn stopped, doubled
+    if (h.turn.angle() > 0.0) {
+      Pose step = pose_.inverse() * prediction;
+      step.topLeftCorner<3, 3>() =
+          Eigen::AngleAxisd((1.0 + k) * h.turn.angle(), h.turn.axis()).toRotationMatrix();
+      tryStart(pose_ * step, 0.0, k);
+    }
   return winner;
 }
 
@@ -497,16 +514,14 @@ Pose
 FrontEnd::initialGuess(const Cloud::ConstPtr& source,
                        const Pose& prediction,
                        bool odometry,
-                       double& start_offset)
+                       FrontEndResult& r)
 {
   if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
     return prediction;
   const std::optional<Pose> own = alignToPrevious(source, prediction, false);
-  Eigen::Vector3d travel;
-  const double sigma = hypothesisSpacing(prediction, travel);
-  if (sigma > 0.0)
-    if (const auto better =
-            bestHypothesis(source, prediction, own, travel, sigma, start_offset))
+  const Hypotheses h = hypotheses(*source, prediction);
+  if (h.any())
+    if (const auto better = bestHypothesis(source, prediction, own, h, r))
       return *better;
   return own.value_or(prediction);
 }

@@ -7,6 +7,8 @@
 #include <pcl_parallel/slam/local_map.h>
 #include <pcl_parallel/slam/types.h>
 
+#include <Eigen/Geometry>
+
 #include <memory>
 #include <optional>
 #include <utility>
@@ -114,6 +116,9 @@ struct FrontEndResult {
   /** Where the winning start of the speed hypotheses lay along the direction of travel,
    *  from the prediction (scan units; 0: the prediction's, or none tried). */
   double start_offset = 0.0;
+  /** The winning turn-rate hypothesis: the predicted turn scaled by 1 + start_turn (-1:
+   *  stopped, 1: doubled; 0: the prediction's, or none tried). */
+  double start_turn = 0.0;
   /** The match's information (point-to-plane: pICP's final Hessian over its residual
    *  variance, without the motion prior): how well the scan's pose relative to the map,
    *  or to the previous scan, is known. Zero when pICP did not run or failed. */
@@ -180,32 +185,46 @@ private:
   /** priorSpread() where pICP takes a motion prior (adaptive threshold and motion_prior). */
   std::optional<std::pair<double, double>>
   priorSpreadIfUsed() const;
+  /** Starts tried beside the prediction without odometry (speed_hypotheses). */
+  struct Hypotheses {
+    /** Speed: along `travel` (scanner frame) at -2..2 sigma of the gate; none at 0 (no
+     *  direction, or a gate whose starts all lie inside the refinement gate). */
+    Eigen::Vector3d travel = Eigen::Vector3d::Zero();
+    double sigma = 0.0;
+    /** Turn rate: the predicted turn stopped and doubled; none at angle 0 (a turn that
+     *  moves the median range's points less than the refinement gate). */
+    Eigen::AngleAxisd turn = Eigen::AngleAxisd(0.0, Eigen::Vector3d::UnitZ());
+    double range = 0.0; ///< the scan's median range: poses compared by motionDisplacement
+    bool
+    any() const
+    {
+      return sigma > 0.0 || turn.angle() > 0.0;
+    }
+  };
   /** Where the match starts: the prediction, or its match to the previous scan
-   *  (guess_from_previous_scan), the best of the speed hypotheses' (speed_hypotheses). */
+   *  (guess_from_previous_scan), the best of the hypotheses' (speed_hypotheses; which
+   *  one won goes to r.start_offset and r.start_turn). */
   Pose
   initialGuess(const Cloud::ConstPtr& source,
                const Pose& prediction,
                bool odometry,
-               double& start_offset);
-  /** The speed hypotheses' spacing (sigma of the gate) and direction of travel (scanner
-   *  frame) for this prediction; 0 where none is tried (off, no previous scan, no
-   *  direction, or a gate whose hypotheses all start inside the refinement gate). */
-  double
-  hypothesisSpacing(const Pose& prediction, Eigen::Vector3d& travel) const;
+               FrontEndResult& r);
+  /** The hypotheses for this scan and prediction (none: off, or no previous scan). */
+  Hypotheses
+  hypotheses(const Cloud& source, const Pose& prediction) const;
   /** How close two starts or matches lie in one basin: the refinement gate, at least a
    *  voxel. */
   double
   sameSolution() const;
   /** Right after `own`, the prediction's match to the previous scan: the best of the
-   *  speed hypotheses' matches if one fits better and ends elsewhere (start_offset: where
-   *  it started along the travel), else none. */
+   *  hypotheses' matches if one fits better and ends elsewhere (more than sameSolution()
+   *  at the median range; r.start_offset and r.start_turn say which), else none. */
   std::optional<Pose>
   bestHypothesis(const Cloud::ConstPtr& source,
                  const Pose& prediction,
                  const std::optional<Pose>& own,
-                 const Eigen::Vector3d& travel,
-                 double sigma,
-                 double& start_offset);
+                 const Hypotheses& h,
+                 FrontEndResult& r);
   bool
   hasPrevious() const;
   /** The scan deskewed by the sweep's motion (params_.deskew; at its points' sweep times

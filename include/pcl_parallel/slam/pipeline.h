@@ -90,6 +90,7 @@ struct ScanReport {
   /** FrontEndResult::start_offset: the speed hypothesis pICP started from (0: the
    *  prediction). */
   double start_offset = 0.0;
+  double start_turn = 0.0;          ///< FrontEndResult::start_turn
   double seconds = 0.0;             ///< all stages for this scan
   std::vector<LoopCandidate> loops; ///< loop pairs tried
   int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
@@ -97,7 +98,7 @@ struct ScanReport {
   double sequence_chi2 = -1.0;
 
   /** Takes the match's figures from the front end's result: source points, convergence,
-   *  fitness, gate and start offset (one place for the pipeline and the MPI reader). */
+   *  fitness, gate, start offset and turn (one place for the pipeline and the MPI reader). */
   void
   setMatch(const FrontEndResult& fe)
   {
@@ -106,6 +107,7 @@ struct ScanReport {
     fitness = fe.fitness;
     gate = fe.gate;
     start_offset = fe.start_offset;
+    start_turn = fe.start_turn;
   }
 };
 
