@@ -249,9 +249,8 @@ FrontEnd::track(const Cloud& scan,
                 std::optional<double> stamp,
                 const std::vector<float>& sweep_times)
 {
-  if (!sweep_times.empty() && sweep_times.size() != scan.size())
-    throw std::invalid_argument("FrontEnd::track: " + std::to_string(sweep_times.size()) +
-                                " point times for " + std::to_string(scan.size()) + " points");
+  if (!sweep_times.empty())
+    requireOnePerPoint(scan, sweep_times.size(), "FrontEnd::track");
   FrontEndResult r;
   const bool first = scans_++ == 0;
   const double gap = stamp && last_stamp_ ? *stamp - *last_stamp_ : 0.0;
@@ -444,8 +443,9 @@ FrontEnd::hypotheses(const Cloud& source, const Pose& prediction) const
   // Speed: along the predicted step, or the way the scanner last moved (in its frame).
   const Eigen::Vector3d t = step.topRightCorner<3, 1>();
   h.travel = t.norm() >= params_.voxel_size ? t.normalized() : heading_;
-  if (!h.travel.isZero() && 2.0 * gate() / 3.0 > same)
-    h.sigma = gate() / 3.0;
+  const double sigma = gate() / 3.0;
+  if (!h.travel.isZero() && 2.0 * sigma > same)
+    h.sigma = sigma;
   // Turn rate: the predicted turn stopped or doubled moves the scan's points at its median
   // range by the turn's angle times that range; tried where that leaves the refinement gate.
   std::vector<float> ranges(source.size());
@@ -500,13 +500,14 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
       start.topRightCorner<3, 1>() += pose_.topLeftCorner<3, 3>() * (k * h.sigma * h.travel);
       tryStart(start, k * h.sigma, 0.0);
     }
-  for (const double k : {-1.0, 1.0}) // the predicted turn stopped, doubled
-    if (h.turn.angle() > 0.0) {
-      Pose step = pose_.inverse() * prediction;
+  if (h.turn.angle() > 0.0) {
+    Pose step = pose_.inverse() * prediction;
+    for (const double k : {-1.0, 1.0}) { // the predicted turn stopped, doubled
       step.topLeftCorner<3, 3>() =
           Eigen::AngleAxisd((1.0 + k) * h.turn.angle(), h.turn.axis()).toRotationMatrix();
       tryStart(pose_ * step, 0.0, k);
     }
+  }
   return winner;
 }
 

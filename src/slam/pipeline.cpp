@@ -171,10 +171,8 @@ Pipeline::track(const Cloud& scan,
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 ": odometry given for some scans but not for others");
   checkStamp(index, stamp);
-  if (!point_times.empty() && point_times.size() != scan.size())
-    throw std::invalid_argument("scan " + std::to_string(index) + ": " +
-                                std::to_string(point_times.size()) + " point times for " +
-                                std::to_string(scan.size()) + " points");
+  if (!point_times.empty())
+    requireOnePerPoint(scan, point_times.size(), "scan " + std::to_string(index));
   if (!std::all_of(
           point_times.begin(), point_times.end(), [](double t) { return std::isfinite(t); }))
     throw std::invalid_argument("scan " + std::to_string(index) +

@@ -43,15 +43,15 @@ crop(const Cloud& scan,
   return out;
 }
 
+} // namespace
+
 void
-requireOnePerPoint(const Cloud& scan, std::size_t times, const char* function)
+requireOnePerPoint(const Cloud& scan, std::size_t times, const std::string& context)
 {
   if (times != scan.size())
-    throw std::invalid_argument(std::string(function) + ": " + std::to_string(times) +
-                                " point times for " + std::to_string(scan.size()) + " points");
+    throw std::invalid_argument(context + ": " + std::to_string(times) + " point times for " +
+                                std::to_string(scan.size()) + " points");
 }
-
-} // namespace
 
 bool
 spansSweep(const std::vector<double>& times)

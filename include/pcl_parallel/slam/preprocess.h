@@ -9,6 +9,7 @@
 #include <pcl_parallel/slam/types.h>
 
 #include <cmath>
+#include <string>
 #include <vector>
 
 namespace pcl_parallel {
@@ -24,6 +25,11 @@ cropRange(const Cloud& scan,
           double max_range,
           const std::vector<float>& times,
           std::vector<float>& kept_times);
+
+/** Throws std::invalid_argument "`context`: N point times for M points" unless `times`
+ *  (a count of per-point times) is one per point of `scan`. */
+void
+requireOnePerPoint(const Cloud& scan, std::size_t times, const std::string& context);
 
 /** Per-point times in any unit and origin (a driver's time field: ns, s, absolute s) as
  *  fractions of the sweep, 0 at the earliest and 1 at the latest point (as KISS-ICP
