@@ -310,13 +310,14 @@ public:
     cloud_->reserve(n);
   }
 
-  /** Keeps the time of each point add() keeps in `times` (cleared), in point order. */
+  /** Clears `times` (if given) and, where the file has a time field, keeps there the time
+   *  of each point add() keeps, in point order. */
   void
-  keepTimes(std::vector<double>* times)
+  keepTimes(std::vector<double>* times, bool file_has_times)
   {
-    times_ = times;
-    if (times_)
-      times_->clear();
+    if (times)
+      times->clear();
+    times_ = file_has_times ? times : nullptr;
   }
 
   /** line: the line (text formats) or point (binary formats, from 1) for the error. */

@@ -330,10 +330,7 @@ loadPcdScan(const std::string& path,
   std::ifstream in = detail::openOrThrow(path, std::ios::in | std::ios::binary);
   const PcdHeader h = readPcdHeader(path, in);
   detail::RangeFilteredCloud cloud(path, min_range, max_range);
-  if (point_times)
-    point_times->clear();
-  if (h.time != detail::kNoField)
-    cloud.keepTimes(point_times);
+  cloud.keepTimes(point_times, h.time != detail::kNoField);
   if (h.data == PcdData::Ascii)
     readAscii(path, in, h, cloud);
   else

@@ -314,10 +314,7 @@ loadPlyScan(const std::string& path,
   std::ifstream in = detail::openOrThrow(path, std::ios::in | std::ios::binary);
   const PlyHeader h = readPlyHeader(path, in, size);
   detail::RangeFilteredCloud cloud(path, min_range, max_range);
-  if (point_times)
-    point_times->clear();
-  if (h.time != detail::kNoField)
-    cloud.keepTimes(point_times);
+  cloud.keepTimes(point_times, h.time != detail::kNoField);
   if (h.format == PlyFormat::Ascii)
     readAscii(path, in, h, cloud);
   else

@@ -4,8 +4,9 @@
  */
 #include <pcl_parallel/mpi/pipeline.h>
 
+#include <pcl/common/time.h>
+
 #include <algorithm>
-#include <chrono>
 #include <climits>
 #include <cstring>
 #include <stdexcept>
@@ -16,14 +17,6 @@ namespace pcl_parallel {
 namespace mpi {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double
-seconds(Clock::time_point since)
-{
-  return std::chrono::duration<double>(Clock::now() - since).count();
-}
 
 /** Matched scans as bytes: plain values in this machine's representation (the ranks of
  *  one job run one binary), floats and doubles bit for bit. */
@@ -309,7 +302,7 @@ mapSegments(MPI_Comm comm,
   MPI_Bcast(&range, 1, MPI_DOUBLE, 0, comm);
 
   // Front ends: this rank's block of segments.
-  const auto start = Clock::now();
+  const pcl::StopWatch start;
   const auto [own_begin, own_end] = linkRange(segments.size(), rank, size);
   std::size_t total = 0, done = 0;
   for (std::size_t s = own_begin; s < own_end; ++s)
@@ -330,10 +323,10 @@ mapSegments(MPI_Comm comm,
   catch (const std::exception& e) {
     error = e.what();
   }
-  out.front_end_seconds = seconds(start);
-  const auto wait = Clock::now();
+  out.front_end_seconds = start.getTimeSeconds();
+  const pcl::StopWatch wait;
   throwIfAnyFailed(comm, error);
-  out.wait_seconds = seconds(wait);
+  out.wait_seconds = wait.getTimeSeconds();
   out.segments = segments.size();
   out.own_segments = own_end - own_begin;
 

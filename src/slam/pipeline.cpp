@@ -7,10 +7,10 @@
 #include <pcl_parallel/slam/pipeline.h>
 #include <pcl_parallel/slam/preprocess.h>
 
+#include <pcl/common/time.h>
 #include <pcl/common/transforms.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -19,14 +19,6 @@ namespace pcl_parallel {
 namespace slam {
 
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double
-seconds(Clock::time_point since)
-{
-  return std::chrono::duration<double>(Clock::now() - since).count();
-}
 
 /** The registered sample's voxel, in reduction voxels: KISS-ICP registers a 1.5x coarser
  *  sample than it keeps; ours is coarser still. The front end and the loop pICP share it. */
@@ -143,9 +135,9 @@ Pipeline::addScan(const Cloud& scan,
                   std::optional<double> stamp,
                   const std::vector<double>& point_times)
 {
-  const auto start = Clock::now();
+  const pcl::StopWatch start;
   const std::size_t index = addTracked(track(scan, odometry, stamp, point_times));
-  reports_.back().seconds = seconds(start);
+  reports_.back().seconds = start.getTimeSeconds();
   return index;
 }
 
@@ -162,7 +154,7 @@ Pipeline::track(const Cloud& scan,
                 std::optional<double> stamp,
                 const std::vector<double>& point_times)
 {
-  const auto start = Clock::now();
+  const pcl::StopWatch start;
   const std::size_t index = first_index_ + tracked_;
   if (odometry && !odometry->allFinite())
     throw std::invalid_argument("scan " + std::to_string(index) +
@@ -197,10 +189,10 @@ Pipeline::track(const Cloud& scan,
                                 " has no finite points in range");
   if (!front_end_) // lengths from the first scan
     this->start(medianRange(*cropped));
-  times_.preprocess += seconds(start);
+  times_.preprocess += start.getTimeSeconds();
 
   // Front end: predict, deskew, reduce, match (paper Sec. II; KISS-ICP Sec. III).
-  const auto stage = Clock::now();
+  const pcl::StopWatch stage;
   const Pose before = front_end_->lastPose(); // after any loop correction
   out.front_end = front_end_->track(*cropped, odometry, stamp, sweep_times);
   const FrontEndResult& fe = out.front_end;
@@ -210,8 +202,8 @@ Pipeline::track(const Cloud& scan,
   report.setMatch(fe);
   report.correction = registration::motionDisplacement(fe.prediction.inverse() * fe.pose,
                                                        loop_params_.median_range);
-  times_.front_end += seconds(stage);
-  report.seconds = seconds(start);
+  times_.front_end += stage.getTimeSeconds();
+  report.seconds = start.getTimeSeconds();
   ++tracked_;
   return out;
 }
@@ -246,7 +238,7 @@ Pipeline::addMatched(MatchedScan scan)
 std::size_t
 Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
 {
-  const auto start = Clock::now();
+  const pcl::StopWatch start;
   const std::size_t index = size();
   front_end_poses_.push_back(index == 0 ? scan.step
                                         : Pose(front_end_poses_.back() * scan.step));
@@ -254,7 +246,7 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
   FrontEndResult& fe = scan.front_end;
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
-  auto stage = Clock::now();
+  pcl::StopWatch stage;
   if (fe.first_scan) { // the first scan deskewed again (FrontEnd::track)
     loops_->replaceFirstScan(fe.first_scan->reduced,
                              std::move(fe.first_scan->normals),
@@ -272,7 +264,7 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
     report.loops = loops_->detect();
     const auto found = std::find_if(
         report.loops.begin(), report.loops.end(), [](const auto& c) { return c.accepted; });
-    times_.loop_detection += seconds(stage);
+    times_.loop_detection += stage.getTimeSeconds();
     if (found != report.loops.end()) {
       // A new loop (not the continuation of one just closed) whose error shows in the map
       // is relaxed at once; the others wait for finish().
@@ -281,7 +273,7 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
           index - last_loop_scan_ > static_cast<std::size_t>(params_.loop_size);
       const bool visible = found->error > loop_params_.overlap_distance;
       last_loop_scan_ = index;
-      stage = Clock::now();
+      stage.reset();
       const bool relax = new_loop && visible && params_.relax_each_loop;
       if (relax) {
         report.lum_iterations = loops_->relax(params_.lum_iterations_per_loop);
@@ -289,10 +281,10 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
       }
       if (relax || found->distributed) // the front end continues from the moved pose
         front_end_->setLastPose(loops_->poses().back());
-      times_.loop_closing += seconds(stage);
+      times_.loop_closing += stage.getTimeSeconds();
     }
   }
-  report.seconds += seconds(start);
+  report.seconds += start.getTimeSeconds();
   reports_.push_back(std::move(report));
   return index;
 }
@@ -305,12 +297,12 @@ Pipeline::finish()
   const bool any_loop = std::any_of(
       loops_->links().begin(), loops_->links().end(), [](const Link& l) { return l.loop; });
   if (any_loop) {
-    const auto stage = Clock::now();
+    const pcl::StopWatch stage;
     const int iterations = loops_->relax();
     ++relaxations_;
     if (!reports_.empty())
       reports_.back().lum_iterations += iterations;
-    times_.loop_closing += seconds(stage);
+    times_.loop_closing += stage.getTimeSeconds();
   }
   const std::vector<double> chi2 = loops_->sequenceChi2();
   for (std::size_t i = 0; i < reports_.size() && i < chi2.size(); ++i)
