@@ -1054,4 +1054,50 @@ TEST(Preprocess, CropRangeKeepsFiniteInRange)
   EXPECT_THROW(slam::cropRange(c, 1.0, 50.0, {0.1f}, kept), std::invalid_argument);
 }
 
+// A scan in its scanner's frame passes, whichever way the scanner looks; the same scan
+// georeferenced (UTM) or far off in a project frame is an error naming it.
+TEST(Preprocess, RequireScannerFrameRejectsScansWrittenElsewhere)
+{
+  const auto moved = [](Cloud c, const Eigen::Vector3f& by) {
+    for (auto& p : c)
+      p.getVector3fMap() += by;
+    return c;
+  };
+  const auto message = [](const Cloud& c, const std::string& context) -> std::string {
+    try {
+      slam::requireScannerFrame(c, context);
+    }
+    catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const Cloud& scan = *corridorSet().scans[0];
+  EXPECT_EQ(message(scan, "corridor"), "");
+  // A wall 20 m ahead seen over 60 degrees: its centroid about 2 spreads out.
+  Cloud wall;
+  for (int i = -50; i <= 50; ++i)
+    for (int j = -50; j <= 50; ++j)
+      wall.push_back(pcl::PointXYZ(20.0f, 0.23f * float(i), 0.23f * float(j)));
+  EXPECT_EQ(message(wall, "wall"), "");
+  double squares = 0.0;
+  for (const auto& p : wall)
+    squares += double(p.y) * p.y + double(p.z) * p.z;
+  const double spread = std::sqrt(squares / double(wall.size()));
+  // The limit: a centroid 100 spreads from the origin.
+  EXPECT_EQ(message(moved(wall, {float(99.0 * spread) - 20.0f, 0, 0}), "wall"), "");
+  EXPECT_NE(message(moved(wall, {float(101.0 * spread) - 20.0f, 0, 0}), "wall"), "");
+  Cloud point; // points that all coincide are not judged
+  point.push_back(pcl::PointXYZ(1e6f, 0, 0));
+  point.push_back(pcl::PointXYZ(1e6f, 0, 0));
+  EXPECT_EQ(message(point, "point"), "");
+  EXPECT_EQ(message(Cloud(), "empty"), "");
+  const std::string utm = message(moved(scan, {500000.0f, 5000000.0f, 100.0f}), "utm.pcd");
+  EXPECT_EQ(utm.rfind("utm.pcd: its points lie 5.02", 0), 0u) << utm;
+  EXPECT_NE(utm.find("scanner's own frame"), std::string::npos) << utm;
+  slam::Pipeline pipeline;
+  EXPECT_THROW(pipeline.addScan(moved(scan, {500000.0f, 5000000.0f, 100.0f})),
+               std::invalid_argument);
+}
+
 } // namespace

@@ -10,6 +10,7 @@
 #include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 #include <pcl_parallel/sim/simulated_scans.h>
+#include <pcl_parallel/slam/preprocess.h>
 
 #include <algorithm>
 #include <cctype>
@@ -222,6 +223,12 @@ readScan(const Input& in, std::size_t k, std::vector<double>* point_times)
                     (in.min_range > 0 || std::isfinite(in.max_range)
                          ? " within the range limits (-M/-m)"
                          : ""));
+  try {
+    pcl_parallel::slam::requireScannerFrame(*cloud, file);
+  }
+  catch (const std::invalid_argument& e) {
+    throw DataError(e.what());
+  }
   const float s = static_cast<float>(in.scale);
   for (auto& p : *cloud)
     p.getVector3fMap() *= s;

@@ -187,6 +187,7 @@ Pipeline::track(const Cloud& scan,
   if (cropped->empty())
     throw std::invalid_argument("scan " + std::to_string(index) +
                                 " has no finite points in range");
+  requireScannerFrame(*cropped, "scan " + std::to_string(index));
   if (!front_end_) // lengths from the first scan
     this->start(medianRange(*cropped));
   times_.preprocess += start.getTimeSeconds();

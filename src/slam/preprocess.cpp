@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <stdexcept>
 #include <string>
 
@@ -51,6 +52,37 @@ requireOnePerPoint(const Cloud& scan, std::size_t times, const std::string& cont
   if (times != scan.size())
     throw std::invalid_argument(context + ": " + std::to_string(times) + " point times for " +
                                 std::to_string(scan.size()) + " points");
+}
+
+void
+requireScannerFrame(const Cloud& scan, const std::string& context)
+{
+  // A scanner sits inside what it sees, or a few spreads from it (fastlio's forward-looking
+  // Livox: 2); 100 spreads is a field of view under 2 degrees.
+  constexpr double kMaxSpreads = 100.0;
+  if (scan.empty())
+    return;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& p : scan)
+    sum += p.getVector3fMap().cast<double>();
+  const Eigen::Vector3d centroid = sum / double(scan.size());
+  double squares = 0.0;
+  for (const auto& p : scan)
+    squares += (p.getVector3fMap().cast<double>() - centroid).squaredNorm();
+  const double spread = std::sqrt(squares / double(scan.size()));
+  if (spread > 0.0 && centroid.norm() > kMaxSpreads * spread) {
+    char numbers[160];
+    std::snprintf(numbers,
+                  sizeof numbers,
+                  "its points lie %.6g from the origin, %.0f times their spread (%.3g)",
+                  centroid.norm(),
+                  centroid.norm() / spread,
+                  spread);
+    throw std::invalid_argument(
+        context + ": " + numbers +
+        ": a scan must be in its scanner's own frame, the scanner at the origin (a "
+        "georeferenced or pre-registered scan: move it back by its scan position first)");
+  }
 }
 
 bool

@@ -31,6 +31,15 @@ cropRange(const Cloud& scan,
 void
 requireOnePerPoint(const Cloud& scan, std::size_t times, const std::string& context);
 
+/** Throws std::invalid_argument naming `context` unless `scan` (finite points) can be in
+ *  its scanner's own frame: the pipeline takes the origin as the scanner (ranges,
+ *  deskewing, the lengths it derives from the median range). A scan whose centroid lies
+ *  more than 100 times its RMS spread from the origin was written in another frame (a
+ *  georeferenced or pre-registered scan; at UTM coordinates float keeps decimetres).
+ *  Scans whose points all coincide are not judged. */
+void
+requireScannerFrame(const Cloud& scan, const std::string& context);
+
 /** Per-point times in any unit and origin (a driver's time field: ns, s, absolute s) as
  *  fractions of the sweep, 0 at the earliest and 1 at the latest point (as KISS-ICP
  *  normalises per-point timestamps). All equal: 0.5 each, the sweep's middle, which
