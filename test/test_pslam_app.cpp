@@ -404,6 +404,38 @@ TEST(PslamOutputs, FullDiskIsAnErrorNamingTheFileAndLeavesNoFile)
 
 // An input directory or scan file that cannot be read (permissions: not as root, which
 // reads anything) is an error naming it.
+// Scans are matched in the order they were taken: numbered names by their numbers (an
+// export's cloud_2 before cloud_10), other names, timestamps among them, by name.
+TEST(PslamInput, NumberedNamesAreReadInTheirNumbersOrder)
+{
+  const auto order = [](const std::string& name, const std::vector<std::string>& stems) {
+    const fs::path dir = scratch(name);
+    for (const auto& stem : stems)
+      std::ofstream(dir / (stem + ".xyz")) << "0 0 1\n1 0 1\n0 1 1\n";
+    pcl_pslam::Options o;
+    o.command = "run";
+    o.dir = dir.string();
+    std::vector<std::string> read;
+    for (const auto& f : pcl_pslam::openDirectory(o).files)
+      read.push_back(fs::path(f).stem().string());
+    fs::remove_all(dir);
+    return read;
+  };
+  using Names = std::vector<std::string>;
+  EXPECT_EQ(order("order_unpadded", {"cloud_10", "cloud_2", "cloud_1", "cloud_11"}),
+            (Names{"cloud_1", "cloud_2", "cloud_10", "cloud_11"}));
+  EXPECT_EQ(order("order_digits", {"10", "9", "100"}), (Names{"9", "10", "100"}));
+  EXPECT_EQ(order("order_padded", {"scan010", "scan002", "scan100"}),
+            (Names{"scan002", "scan010", "scan100"}));
+  // Decimal seconds: the number after the point is a fraction, the names decide.
+  EXPECT_EQ(order("order_stamps", {"1317384506.5", "1317384506.25", "1317384507.05"}),
+            (Names{"1317384506.25", "1317384506.5", "1317384507.05"}));
+  // Two prefixes, or one number twice (scan1, scan01): by name.
+  EXPECT_EQ(order("order_mixed", {"b2", "a10", "a3"}), (Names{"a10", "a3", "b2"}));
+  EXPECT_EQ(order("order_twice", {"scan1", "scan01", "scan2"}),
+            (Names{"scan01", "scan1", "scan2"}));
+}
+
 TEST(PslamInput, UnreadableDirectoryAndScanFileAreErrorsNamingThem)
 {
   if (::geteuid() == 0)

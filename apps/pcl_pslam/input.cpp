@@ -49,6 +49,33 @@ trailingNumber(const fs::path& file)
   return std::stol(stem.substr(k));
 }
 
+/** Sorts scan files as a user numbered them: by their trailing numbers where every stem
+ *  is one prefix and a distinct number (scan2 before scan10, as 3DTK's scanNNN), else by
+ *  name. A prefix ending in '.' makes the number a decimal fraction (1317384506.25), whose
+ *  name order is right. */
+void
+sortScanFiles(std::vector<fs::path>& files)
+{
+  std::sort(files.begin(), files.end());
+  const auto prefix = [](const fs::path& f) {
+    const std::string stem = f.stem().string();
+    return stem.substr(0, stem.find_last_not_of("0123456789") + 1);
+  };
+  std::vector<long> numbers;
+  for (const auto& f : files) {
+    const std::string p = prefix(f);
+    if (trailingNumber(f) < 0 || p != prefix(files.front()) || (!p.empty() && p.back() == '.'))
+      return;
+    numbers.push_back(trailingNumber(f));
+  }
+  std::sort(numbers.begin(), numbers.end());
+  if (std::adjacent_find(numbers.begin(), numbers.end()) != numbers.end())
+    return; // scan1 and scan01: the names decide
+  std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
+    return trailingNumber(a) < trailingNumber(b);
+  });
+}
+
 /** One timestamp (seconds) per non-blank line (io::loadKittiTimes). */
 std::vector<double>
 readTimes(const std::string& path)
@@ -98,7 +125,7 @@ openDirectory(const Options& o)
     }
   }
   std::vector<fs::path> files = by_ext[format];
-  std::sort(files.begin(), files.end());
+  sortScanFiles(files);
   if (files.empty())
     throw DataError(o.dir + ": no scan files" + (format.empty() ? "" : " (." + format + ")"));
 

@@ -194,7 +194,7 @@ helpText(const std::string& command)
   std::ostringstream s;
   if (command != "run" && command != "demo") {
     s << "usage: pcl_pslam demo [options]        map the built-in simulated scan set\n"
-         "       pcl_pslam run [options] DIR      map the scans in DIR (file-name order)\n"
+         "       pcl_pslam run [options] DIR      map the scans in DIR (name order)\n"
          "       pcl_pslam simulate ...           simulated scan sets (presets)\n"
          "       pcl_pslam evaluate ...           ATE / RPE of pose files\n"
          "       pcl_pslam COMMAND --help         the options of COMMAND\n"
@@ -209,8 +209,9 @@ helpText(const std::string& command)
   Descriptions d(o);
   if (command == "run")
     s << "usage: pcl_pslam run [options] DIR\n\n"
-         "DIR holds one file per scan; the scans are matched in file-name order. 3DTK\n"
-         "slam6D's option names work with their meaning, so a slam6D command line such as\n"
+         "DIR holds one file per scan; the scans are matched in name order, numbered names\n"
+         "by their numbers (scan2 before scan10, as 3DTK's scanNNN). 3DTK slam6D's\n"
+         "option names work with their meaning, so a slam6D command line such as\n"
          "  pcl_pslam run -s 0 -e 65 -r 10 -i 100 -d 75 -D 250 -I 50 --cldist 750 -f uos dat\n"
          "runs unchanged: lengths on the command line are in the files' units (uos: cm)\n"
          "and scaled with the data; the defaults are given in metres.\n\n"
