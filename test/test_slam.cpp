@@ -729,6 +729,31 @@ TEST(Pipeline, BadInputIsAClearError)
   EXPECT_EQ(timed.addScan(one, std::nullopt, std::nullopt, times), 0u);
 }
 
+// Odometry in another frame than the scans (KITTI's poses.txt: the left camera's, here
+// the corridor's odometry turned so) is told from odometry in the scans' frame: the scans
+// contradict its steps by about their length.
+TEST(Pipeline, OdometryDisagreementTellsAnotherFrame)
+{
+  const auto right = slam::odometryDisagreement(defaultRun().reports, 0.1);
+  ASSERT_TRUE(right.has_value());
+  EXPECT_LT(*right, 0.1);
+  sim::SimulatedScanSet camera = corridorSet();
+  Pose to_camera = Pose::Identity(); // x forward, z up -> z forward, y down
+  to_camera.topLeftCorner<3, 3>() << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+  for (auto& o : camera.odometry)
+    o = to_camera * o * to_camera.inverse();
+  const auto wrong =
+      slam::odometryDisagreement(runPipeline(camera, frontEndOnly()).reports, 0.1);
+  ASSERT_TRUE(wrong.has_value());
+  EXPECT_GT(*wrong, slam::kOdometryDisagreementLimit);
+  std::printf("odometry disagreement: scans' frame %.3f, camera frame %.3f\n", *right, *wrong);
+  // Too few steps, or steps too short to tell: none.
+  const std::vector<slam::ScanReport> five(defaultRun().reports.begin(),
+                                           defaultRun().reports.begin() + 5);
+  EXPECT_FALSE(slam::odometryDisagreement(five, 0.1).has_value());
+  EXPECT_FALSE(slam::odometryDisagreement(defaultRun().reports, 1e3).has_value());
+}
+
 // The first scan is replaced while it is alone (points and the tree pLUM searches), and
 // only then: once a second scan is linked to it, its points are measured.
 TEST(LoopCloser, ReplacesTheFirstScanWhileAlone)

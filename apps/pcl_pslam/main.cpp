@@ -188,6 +188,17 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
                 r.links.size(),
                 in.size() - 1,
                 r.lum_iterations);
+    // Odometry the scans contradict step after step is in another frame, or broken
+    // (docs/design.md, "Odometry in another frame").
+    if (r.odometry_disagreement &&
+        *r.odometry_disagreement > pcl_parallel::slam::kOdometryDisagreementLimit)
+      std::fprintf(stderr,
+                   "pcl_pslam: warning: pICP moved the scans %.2f times as far from the "
+                   "odometry's steps as the steps are long (median): is the odometry in "
+                   "the scanner's frame? (KITTI's poses.txt is the left camera's: apply "
+                   "calib.txt's Tr.) Without it the front end predicts by constant "
+                   "velocity\n",
+                   *r.odometry_disagreement);
     // Where the relaxation and the front end disagree most (the Cauchy kernel let the
     // front end's match yield): the first places to look at in a map.
     std::vector<std::pair<double, std::size_t>> chi2;

@@ -539,7 +539,11 @@ writeOutputs(const Options& o,
     scans.push_back(s);
   }
   j["scans"] = scans;
-  j["icp"] = {{"matches", n - 1}, {"not_converged", r.icp_failures}};
+  j["icp"] = {
+      {"matches", n - 1},
+      {"not_converged", r.icp_failures},
+      {"odometry_disagreement",
+       r.odometry_disagreement ? nlohmann::json(*r.odometry_disagreement) : nlohmann::json()}};
   nlohmann::json loop_list = nlohmann::json::array();
   for (const auto& [a, b] : loops)
     loop_list.push_back({a, b});

@@ -107,6 +107,9 @@ run(const ScanReader& read,
   result.relaxations = pipeline.relaxations();
   result.bytes_per_scan = pipeline.bytesPerScan();
   result.front_end = pipeline.frontEndParameters();
+  if (params.odometry)
+    result.odometry_disagreement =
+        slam::odometryDisagreement(result.reports, result.front_end.voxel_size);
   result.loop_closure = pipeline.loopClosureParameters();
   return result;
 }

@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -54,9 +55,12 @@ struct Result {
   std::vector<std::pair<std::uint32_t, std::uint32_t>> links; ///< pLUM's graph
   int icp_failures = 0; ///< pICP matches that did not converge (odometry step kept)
   int lum_iterations = 0;
-  pcl_parallel::slam::StageTimes times;                   ///< seconds per stage
-  std::vector<pcl_parallel::slam::ScanReport> reports;    ///< per scan
-  int relaxations = 0;                                    ///< pLUM runs
+  pcl_parallel::slam::StageTimes times;                ///< seconds per stage
+  std::vector<pcl_parallel::slam::ScanReport> reports; ///< per scan
+  int relaxations = 0;                                 ///< pLUM runs
+  /** With odometry: slam::odometryDisagreement of the scans (none: too few steps, or
+   *  too short). */
+  std::optional<double> odometry_disagreement;
   std::size_t bytes_per_scan = 0;                         ///< kept by the pipeline
   pcl_parallel::slam::FrontEndParameters front_end;       ///< as resolved (lengths in m)
   pcl_parallel::slam::LoopClosureParameters loop_closure; ///< likewise

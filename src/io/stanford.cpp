@@ -7,7 +7,6 @@
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
 
-
 #include <Eigen/Geometry>
 
 #include <cmath>

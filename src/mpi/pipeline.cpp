@@ -108,6 +108,7 @@ writeMatched(Writer& w, const slam::MatchedScan& m)
   w.put<std::uint64_t>(r.points);
   w.put<std::uint64_t>(r.reduced_points);
   w.put(r.correction);
+  w.put(r.predicted_step);
   w.put(r.seconds);
 }
 
@@ -148,6 +149,7 @@ readMatched(Reader& in)
   r.reduced_points = in.get<std::uint64_t>();
   r.setMatch(fe);
   r.correction = in.get<double>();
+  r.predicted_step = in.get<double>();
   r.seconds = in.get<double>();
   return m;
 }

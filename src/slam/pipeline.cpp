@@ -203,10 +203,33 @@ Pipeline::track(const Cloud& scan,
   report.setMatch(fe);
   report.correction = registration::motionDisplacement(fe.prediction.inverse() * fe.pose,
                                                        loop_params_.median_range);
+  if (tracked_ > 0)
+    report.predicted_step = registration::motionDisplacement(before.inverse() * fe.prediction,
+                                                             loop_params_.median_range);
   times_.front_end += stage.getTimeSeconds();
   report.seconds = start.getTimeSeconds();
   ++tracked_;
   return out;
+}
+
+std::optional<double>
+odometryDisagreement(const std::vector<ScanReport>& reports, double min_step)
+{
+  std::vector<double> corrections, steps;
+  for (std::size_t i = 1; i < reports.size(); ++i) {
+    corrections.push_back(reports[i].correction);
+    steps.push_back(reports[i].predicted_step);
+  }
+  if (steps.size() < 5)
+    return std::nullopt;
+  const auto median = [](std::vector<double>& v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const double step = median(steps);
+  if (!(step >= min_step))
+    return std::nullopt;
+  return median(corrections) / step;
 }
 
 void

@@ -87,6 +87,9 @@ struct ScanReport {
   /** How far pICP moved the scan from the motion prior (translation plus rotation at the
    *  median range, as the adaptive gate measures it). */
   double correction = 0.0;
+  /** How far the motion prior moved the scan from the previous one (measured alike): with
+   *  odometry, the odometry's step. */
+  double predicted_step = 0.0;
   /** FrontEndResult::start_offset: the speed hypothesis pICP started from (0: the
    *  prediction). */
   double start_offset = 0.0;
@@ -110,6 +113,21 @@ struct ScanReport {
     start_turn = fe.start_turn;
   }
 };
+
+/** How far pICP moved the scans from their odometry's steps, over how long the steps are:
+ *  the median ScanReport::correction over the median ScanReport::predicted_step. Odometry
+ *  in the scans' frame leaves hundredths to tenths; odometry in another frame (KITTI's
+ *  poses.txt: the left camera's) more than 1 (docs/design.md, "Odometry in another
+ *  frame"). None for fewer than 5 steps, or where the median step is under `min_step` (a
+ *  scanner standing still). The first scan (no step) is left out. */
+std::optional<double>
+odometryDisagreement(const std::vector<ScanReport>& reports, double min_step);
+
+/** An odometryDisagreement above this says the odometry is in another frame, or broken.
+ *  Measured: odometry in the scans' frame 0.02-0.03 (the presets, fastlio_quick_shack),
+ *  mulran's poor odometry 0.14; turned into a camera's frame 0.31 (the corridor test set),
+ *  1.04 (fastlio), 1.41 (kitti). */
+constexpr double kOdometryDisagreementLimit = 0.25;
 
 /** A scan after the front end (Pipeline::track), as the loop-closing half takes it
  *  (Pipeline::addMatched). */
