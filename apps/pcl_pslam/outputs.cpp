@@ -315,28 +315,20 @@ printTruthErrors(std::ostream& out, const Input& in, const Result& r)
   row("final", r.final);
 }
 
-std::vector<std::string>
-writeOutputs(const Options& o,
-             const Input& in,
-             const Result& r,
-             ProgressReporter& progress,
-             const std::string& command_line)
+namespace {
+
+/** scanNNN.frames (3DTK's units for data that came in them), then the KITTI and TUM pose
+ *  files of the front end and the final poses. */
+void
+writePoseFiles(const Options& o,
+               const Input& in,
+               const Result& r,
+               ProgressReporter& progress,
+               std::vector<std::string>& written)
 {
-  std::vector<std::string> written;
-  const std::size_t n = in.size();
-  // 3DTK's units for data that came in them (uos: cm), metres otherwise.
-  const double frames_scale = in.frames_3dtk ? in.scale : 1.0;
-  const Parameters params = toParameters(o, in.scale);
-  const unsigned threads = pcl_parallel::resolveNumberOfThreads(o.threads);
-
-  std::vector<std::uint32_t> loop_count(n, 0);
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
-  for (const auto& [i, j] : r.links)
-    if ((i > j ? i - j : j - i) > 1)
-      loops.emplace_back(i, j);
-
+  const double frames_scale = in.frames_3dtk ? in.scale : 1.0; // uos: cm
   progress.update("write", 0, 1);
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < in.size(); ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "scan%03d.frames", in.numbers[i]);
     writeFrames(join(o.out, name), in.initial[i], r.icp[i], r.final[i], i == 0, frames_scale);
@@ -352,10 +344,20 @@ writeOutputs(const Options& o,
   written.insert(written.end(),
                  {"poses.txt", "poses_icp.txt", "poses_tum.txt", "poses_icp_tum.txt"});
   progress.update("write", 1, 1);
+}
 
-  const double map_voxel = mapVoxel(o, in.scale);
+/** map.pcd (and map.ply) at the final poses; under MPI the tiles the ranks wrote, read
+ *  back for the picture. Returns the map. */
+Cloud::Ptr
+writeMap(const Options& o,
+         const Input& in,
+         const Result& r,
+         double map_voxel,
+         ProgressReporter& progress,
+         std::vector<std::string>& written)
+{
   Cloud::Ptr map(new Cloud);
-  if (r.ranks > 1) { // the tiles every rank wrote (writeMapTile), read back for map.png
+  if (r.ranks > 1) { // the tiles every rank wrote (writeMapTile)
     for (int k = 0; k < r.ranks; ++k) {
       progress.update("tiles", k, r.ranks);
       *map += *pcl_parallel::io::loadPcdScan(join(o.out, mapTileName(k, ".pcd")));
@@ -364,88 +366,98 @@ writeOutputs(const Options& o,
     if (o.ply)
       written.push_back(mapTileName(0, ".ply") + ".." + mapTileName(r.ranks - 1, ".ply"));
     progress.update("tiles", r.ranks, r.ranks);
+    return map;
   }
-  else {
-    progress.update("map", 0, 1);
-    map = buildMap(in, r.final, map_voxel, o.threads, [&](int done, int total) {
-      progress.update("map", done, total);
-    });
+  progress.update("map", 0, 1);
+  map = buildMap(in, r.final, map_voxel, o.threads, [&](int done, int total) {
+    progress.update("map", done, total);
+  });
+  progress.update("save", 0, 1);
+  writeMapPcd(join(o.out, "map.pcd"), *map);
+  written.push_back("map.pcd");
+  if (o.ply) {
     progress.update("save", 0, 1);
-    writeMapPcd(join(o.out, "map.pcd"), *map);
-    written.push_back("map.pcd");
-    if (o.ply) {
-      progress.update("save", 0, 1);
-      writeMapPly(join(o.out, "map.ply"), *map);
-      written.push_back("map.ply");
-    }
-    progress.update("save", 1, 1);
+    writeMapPly(join(o.out, "map.ply"), *map);
+    written.push_back("map.ply");
   }
+  progress.update("save", 1, 1);
+  return map;
+}
 
-  std::string style;
-  double rmse = -1.0;
-  if (!in.truth.empty())
-    rmse = positionRmse(r.final, in.truth);
-  if (o.picture) {
-    progress.update("picture", 0, 1);
-    PictureOptions po;
-    po.up = in.up;
-    po.style = o.style;
-    po.cell = map_voxel > 0.0 ? map_voxel : 0.05;
-    po.loops = loops;
-    po.num_threads = o.threads;
-    char line[256];
+/** map.png with its caption; returns the style it was drawn in. */
+std::string
+writePicture(const Options& o,
+             const Input& in,
+             const Result& r,
+             const Cloud& map,
+             double map_voxel,
+             const std::vector<std::pair<std::uint32_t, std::uint32_t>>& loops,
+             ProgressReporter& progress,
+             std::vector<std::string>& written)
+{
+  progress.update("picture", 0, 1);
+  PictureOptions po;
+  po.up = in.up;
+  po.style = o.style;
+  po.cell = map_voxel > 0.0 ? map_voxel : 0.05;
+  po.loops = loops;
+  po.num_threads = o.threads;
+  char line[256];
+  std::snprintf(line,
+                sizeof line,
+                "%zu scans, %zu map points (%.2f m voxels), %zu loop links, pLUM %d "
+                "iterations",
+                in.size(),
+                map.size(),
+                map_voxel,
+                loops.size(),
+                r.lum_iterations);
+  po.caption.push_back(line);
+  if (!in.truth.empty()) {
     std::snprintf(line,
                   sizeof line,
-                  "%zu scans, %zu map points (%.2f m voxels), %zu loop links, pLUM %d "
-                  "iterations",
-                  n,
-                  map->size(),
-                  map_voxel,
-                  loops.size(),
-                  r.lum_iterations);
+                  "position RMSE against the truth: odometry %.3f m, pICP %.3f m, final "
+                  "%.3f m",
+                  positionRmse(in.initial, in.truth),
+                  positionRmse(r.icp, in.truth),
+                  positionRmse(r.final, in.truth));
     po.caption.push_back(line);
-    if (rmse >= 0.0) {
-      std::snprintf(line,
-                    sizeof line,
-                    "position RMSE against the truth: odometry %.3f m, pICP %.3f m, final "
-                    "%.3f m",
-                    positionRmse(in.initial, in.truth),
-                    positionRmse(r.icp, in.truth),
-                    rmse);
-      po.caption.push_back(line);
-    }
-    po.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
-    writeAtomically(join(o.out, "map.png"), [&](const std::string& tmp) {
-      style = writeMapPicture(tmp, *map, r.final, po);
-    });
-    written.push_back("map.png");
-    progress.update("picture", 1, 1);
   }
-  progress.finish();
+  po.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
+  std::string style;
+  writeAtomically(join(o.out, "map.png"), [&](const std::string& tmp) {
+    style = writeMapPicture(tmp, map, r.final, po);
+  });
+  written.push_back("map.png");
+  progress.update("picture", 1, 1);
+  return style;
+}
 
-  // report.json: what was run, with what, and what each stage did and took.
-  nlohmann::json j;
-  j["program"] = "pcl_pslam";
-  j["command_line"] = command_line;
-  j["versions"] = {{"pcl_pslam", PCL_PSLAM_VERSION},
-                   {"pcl", PCL_VERSION_PRETTY},
-                   {"eigen",
-                    std::to_string(EIGEN_WORLD_VERSION) + "." +
-                        std::to_string(EIGEN_MAJOR_VERSION) + "." +
-                        std::to_string(EIGEN_MINOR_VERSION)},
-                   {"boost", BOOST_LIB_VERSION},
-                   {"cairo", cairoVersion()},
-                   {"nlohmann_json",
-                    std::to_string(NLOHMANN_JSON_VERSION_MAJOR) + "." +
-                        std::to_string(NLOHMANN_JSON_VERSION_MINOR) + "." +
-                        std::to_string(NLOHMANN_JSON_VERSION_PATCH)},
-                   {"compiler", __VERSION__}};
-  j["threads"] = threads;
-  j["input"] = {
+nlohmann::json
+versionsJson()
+{
+  return {{"pcl_pslam", PCL_PSLAM_VERSION},
+          {"pcl", PCL_VERSION_PRETTY},
+          {"eigen",
+           std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) +
+               "." + std::to_string(EIGEN_MINOR_VERSION)},
+          {"boost", BOOST_LIB_VERSION},
+          {"cairo", cairoVersion()},
+          {"nlohmann_json",
+           std::to_string(NLOHMANN_JSON_VERSION_MAJOR) + "." +
+               std::to_string(NLOHMANN_JSON_VERSION_MINOR) + "." +
+               std::to_string(NLOHMANN_JSON_VERSION_PATCH)},
+          {"compiler", __VERSION__}};
+}
+
+nlohmann::json
+inputJson(const Options& o, const Input& in, const Result& r)
+{
+  return {
       {"command", o.command},
       {"directory", o.dir},
       {"format", in.format},
-      {"scans", n},
+      {"scans", in.size()},
       {"scale_to_metres", in.scale},
       {"odometry", in.odometry},
       {"poses_file", o.poses_file},
@@ -457,59 +469,48 @@ writeOutputs(const Options& o,
       {"min_range", o.min_range},
       {"max_range",
        std::isfinite(o.max_range) ? nlohmann::json(o.max_range) : nlohmann::json(nullptr)}};
+}
+
+/** The parameters as the pipeline resolved them (automatic lengths from the data). */
+nlohmann::json
+parametersJson(const Parameters& params, const Result& r, double map_voxel)
+{
   const auto& fe = r.front_end;
   const auto& lc = r.loop_closure;
-  j["parameters"] = {
-      // as the pipeline resolved them (automatic lengths from the data)
-      {"voxel_size_m", fe.voxel_size},
-      {"source_voxel_size_m", fe.source_voxel_size},
-      {"map_voxel_size_m", fe.map_voxel_size},
-      {"map_distance_m", fe.map_distance},
-      {"icp_distance_m", fe.max_correspondence_distance},
-      {"icp_final_distance_m", fe.final_correspondence_distance},
-      {"icp_adaptive_threshold", fe.adaptive_threshold},
-      {"icp_point_to_plane", fe.point_to_plane},
-      {"icp_iterations", fe.max_iterations},
-      {"icp_epsilon", fe.transformation_epsilon},
-      {"loop_distance_m", lc.distance},
-      {"loop_size", lc.min_separation},
-      {"loop_min_overlap", lc.min_overlap},
-      {"lum_distance_m", lc.lum_distance},
-      {"lum_final_distance_m", lc.lum_final_distance},
-      {"lum_iterations", lc.lum_iterations},
-      {"lum_iterations_per_loop", params.lum_iterations_per_loop},
-      {"lum_epsilon", lc.lum_epsilon},
-      {"lum_sequence_constraints", lc.sequence_constraints},
-      {"elch", lc.distribute_error},
-      {"map_voxel_m", map_voxel},
-      {"scan_to_scan", fe.target == pcl_parallel::slam::MatchTarget::kPreviousScan},
-      {"deskew", fe.deskew},
-      {"sweep_period_s", fe.sweep_period},
-      {"sweep_clockwise", fe.sweep_clockwise},
-      {"close_loops", params.close_loops}};
-  j["pipeline_seconds"] = {{"read", in.read_seconds},
-                           {"preprocess", r.times.preprocess},
-                           {"front_end", r.times.front_end},
-                           {"loop_detection", r.times.loop_detection},
-                           {"loop_closing", r.times.loop_closing}};
-  j["bytes_kept_per_scan"] = r.bytes_per_scan;
-  if (r.segments > 0)
-    j["segments"] = {{"segments", r.segments},
-                     {"segment_size", r.segment_size},
-                     {"overlap", params.segment_overlap},
-                     {"ranks", r.ranks},
-                     {"rank0_wait_seconds", r.wait_seconds},
-                     {"bytes_shared", r.bytes_shared},
-                     {"scans_sent", r.scans_sent},
-                     {"max_kept_scans", r.max_kept_scans}};
-  j["relaxations"] = r.relaxations;
-  nlohmann::json stages = nlohmann::json::array();
-  for (const auto& s : progress.stages())
-    stages.push_back({{"name", s.name}, {"seconds", s.seconds}, {"steps", s.steps}});
-  j["stages"] = stages;
-  j["total_seconds"] = progress.elapsed();
+  return {{"voxel_size_m", fe.voxel_size},
+          {"source_voxel_size_m", fe.source_voxel_size},
+          {"map_voxel_size_m", fe.map_voxel_size},
+          {"map_distance_m", fe.map_distance},
+          {"icp_distance_m", fe.max_correspondence_distance},
+          {"icp_final_distance_m", fe.final_correspondence_distance},
+          {"icp_adaptive_threshold", fe.adaptive_threshold},
+          {"icp_point_to_plane", fe.point_to_plane},
+          {"icp_iterations", fe.max_iterations},
+          {"icp_epsilon", fe.transformation_epsilon},
+          {"loop_distance_m", lc.distance},
+          {"loop_size", lc.min_separation},
+          {"loop_min_overlap", lc.min_overlap},
+          {"lum_distance_m", lc.lum_distance},
+          {"lum_final_distance_m", lc.lum_final_distance},
+          {"lum_iterations", lc.lum_iterations},
+          {"lum_iterations_per_loop", params.lum_iterations_per_loop},
+          {"lum_epsilon", lc.lum_epsilon},
+          {"lum_sequence_constraints", lc.sequence_constraints},
+          {"elch", lc.distribute_error},
+          {"map_voxel_m", map_voxel},
+          {"scan_to_scan", fe.target == pcl_parallel::slam::MatchTarget::kPreviousScan},
+          {"deskew", fe.deskew},
+          {"sweep_period_s", fe.sweep_period},
+          {"sweep_clockwise", fe.sweep_clockwise},
+          {"close_loops", params.close_loops}};
+}
+
+/** Per scan: what it was, what the front end did with it, the loop pairs tried. */
+nlohmann::json
+scansJson(const Input& in, const Result& r)
+{
   nlohmann::json scans = nlohmann::json::array();
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < in.size(); ++i) {
     const auto& rep = r.reports.at(i); // one per scan
     nlohmann::json s = {{"index", i},
                         {"number", in.numbers[i]},
@@ -538,7 +539,63 @@ writeOutputs(const Options& o,
       s["file"] = in.files[i];
     scans.push_back(s);
   }
-  j["scans"] = scans;
+  return scans;
+}
+
+} // namespace
+
+std::vector<std::string>
+writeOutputs(const Options& o,
+             const Input& in,
+             const Result& r,
+             ProgressReporter& progress,
+             const std::string& command_line)
+{
+  std::vector<std::string> written;
+  const std::size_t n = in.size();
+  const Parameters params = toParameters(o, in.scale);
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
+  for (const auto& [i, j] : r.links)
+    if ((i > j ? i - j : j - i) > 1)
+      loops.emplace_back(i, j);
+
+  writePoseFiles(o, in, r, progress, written);
+  const double map_voxel = mapVoxel(o, in.scale);
+  const Cloud::Ptr map = writeMap(o, in, r, map_voxel, progress, written);
+  const std::string style =
+      o.picture ? writePicture(o, in, r, *map, map_voxel, loops, progress, written) : "";
+  progress.finish();
+
+  // report.json: what was run, with what, and what each stage did and took.
+  nlohmann::json j;
+  j["program"] = "pcl_pslam";
+  j["command_line"] = command_line;
+  j["versions"] = versionsJson();
+  j["threads"] = pcl_parallel::resolveNumberOfThreads(o.threads);
+  j["input"] = inputJson(o, in, r);
+  j["parameters"] = parametersJson(params, r, map_voxel);
+  j["pipeline_seconds"] = {{"read", in.read_seconds},
+                           {"preprocess", r.times.preprocess},
+                           {"front_end", r.times.front_end},
+                           {"loop_detection", r.times.loop_detection},
+                           {"loop_closing", r.times.loop_closing}};
+  j["bytes_kept_per_scan"] = r.bytes_per_scan;
+  if (r.segments > 0)
+    j["segments"] = {{"segments", r.segments},
+                     {"segment_size", r.segment_size},
+                     {"overlap", params.segment_overlap},
+                     {"ranks", r.ranks},
+                     {"rank0_wait_seconds", r.wait_seconds},
+                     {"bytes_shared", r.bytes_shared},
+                     {"scans_sent", r.scans_sent},
+                     {"max_kept_scans", r.max_kept_scans}};
+  j["relaxations"] = r.relaxations;
+  nlohmann::json stages = nlohmann::json::array();
+  for (const auto& s : progress.stages())
+    stages.push_back({{"name", s.name}, {"seconds", s.seconds}, {"steps", s.steps}});
+  j["stages"] = stages;
+  j["total_seconds"] = progress.elapsed();
+  j["scans"] = scansJson(in, r);
   j["icp"] = {
       {"matches", n - 1},
       {"not_converged", r.icp_failures},
@@ -553,10 +610,10 @@ writeOutputs(const Options& o,
   j["map"] = {{"points", map->size()}, {"voxel_m", map_voxel}};
   if (!style.empty())
     j["picture_style"] = style;
-  if (rmse >= 0.0)
+  if (!in.truth.empty())
     j["position_rmse_m"] = {{"odometry", positionRmse(in.initial, in.truth)},
                             {"icp", positionRmse(r.icp, in.truth)},
-                            {"final", rmse}};
+                            {"final", positionRmse(r.final, in.truth)}};
   j["outputs"] = written;
   writeAtomically(join(o.out, "report.json"), [&](const std::string& tmp) {
     std::ofstream out = openText(tmp);
