@@ -20,10 +20,8 @@
 
 #include <pcl/console/print.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -180,60 +178,7 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     }
     const auto written = pcl_pslam::writeOutputs(o, in, r, progress, command_line);
 
-    if (r.icp_failures > 0)
-      std::printf("pICP: %d of %zu matches did not converge; their initial steps were kept\n",
-                  r.icp_failures,
-                  in.size() - 1);
-    std::printf("pLUM: %zu loop links beside the %zu consecutive ones, %d iterations\n",
-                r.links.size(),
-                in.size() - 1,
-                r.lum_iterations);
-    // Odometry the scans contradict step after step is in another frame, or broken
-    // (docs/design.md, "Odometry in another frame").
-    if (r.odometry_disagreement &&
-        *r.odometry_disagreement > pcl_parallel::slam::kOdometryDisagreementLimit)
-      std::fprintf(stderr,
-                   "pcl_pslam: warning: pICP moved the scans %.2f times as far from the "
-                   "odometry's steps as the steps are long (median): is the odometry in "
-                   "the scanner's frame? (KITTI's poses.txt is the left camera's: apply "
-                   "calib.txt's Tr.) Without it the front end predicts by constant "
-                   "velocity\n",
-                   *r.odometry_disagreement);
-    // Where the relaxation and the front end disagree most (the Cauchy kernel let the
-    // front end's match yield): the first places to look at in a map.
-    std::vector<std::pair<double, std::size_t>> chi2;
-    for (std::size_t i = 0; i < r.reports.size(); ++i)
-      if (r.reports[i].sequence_chi2 > r.loop_closure.sequence_cauchy_scale)
-        chi2.emplace_back(r.reports[i].sequence_chi2, i);
-    std::sort(chi2.rbegin(), chi2.rend());
-    if (!chi2.empty()) {
-      std::string worst;
-      for (std::size_t k = 0; k < chi2.size() && k < 3; ++k)
-        worst += (k ? ", " : "") + std::to_string(in.numbers[chi2[k].second]) + " (chi2 " +
-                 std::to_string(static_cast<long long>(std::lround(chi2[k].first))) + ")";
-      std::printf("loop closing disagreed most with the front end's steps to scans %s; "
-                  "report.json: sequence_chi2\n",
-                  worst.c_str());
-    }
-    if (!o.quiet) {
-      const auto& t = r.times;
-      std::printf("%s: front end %.2f s, loop detection %.2f s, loop closing %.2f s "
-                  "(%d pLUM runs); %.1f ms per scan; %zu bytes kept per scan\n",
-                  r.ranks > 1 ? "rank 0's stage times (its segments, then the whole sequence)"
-                              : "stage times",
-                  t.preprocess + t.front_end,
-                  t.loop_detection,
-                  t.loop_closing,
-                  r.relaxations,
-                  1e3 * t.total() / static_cast<double>(in.size()),
-                  r.bytes_per_scan);
-    }
-    if (!in.truth.empty())
-      pcl_pslam::printTruthErrors(std::cout, in, r);
-    std::string names;
-    for (const auto& w : written)
-      names += (names.empty() ? "" : ", ") + w;
-    std::printf("wrote %s/{%s} in %.1f s\n", o.out.c_str(), names.c_str(), progress.elapsed());
+    pcl_pslam::printSummary(o, in, r, written, progress.elapsed());
   }
   catch (const pcl_pslam::Interrupted& e) {
     removeIfEmpty(created_out, o.out);

@@ -96,4 +96,15 @@ writeOutputs(const Options& o,
 void
 printTruthErrors(std::ostream& out, const Input& in, const Result& r);
 
+/** The run's summary on standard output: matches that failed, the graph, where loop
+ *  closing and the front end disagree most, stage times (unless quiet), the errors
+ *  against the truth (demo), the files written; on standard error a warning where the
+ *  scans contradict the odometry (slam::kOdometryDisagreementLimit). */
+void
+printSummary(const Options& o,
+             const Input& in,
+             const Result& r,
+             const std::vector<std::string>& written,
+             double seconds);
+
 } // namespace pcl_pslam
