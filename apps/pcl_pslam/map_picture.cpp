@@ -265,6 +265,285 @@ cairoVersion()
   return cairo_version_string();
 }
 
+namespace {
+
+/** View coordinates to pixels of the map area (y down). */
+struct PixelFrame {
+  Eigen::Vector2d lo, hi;
+  double scale = 1.0; ///< pixels per metre
+  Eigen::Vector2d
+  operator()(const Eigen::Vector2d& p) const
+  {
+    return Eigen::Vector2d((p.x() - lo.x()) * scale, (hi.y() - p.y()) * scale);
+  }
+};
+
+/** The map from above in cells of the map's voxel (at least a pixel, so a sparse reduced
+ *  map reads as surfaces rather than dots). Per cell the highest point, and for floor
+ *  plans the heights between floor and ceiling; heights are above the nearest trajectory
+ *  position, so the ground along a slope or ramp keeps one colour. */
+struct HeightGrid {
+  int width = 0, height = 0; ///< cells
+  double cell_px = 1.0;
+  std::vector<float> top, band_lo, band_hi;
+  double lo = -2.0, hi = 4.0; ///< colour scale: 2 % and 98 % of the cells' tops
+  bool
+  empty(std::size_t c) const
+  {
+    return top[c] < -1e29f;
+  }
+};
+
+HeightGrid
+heightGrid(const Cloud& map,
+           const Poses& trajectory,
+           const std::vector<Eigen::Vector2d>& traj,
+           const View& view,
+           const PixelFrame& px,
+           int w,
+           int h,
+           const std::string& style,
+           const PictureOptions& opt)
+{
+  HeightGrid g;
+  const TrajectoryIndex index(traj, opt.radius, opt.radius / 20.0);
+  g.cell_px = std::max(1.0, opt.cell * px.scale);
+  g.width = static_cast<int>(std::ceil(w / g.cell_px));
+  g.height = static_cast<int>(std::ceil(h / g.cell_px));
+  const std::size_t cells = static_cast<std::size_t>(g.width) * g.height;
+  g.top.assign(cells, -1e30f);
+  g.band_lo.assign(cells, 1e30f);
+  g.band_hi.assign(cells, -1e30f);
+  std::vector<float> rel(map.size());
+  std::vector<std::int64_t> cell_of(map.size(), -1);
+  const auto n = static_cast<std::int64_t>(map.size());
+  const unsigned threads = pcl_parallel::resolveNumberOfThreads(opt.num_threads);
+#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 100000)
+  for (std::int64_t i = 0; i < n; ++i) {
+    const Eigen::Vector2d q = view(map[i].data);
+    const Eigen::Vector2d xy = px(q) / g.cell_px;
+    if (!(xy.x() >= 0 && xy.y() >= 0 && xy.x() < g.width && xy.y() < g.height))
+      continue;
+    const int k = index.nearest(q);
+    rel[i] =
+        static_cast<float>(map[i].data[opt.up] - (k >= 0 ? trajectory[k](opt.up, 3) : 0.0));
+    cell_of[i] =
+        static_cast<std::int64_t>(xy.y()) * g.width + static_cast<std::int64_t>(xy.x());
+  }
+  // Floor plan, per cell: the lowest and highest points are floor and ceiling (or a table
+  // top); points between them, over 25 cm of height, are a wall or an object. Per cell,
+  // so a world frame that is not level (a handheld scanner's first pose) does not turn a
+  // tilted floor into walls.
+  std::vector<float> bottom(cells, 1e30f);
+  for (std::size_t i = 0; i < map.size(); ++i) {
+    if (cell_of[i] < 0)
+      continue;
+    const auto c = static_cast<std::size_t>(cell_of[i]);
+    g.top[c] = std::max(g.top[c], rel[i]);
+    bottom[c] = std::min(bottom[c], rel[i]);
+  }
+  if (style == "floorplan")
+    for (std::size_t i = 0; i < map.size(); ++i) {
+      if (cell_of[i] < 0)
+        continue;
+      const auto c = static_cast<std::size_t>(cell_of[i]);
+      if (rel[i] > bottom[c] + 0.15f && rel[i] < g.top[c] - 0.15f)
+        g.band_lo[c] = std::min(g.band_lo[c], rel[i]),
+        g.band_hi[c] = std::max(g.band_hi[c], rel[i]);
+    }
+  std::vector<double> tops;
+  for (std::size_t c = 0; c < cells; ++c)
+    if (!g.empty(c))
+      tops.push_back(g.top[c]);
+  if (tops.size() > 10) {
+    g.lo = quantile(tops, 0.02);
+    g.hi = std::max(quantile(tops, 0.98), g.lo + 0.5);
+  }
+  return g;
+}
+
+/** Paints the canvas white and the grid's cells into the map area (w x h at pad). */
+void
+paintGrid(cairo_surface_t* surface,
+          const HeightGrid& g,
+          const std::string& style,
+          int w,
+          int h,
+          int pad)
+{
+  cairo_surface_flush(surface);
+  unsigned char* data = cairo_image_surface_get_data(surface);
+  const int stride_bytes = cairo_image_surface_get_stride(surface);
+  auto put = [&](int x, int y, double r, double gr, double b) {
+    auto* row =
+        reinterpret_cast<std::uint32_t*>(data + static_cast<std::size_t>(y) * stride_bytes);
+    row[x] = (static_cast<std::uint32_t>(r * 255) << 16) |
+             (static_cast<std::uint32_t>(gr * 255) << 8) | static_cast<std::uint32_t>(b * 255);
+  };
+  const int W = cairo_image_surface_get_width(surface),
+            H = cairo_image_surface_get_height(surface);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      put(x, y, 1, 1, 1);
+  for (int gy = 0; gy < g.height; ++gy)
+    for (int gx = 0; gx < g.width; ++gx) {
+      const std::size_t c = static_cast<std::size_t>(gy) * g.width + gx;
+      if (g.empty(c))
+        continue;
+      std::array<double, 3> col;
+      if (style == "floorplan") {
+        // A wall or an object stands between floor and ceiling, over some height; a
+        // sloping or noisy floor does not.
+        const double grey = g.band_hi[c] - g.band_lo[c] >= 0.25 ? 0.25 : 0.84;
+        col = {grey, grey, grey};
+      }
+      else
+        col = heightColour((g.top[c] - g.lo) / (g.hi - g.lo));
+      const int x0 = static_cast<int>(gx * g.cell_px),
+                x1 = std::min(w, static_cast<int>((gx + 1) * g.cell_px));
+      const int y0 = static_cast<int>(gy * g.cell_px),
+                y1 = std::min(h, static_cast<int>((gy + 1) * g.cell_px));
+      for (int y = y0; y < std::max(y1, y0 + 1); ++y)
+        for (int x = x0; x < std::max(x1, x0 + 1); ++x)
+          put(x + pad, y + pad, col[0], col[1], col[2]);
+    }
+  cairo_surface_mark_dirty(surface);
+}
+
+/** Loop links (blue dashes), the trajectory (a dark line on a white halo), its start (a
+ *  green disc) and end (a black ring), at canvas positions `at`. */
+void
+drawTrajectory(cairo_t* cr,
+               const std::vector<Eigen::Vector2d>& at,
+               const std::vector<std::pair<std::uint32_t, std::uint32_t>>& loops,
+               const std::string& style)
+{
+  const double dash[] = {6.0, 4.0};
+  cairo_set_dash(cr, dash, 2, 0);
+  cairo_set_line_width(cr, 1.2);
+  // Many links (a scanner turned in one room) fade, so the trajectory stays visible.
+  const double alpha = std::clamp(40.0 / std::max<double>(1.0, loops.size()), 0.1, 0.8);
+  cairo_set_source_rgba(cr, 0.0, 0.35, 1.0, alpha);
+  for (const auto& [a, b] : loops) {
+    if (a >= at.size() || b >= at.size())
+      continue;
+    cairo_move_to(cr, at[a].x(), at[a].y());
+    cairo_line_to(cr, at[b].x(), at[b].y());
+  }
+  cairo_stroke(cr);
+  cairo_set_dash(cr, nullptr, 0, 0);
+  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (std::size_t i = 0; i < at.size(); ++i)
+      i == 0 ? cairo_move_to(cr, at[i].x(), at[i].y())
+             : cairo_line_to(cr, at[i].x(), at[i].y());
+    if (pass == 0)
+      cairo_set_source_rgb(cr, 1, 1, 1), cairo_set_line_width(cr, 4.5);
+    else if (style == "floorplan")
+      cairo_set_source_rgb(cr, 0.85, 0.0, 0.0), cairo_set_line_width(cr, 2.0);
+    else
+      cairo_set_source_rgb(cr, 0.1, 0.1, 0.1), cairo_set_line_width(cr, 2.0);
+    cairo_stroke(cr);
+  }
+  const Eigen::Vector2d& s = at.front();
+  const Eigen::Vector2d& f = at.back();
+  cairo_arc(cr, s.x(), s.y(), 6, 0, 2 * M_PI);
+  cairo_set_source_rgb(cr, 0.0, 0.65, 0.2);
+  cairo_fill_preserve(cr);
+  cairo_set_source_rgb(cr, 1, 1, 1);
+  cairo_set_line_width(cr, 1.5);
+  cairo_stroke(cr);
+  cairo_arc(cr, f.x(), f.y(), 7, 0, 2 * M_PI);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  cairo_set_line_width(cr, 2.0);
+  cairo_stroke(cr);
+}
+
+/** A scale bar of a round length near a quarter of the map's width, at (x, y) on a white
+ *  box. */
+void
+drawScaleBar(cairo_t* cr, double map_width_m, double scale, double x, double y)
+{
+  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(cr, 14);
+  const double bar_m = niceLength(0.25 * map_width_m);
+  const double bar_px = bar_m * scale;
+  cairo_set_source_rgba(cr, 1, 1, 1, 0.85);
+  cairo_rectangle(cr, x - 6, y - 24, bar_px + 70, 34);
+  cairo_fill(cr);
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  cairo_set_line_width(cr, 3.0);
+  cairo_move_to(cr, x, y);
+  cairo_line_to(cr, x + bar_px, y);
+  cairo_stroke(cr);
+  cairo_set_line_width(cr, 1.5);
+  for (double xe : {x, x + bar_px}) {
+    cairo_move_to(cr, xe, y - 6);
+    cairo_line_to(cr, xe, y + 4);
+  }
+  cairo_stroke(cr);
+  cairo_move_to(cr, x + bar_px + 8, y + 5);
+  cairo_show_text(cr, formatLength(bar_m).c_str());
+}
+
+/** The legend's row, right-aligned at `right`: the height colour bar from lo to hi, or
+ *  the floor plan's key. */
+void
+drawLegend(cairo_t* cr, const std::string& style, double lo, double hi, double right, double y)
+{
+  cairo_set_font_size(cr, 12);
+  if (style == "floorplan") {
+    cairo_move_to(cr, right - 300, y + 14);
+    cairo_show_text(cr, "dark: walls and objects, grey: floor/ceiling");
+    return;
+  }
+  const double lw = 160, lx = right - lw;
+  for (int i = 0; i < static_cast<int>(lw); ++i) {
+    const auto c = heightColour(i / (lw - 1));
+    cairo_set_source_rgb(cr, c[0], c[1], c[2]);
+    cairo_rectangle(cr, lx + i, y, 1, 10);
+    cairo_fill(cr);
+  }
+  char label[96];
+  cairo_set_source_rgb(cr, 0, 0, 0);
+  std::snprintf(label, sizeof label, "%.1f", lo);
+  cairo_move_to(cr, lx, y + 24);
+  cairo_show_text(cr, label);
+  std::snprintf(label, sizeof label, "%.1f m", hi);
+  cairo_text_extents_t ext;
+  cairo_text_extents(cr, label, &ext);
+  cairo_move_to(cr, lx + lw - ext.width, y + 24);
+  cairo_show_text(cr, label);
+  const char* title = "height above trajectory";
+  cairo_text_extents(cr, title, &ext);
+  cairo_move_to(cr, lx - 10 - ext.x_advance, y + 10);
+  cairo_show_text(cr, title);
+}
+
+/** The caption's lines (the options' and the view's), wrapped to `width` in its font. */
+std::vector<std::string>
+captionLines(const PictureOptions& opt, const View& view, double width)
+{
+  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> probe(
+      cairo_image_surface_create(CAIRO_FORMAT_RGB24, 1, 1), cairo_surface_destroy);
+  std::unique_ptr<cairo_t, decltype(&cairo_destroy)> measure(cairo_create(probe.get()),
+                                                             cairo_destroy);
+  captionFont(measure.get());
+  const char* axes[] = {"x", "y", "z"};
+  std::vector<std::string> text = opt.caption;
+  text.push_back("top view along " + std::string(axes[opt.up]) + "; right: " + axes[view.u] +
+                 ", up: " + (view.flip < 0 ? "-" : "") + axes[view.v] +
+                 "; trajectory from the green disc to the black ring; blue dashes: loop "
+                 "links");
+  std::vector<std::string> lines;
+  for (const auto& t : text)
+    for (auto& l : wrapText(measure.get(), t, width))
+      lines.push_back(std::move(l));
+  return lines;
+}
+
+} // namespace
+
 std::string
 writeMapPicture(const std::string& path,
                 const Cloud& map,
@@ -285,218 +564,41 @@ writeMapPicture(const std::string& path,
     sample.push_back(view(map[i].data));
   const Extent e = robustExtent(sample, traj, opt.radius);
   const Eigen::Vector2d span = e.hi - e.lo;
-  const double scale = opt.size / span.maxCoeff(); // pixels per metre
-  const int w = std::max(1, static_cast<int>(std::ceil(span.x() * scale)));
-  const int h = std::max(1, static_cast<int>(std::ceil(span.y() * scale)));
-  auto px = [&](const Eigen::Vector2d& p) {
-    return Eigen::Vector2d((p.x() - e.lo.x()) * scale, (e.hi.y() - p.y()) * scale);
-  };
-
-  // Per pixel: points, and the lowest and highest point above the nearest trajectory
-  // position (heights relative to the trajectory, so the ground along a slope or ramp
-  // keeps one colour).
+  const PixelFrame px{e.lo, e.hi, opt.size / span.maxCoeff()};
+  const int w = std::max(1, static_cast<int>(std::ceil(span.x() * px.scale)));
+  const int h = std::max(1, static_cast<int>(std::ceil(span.y() * px.scale)));
   const std::string style =
       opt.style == "auto" ? chooseStyle(map, trajectory, opt.up, opt.num_threads) : opt.style;
-  const TrajectoryIndex index(traj, opt.radius, opt.radius / 20.0);
-  // Cells of the map's voxel size (at least a pixel), so a sparse reduced map reads as
-  // surfaces rather than dots.
-  const double cell_px = std::max(1.0, opt.cell * scale);
-  const int gw = static_cast<int>(std::ceil(w / cell_px)),
-            gh = static_cast<int>(std::ceil(h / cell_px));
-  const std::size_t cells = static_cast<std::size_t>(gw) * gh;
-  std::vector<float> hmax(cells, -1e30f);
-  std::vector<float> band_lo(cells, 1e30f), band_hi(cells, -1e30f);
-  std::vector<float> rel(map.size());
-  std::vector<std::int64_t> cell_of(map.size(), -1);
-  const auto n = static_cast<std::int64_t>(map.size());
-  const unsigned threads = pcl_parallel::resolveNumberOfThreads(opt.num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 100000)
-  for (std::int64_t i = 0; i < n; ++i) {
-    const Eigen::Vector2d q = view(map[i].data);
-    const Eigen::Vector2d xy = px(q) / cell_px;
-    if (!(xy.x() >= 0 && xy.y() >= 0 && xy.x() < gw && xy.y() < gh))
-      continue;
-    const int k = index.nearest(q);
-    rel[i] =
-        static_cast<float>(map[i].data[opt.up] - (k >= 0 ? trajectory[k](opt.up, 3) : 0.0));
-    cell_of[i] = static_cast<std::int64_t>(xy.y()) * gw + static_cast<std::int64_t>(xy.x());
-  }
-  // Floor plan, per cell: the lowest and highest points are floor and ceiling (or a table
-  // top); points between them, over 25 cm of height, are a wall or an object. Per cell,
-  // so a world frame that is not level (a handheld scanner's first pose) does not turn a
-  // tilted floor into walls.
-  std::vector<float> hmin(cells, 1e30f);
-  for (std::size_t i = 0; i < map.size(); ++i) {
-    if (cell_of[i] < 0)
-      continue;
-    const auto c = static_cast<std::size_t>(cell_of[i]);
-    hmax[c] = std::max(hmax[c], rel[i]);
-    hmin[c] = std::min(hmin[c], rel[i]);
-  }
-  if (style == "floorplan")
-    for (std::size_t i = 0; i < map.size(); ++i) {
-      if (cell_of[i] < 0)
-        continue;
-      const auto c = static_cast<std::size_t>(cell_of[i]);
-      if (rel[i] > hmin[c] + 0.15f && rel[i] < hmax[c] - 0.15f)
-        band_lo[c] = std::min(band_lo[c], rel[i]), band_hi[c] = std::max(band_hi[c], rel[i]);
-    }
-  std::vector<double> tops;
-  for (std::size_t c = 0; c < cells; ++c)
-    if (hmax[c] > -1e29f)
-      tops.push_back(hmax[c]);
-  double lo = -2.0, hi = 4.0;
-  if (tops.size() > 10) {
-    lo = quantile(tops, 0.02);
-    hi = quantile(tops, 0.98);
-    if (hi - lo < 0.5)
-      hi = lo + 0.5;
-  }
+  const HeightGrid grid = heightGrid(map, trajectory, traj, view, px, w, h, style, opt);
 
   // Canvas: the map, then a band with the legend's row and the caption, wrapped to the
   // canvas width (a tall, narrow map would cut long lines off).
   const int pad = 20, line_h = 20, legend_h = 34;
   const int W = std::max(w + 2 * pad, 700);
-  const char* axes[] = {"x", "y", "z"};
-  std::vector<std::string> lines;
-  {
-    std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> probe(
-        cairo_image_surface_create(CAIRO_FORMAT_RGB24, 1, 1), cairo_surface_destroy);
-    std::unique_ptr<cairo_t, decltype(&cairo_destroy)> measure(cairo_create(probe.get()),
-                                                               cairo_destroy);
-    captionFont(measure.get());
-    std::vector<std::string> text = opt.caption;
-    text.push_back("top view along " + std::string(axes[opt.up]) + "; right: " + axes[view.u] +
-                   ", up: " + (view.flip < 0 ? "-" : "") + axes[view.v] +
-                   "; trajectory from the green disc to the black ring; blue dashes: loop "
-                   "links");
-    for (const auto& t : text)
-      for (auto& l : wrapText(measure.get(), t, W - 2.0 * pad))
-        lines.push_back(std::move(l));
-  }
-  const int band = legend_h + line_h * static_cast<int>(lines.size()) + 10;
-  const int H = h + 2 * pad + band;
+  const std::vector<std::string> lines = captionLines(opt, view, W - 2.0 * pad);
+  const int H = h + 2 * pad + legend_h + line_h * static_cast<int>(lines.size()) + 10;
   std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
       cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
   if (cairo_surface_status(surface.get()) != CAIRO_STATUS_SUCCESS)
     throw std::runtime_error(path + ": cannot allocate a " + std::to_string(W) + " x " +
                              std::to_string(H) + " picture");
-  cairo_surface_flush(surface.get());
-  unsigned char* data = cairo_image_surface_get_data(surface.get());
-  const int stride_bytes = cairo_image_surface_get_stride(surface.get());
-  auto put = [&](int x, int y, double r, double g, double b) {
-    auto* row =
-        reinterpret_cast<std::uint32_t*>(data + static_cast<std::size_t>(y) * stride_bytes);
-    row[x] = (static_cast<std::uint32_t>(r * 255) << 16) |
-             (static_cast<std::uint32_t>(g * 255) << 8) | static_cast<std::uint32_t>(b * 255);
-  };
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      put(x, y, 1, 1, 1);
-  for (int gy = 0; gy < gh; ++gy)
-    for (int gx = 0; gx < gw; ++gx) {
-      const std::size_t c = static_cast<std::size_t>(gy) * gw + gx;
-      if (hmax[c] < -1e29f)
-        continue;
-      std::array<double, 3> col;
-      if (style == "floorplan") {
-        // A wall or an object stands between floor and ceiling, over some height; a
-        // sloping or noisy floor does not.
-        const double g = band_hi[c] - band_lo[c] >= 0.25 ? 0.25 : 0.84;
-        col = {g, g, g};
-      }
-      else
-        col = heightColour((hmax[c] - lo) / (hi - lo));
-      const int x0 = static_cast<int>(gx * cell_px),
-                x1 = std::min(w, static_cast<int>((gx + 1) * cell_px));
-      const int y0 = static_cast<int>(gy * cell_px),
-                y1 = std::min(h, static_cast<int>((gy + 1) * cell_px));
-      for (int y = y0; y < std::max(y1, y0 + 1); ++y)
-        for (int x = x0; x < std::max(x1, x0 + 1); ++x)
-          put(x + pad, y + pad, col[0], col[1], col[2]);
-    }
-  cairo_surface_mark_dirty(surface.get());
+  paintGrid(surface.get(), grid, style, w, h, pad);
 
   std::unique_ptr<cairo_t, decltype(&cairo_destroy)> cr_owner(cairo_create(surface.get()),
                                                               cairo_destroy);
   cairo_t* cr = cr_owner.get();
-  auto at = [&](const Eigen::Vector2d& p) {
-    const Eigen::Vector2d q = px(p);
-    return Eigen::Vector2d(q.x() + pad, q.y() + pad);
-  };
+  std::vector<Eigen::Vector2d> at;
+  for (const auto& p : traj)
+    at.push_back(px(p) + Eigen::Vector2d(pad, pad));
   cairo_rectangle(cr, pad, pad, w, h); // nothing outside the map area
   cairo_clip(cr);
-  // Loop-closure links: thin blue dashes between the linked poses.
-  const double dash[] = {6.0, 4.0};
-  cairo_set_dash(cr, dash, 2, 0);
-  cairo_set_line_width(cr, 1.2);
-  // Many links (a scanner turned in one room) fade, so the trajectory stays visible.
-  const double alpha = std::clamp(40.0 / std::max<double>(1.0, opt.loops.size()), 0.1, 0.8);
-  cairo_set_source_rgba(cr, 0.0, 0.35, 1.0, alpha);
-  for (const auto& [a, b] : opt.loops) {
-    if (a >= traj.size() || b >= traj.size())
-      continue;
-    const auto p = at(traj[a]), q = at(traj[b]);
-    cairo_move_to(cr, p.x(), p.y());
-    cairo_line_to(cr, q.x(), q.y());
-  }
-  cairo_stroke(cr);
-  cairo_set_dash(cr, nullptr, 0, 0);
-  // The trajectory: a white halo under a dark line, visible on any colour.
-  cairo_set_line_join(cr, CAIRO_LINE_JOIN_ROUND);
-  for (int pass = 0; pass < 2; ++pass) {
-    for (std::size_t i = 0; i < traj.size(); ++i) {
-      const auto p = at(traj[i]);
-      i == 0 ? cairo_move_to(cr, p.x(), p.y()) : cairo_line_to(cr, p.x(), p.y());
-    }
-    if (pass == 0)
-      cairo_set_source_rgb(cr, 1, 1, 1), cairo_set_line_width(cr, 4.5);
-    else if (style == "floorplan")
-      cairo_set_source_rgb(cr, 0.85, 0.0, 0.0), cairo_set_line_width(cr, 2.0);
-    else
-      cairo_set_source_rgb(cr, 0.1, 0.1, 0.1), cairo_set_line_width(cr, 2.0);
-    cairo_stroke(cr);
-  }
-  // Start: green disc; end: black ring.
-  const auto s = at(traj.front()), f = at(traj.back());
-  cairo_arc(cr, s.x(), s.y(), 6, 0, 2 * M_PI);
-  cairo_set_source_rgb(cr, 0.0, 0.65, 0.2);
-  cairo_fill_preserve(cr);
-  cairo_set_source_rgb(cr, 1, 1, 1);
-  cairo_set_line_width(cr, 1.5);
-  cairo_stroke(cr);
-  cairo_arc(cr, f.x(), f.y(), 7, 0, 2 * M_PI);
-  cairo_set_source_rgb(cr, 0, 0, 0);
-  cairo_set_line_width(cr, 2.0);
-  cairo_stroke(cr);
+  drawTrajectory(cr, at, opt.loops, style);
   cairo_reset_clip(cr);
   cairo_rectangle(cr, pad - 0.5, pad - 0.5, w + 1, h + 1);
   cairo_set_source_rgb(cr, 0.6, 0.6, 0.6);
   cairo_set_line_width(cr, 1.0);
   cairo_stroke(cr);
-
-  // Scale bar, bottom left of the map on a white box.
-  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-  cairo_set_font_size(cr, 14);
-  const double bar_m = niceLength(0.25 * span.x());
-  const double bar_px = bar_m * scale;
-  const double bx = pad + 12, by = pad + h - 14;
-  cairo_set_source_rgba(cr, 1, 1, 1, 0.85);
-  cairo_rectangle(cr, bx - 6, by - 24, bar_px + 70, 34);
-  cairo_fill(cr);
-  cairo_set_source_rgb(cr, 0, 0, 0);
-  cairo_set_line_width(cr, 3.0);
-  cairo_move_to(cr, bx, by);
-  cairo_line_to(cr, bx + bar_px, by);
-  cairo_stroke(cr);
-  cairo_set_line_width(cr, 1.5);
-  for (double x : {bx, bx + bar_px}) {
-    cairo_move_to(cr, x, by - 6);
-    cairo_line_to(cr, x, by + 4);
-  }
-  cairo_stroke(cr);
-  cairo_move_to(cr, bx + bar_px + 8, by + 5);
-  cairo_show_text(cr, formatLength(bar_m).c_str());
+  drawScaleBar(cr, span.x(), px.scale, pad + 12, pad + h - 14); // bottom left of the map
 
   // Caption, below the legend's row.
   captionFont(cr);
@@ -506,35 +608,7 @@ writeMapPicture(const std::string& path,
     cairo_show_text(cr, l.c_str());
     y += line_h;
   }
-  if (style != "floorplan") { // colour bar of the height above the trajectory
-    const double lw = 160, lx = W - pad - lw, ly = pad + h + 8;
-    for (int i = 0; i < static_cast<int>(lw); ++i) {
-      const auto c = heightColour(i / (lw - 1));
-      cairo_set_source_rgb(cr, c[0], c[1], c[2]);
-      cairo_rectangle(cr, lx + i, ly, 1, 10);
-      cairo_fill(cr);
-    }
-    char label[96];
-    cairo_set_source_rgb(cr, 0, 0, 0);
-    cairo_set_font_size(cr, 12);
-    std::snprintf(label, sizeof label, "%.1f", lo);
-    cairo_move_to(cr, lx, ly + 24);
-    cairo_show_text(cr, label);
-    std::snprintf(label, sizeof label, "%.1f m", hi);
-    cairo_text_extents_t ext;
-    cairo_text_extents(cr, label, &ext);
-    cairo_move_to(cr, lx + lw - ext.width, ly + 24);
-    cairo_show_text(cr, label);
-    const char* title = "height above trajectory";
-    cairo_text_extents(cr, title, &ext);
-    cairo_move_to(cr, lx - 10 - ext.x_advance, ly + 10);
-    cairo_show_text(cr, title);
-  }
-  else {
-    cairo_set_font_size(cr, 12);
-    cairo_move_to(cr, W - pad - 300, pad + h + 22);
-    cairo_show_text(cr, "dark: walls and objects, grey: floor/ceiling");
-  }
+  drawLegend(cr, style, grid.lo, grid.hi, W - pad, pad + h + 8);
   cairo_surface_flush(surface.get());
   const cairo_status_t status = cairo_surface_write_to_png(surface.get(), path.c_str());
   if (status != CAIRO_STATUS_SUCCESS)
