@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <unistd.h>
 
@@ -90,20 +91,15 @@ readTimes(const std::string& path)
 
 } // namespace
 
-Input
-openDirectory(const Options& o)
-{
-  if (!fs::is_directory(o.dir))
-    throw UsageError(o.dir + ": " +
-                     (fs::exists(o.dir) ? "not a directory" : "no such directory"));
-  for (const std::string& f : {o.poses_file, o.times_file})
-    if (!f.empty() && !fs::is_regular_file(f))
-      throw UsageError(f + ": no such file");
+namespace {
 
-  // One format per directory: -f, else the most common scan extension (.txt only when
-  // asked for: it also names notes and pose lists).
-  // Not only regular files: a directory or dangling link named like a scan is reported
-  // by the reader when its turn comes, not silently left out.
+/** The scan files of o.dir in reading order (sortScanFiles) and their format: -f, else
+ *  the most common scan extension (.txt only when asked for: it also names notes and pose
+ *  lists). Not only regular files: a directory or dangling link named like a scan is
+ *  reported by the reader when its turn comes, not silently left out. */
+std::pair<std::string, std::vector<fs::path>>
+listScanFiles(const Options& o)
+{
   std::map<std::string, std::vector<fs::path>> by_ext;
   std::error_code ec;
   for (fs::directory_iterator it(o.dir, ec), end; !ec && it != end; it.increment(ec))
@@ -128,95 +124,135 @@ openDirectory(const Options& o)
   sortScanFiles(files);
   if (files.empty())
     throw DataError(o.dir + ": no scan files" + (format.empty() ? "" : " (." + format + ")"));
+  if (files.size() < 2)
+    throw DataError(o.dir + ": 1 ." + format + " scan file; pcl_pslam needs at least 2");
+  return {format, files};
+}
 
+/** Scan numbers for -s/-e: the numbers in the names when every file has a distinct one
+ *  (3DTK's scanNNN), else the positions. */
+std::vector<long>
+scanNumbers(const std::vector<fs::path>& files)
+{
+  std::vector<long> numbers;
+  for (const auto& f : files)
+    numbers.push_back(trailingNumber(f));
+  std::vector<long> sorted = numbers;
+  std::sort(sorted.begin(), sorted.end());
+  if (sorted.front() < 0 || std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+    for (std::size_t i = 0; i < numbers.size(); ++i)
+      numbers[i] = static_cast<long>(i);
+  return numbers;
+}
+
+/** --poses: one pose per scan file in the directory (before -s/-e); none without it. */
+Poses
+readPosesFile(const Options& o, std::size_t files, const std::string& format)
+{
+  if (o.poses_file.empty())
+    return {};
+  Poses poses;
+  try {
+    poses = pcl_parallel::io::loadKittiPoses(o.poses_file);
+  }
+  catch (const std::runtime_error& e) {
+    throw DataError(withoutPrefix(e.what()));
+  }
+  if (poses.size() != files)
+    throw DataError(o.poses_file + ": " + std::to_string(poses.size()) + " poses for " +
+                    std::to_string(files) + " ." + format + " scans in " + o.dir);
+  return poses;
+}
+
+/** --times, else times.txt in the directory or its parent (KITTI's sequences/NN/ beside
+ *  velodyne/): one stamp per scan file; a times.txt found by itself that does not fit is
+ *  not ours and ignored. */
+std::vector<double>
+readScanTimes(const Options& o, std::size_t files)
+{
+  std::string path = o.times_file;
+  if (path.empty())
+    for (const fs::path& d : {fs::path(o.dir), fs::absolute(o.dir).parent_path()})
+      if (fs::is_regular_file(d / "times.txt")) {
+        path = (d / "times.txt").string();
+        break;
+      }
+  if (path.empty())
+    return {};
+  std::vector<double> times = readTimes(path);
+  if (times.size() != files) {
+    if (!o.times_file.empty())
+      throw DataError(path + ": " + std::to_string(times.size()) + " timestamps for " +
+                      std::to_string(files) + " scans in " + o.dir);
+    times.clear();
+  }
+  return times;
+}
+
+/** The 3DTK .pose file beside a .3d scan, translation times `scale`; none if absent. */
+std::optional<Eigen::Matrix4d>
+uosPose(const fs::path& scan, double scale)
+{
+  fs::path pose = scan;
+  pose.replace_extension(".pose");
+  if (!fs::exists(pose))
+    return std::nullopt;
+  Eigen::Matrix4d m;
+  try {
+    m = pcl_parallel::io::loadUosPose(pose.string());
+  }
+  catch (const std::runtime_error& e) {
+    throw DataError(withoutPrefix(e.what()));
+  }
+  m.topRightCorner<3, 1>() *= scale;
+  return m;
+}
+
+} // namespace
+
+Input
+openDirectory(const Options& o)
+{
+  if (!fs::is_directory(o.dir))
+    throw UsageError(o.dir + ": " +
+                     (fs::exists(o.dir) ? "not a directory" : "no such directory"));
+  for (const std::string& f : {o.poses_file, o.times_file})
+    if (!f.empty() && !fs::is_regular_file(f))
+      throw UsageError(f + ": no such file");
+  const auto [format, files] = listScanFiles(o);
   Input in;
   in.format = format;
   const bool uos = format == "3d";
   in.scale = o.scale ? *o.scale : uos ? 0.01 : 1.0;
   in.up = o.up >= 0 ? o.up : uos ? 1 : 2;
   in.frames_3dtk = uos;
-
-  // Scan numbers for -s/-e: the numbers in the names when every file has a distinct one
-  // (3DTK's scanNNN), else the positions.
-  std::vector<long> numbers;
-  for (const auto& f : files)
-    numbers.push_back(trailingNumber(f));
-  {
-    std::vector<long> sorted = numbers;
-    std::sort(sorted.begin(), sorted.end());
-    if (sorted.front() < 0 || std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
-      for (std::size_t i = 0; i < numbers.size(); ++i)
-        numbers[i] = static_cast<long>(i);
-  }
-
-  // Poses and times: one line per scan file in the directory (before -s/-e).
-  Poses all_poses;
-  if (!o.poses_file.empty()) {
-    try {
-      all_poses = pcl_parallel::io::loadKittiPoses(o.poses_file);
-    }
-    catch (const std::runtime_error& e) {
-      throw DataError(withoutPrefix(e.what()));
-    }
-    if (all_poses.size() != files.size())
-      throw DataError(o.poses_file + ": " + std::to_string(all_poses.size()) + " poses for " +
-                      std::to_string(files.size()) + " ." + format + " scans in " + o.dir);
-  }
-  std::string times_file = o.times_file;
-  if (times_file.empty()) // KITTI's layout: sequences/NN/times.txt beside velodyne/
-    for (const fs::path& d : {fs::path(o.dir), fs::absolute(o.dir).parent_path()})
-      if (fs::is_regular_file(d / "times.txt")) {
-        times_file = (d / "times.txt").string();
-        break;
-      }
-  std::vector<double> all_times;
-  if (!times_file.empty()) {
-    all_times = readTimes(times_file);
-    if (all_times.size() != files.size()) {
-      if (!o.times_file.empty())
-        throw DataError(times_file + ": " + std::to_string(all_times.size()) +
-                        " timestamps for " + std::to_string(files.size()) + " scans in " +
-                        o.dir);
-      all_times.clear(); // a times.txt found by itself that does not fit: not ours
-    }
-  }
+  in.min_range = o.min_range;
+  in.max_range = o.max_range;
+  const std::vector<long> numbers = scanNumbers(files);
+  const Poses all_poses = readPosesFile(o, files.size(), format);
+  const std::vector<double> all_times = readScanTimes(o, files.size());
 
   std::vector<std::size_t> selected;
   for (std::size_t i = 0; i < files.size(); ++i)
     if (numbers[i] >= o.first && (o.last < 0 || numbers[i] <= o.last))
       selected.push_back(i);
-  if (files.size() < 2)
-    throw DataError(o.dir + ": 1 ." + format + " scan file; pcl_pslam needs at least 2");
   if (selected.size() < 2) // the scans are there: -s/-e chose too few
     throw UsageError(o.dir + ": " + std::to_string(selected.size()) + " of its " +
                      std::to_string(files.size()) + " ." + format +
                      " scans lie in the range -s " + std::to_string(o.first) +
                      (o.last >= 0 ? " -e " + std::to_string(o.last) : "") +
                      "; pcl_pslam needs at least 2");
-
-  in.min_range = o.min_range;
-  in.max_range = o.max_range;
   bool have_uos_poses = uos && all_poses.empty();
   for (const std::size_t i : selected) {
     in.files.push_back(files[i].string());
     in.numbers.push_back(static_cast<int>(numbers[i]));
     in.stamps.push_back(all_times.empty() ? static_cast<double>(numbers[i]) : all_times[i]);
     if (have_uos_poses) {
-      fs::path pose = files[i];
-      pose.replace_extension(".pose");
-      if (fs::exists(pose)) {
-        Eigen::Matrix4d m;
-        try {
-          m = pcl_parallel::io::loadUosPose(pose.string());
-        }
-        catch (const std::runtime_error& e) {
-          throw DataError(withoutPrefix(e.what()));
-        }
-        m.topRightCorner<3, 1>() *= in.scale;
-        in.initial.push_back(m);
-      }
+      if (const auto pose = uosPose(files[i], in.scale))
+        in.initial.push_back(*pose);
       else if (!in.initial.empty())
-        throw DataError(pose.string() + ": missing (the scans before it have .pose files)");
+        throw DataError(fs::path(files[i]).replace_extension(".pose").string() +
+                        ": missing (the scans before it have .pose files)");
       else
         have_uos_poses = false;
     }
