@@ -110,6 +110,56 @@ describe(const std::string& path, const pio::Trajectory& t)
          " poses" + (t.timestamps.empty() ? "" : ", timestamps") + ")";
 }
 
+/** The estimate's and the truth's poses paired: by timestamp where both files have them
+ *  (evo's association within max_diff), else by index; and how, in words. */
+struct Paired {
+  ev::Poses estimate, truth;
+  std::string association;
+};
+
+Paired
+pairTrajectories(const pio::Trajectory& est,
+                 const std::string& estimate_path,
+                 const pio::Trajectory& truth,
+                 const std::string& truth_path,
+                 double max_diff,
+                 bool truncate)
+{
+  Paired p;
+  if (!est.timestamps.empty() && !truth.timestamps.empty()) {
+    const auto pairs = ev::associateByTimestamp(est.timestamps, truth.timestamps, max_diff);
+    if (pairs.empty())
+      throw std::runtime_error("no timestamps of " + estimate_path + " and " + truth_path +
+                               " lie within --max-diff " + std::to_string(max_diff) + " s");
+    for (const auto& [i, j] : pairs) {
+      p.estimate.push_back(est.poses[i]);
+      p.truth.push_back(truth.poses[j]);
+    }
+    p.association = "by timestamp (max diff " + std::to_string(max_diff) +
+                    " s): " + std::to_string(pairs.size()) + " pairs of " +
+                    std::to_string(std::min(est.poses.size(), truth.poses.size())) +
+                    " possible";
+    return p;
+  }
+  const std::size_t n = std::min(est.poses.size(), truth.poses.size());
+  if (est.poses.size() != truth.poses.size() && !truncate)
+    throw std::runtime_error("pairing by index (not both files have timestamps), but " +
+                             estimate_path + " has " + std::to_string(est.poses.size()) +
+                             " poses and " + truth_path + " " +
+                             std::to_string(truth.poses.size()) +
+                             " (--truncate compares the first " + std::to_string(n) + ")");
+  p.estimate.assign(est.poses.begin(), est.poses.begin() + static_cast<std::ptrdiff_t>(n));
+  p.truth.assign(truth.poses.begin(), truth.poses.begin() + static_cast<std::ptrdiff_t>(n));
+  p.association =
+      "by index" +
+      std::string(est.poses.size() != truth.poses.size()
+                      ? " (truncated to the first " + std::to_string(n) + ")"
+                      : "") +
+      (est.timestamps.empty() && truth.timestamps.empty() ? ": neither file has timestamps"
+                                                          : ": only one file has timestamps");
+  return p;
+}
+
 } // namespace
 
 json
@@ -264,40 +314,11 @@ evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
     const pio::Trajectory truth = pio::loadTrajectory(truth_path, frames_unit);
     ev::requireRigidMotions(est.poses, estimate_path); // named by file, before pairing
     ev::requireRigidMotions(truth.poses, truth_path);
-    ev::Poses e, t;
-    std::string association;
-    if (!est.timestamps.empty() && !truth.timestamps.empty()) {
-      const auto pairs = ev::associateByTimestamp(est.timestamps, truth.timestamps, max_diff);
-      if (pairs.empty())
-        throw std::runtime_error("no timestamps of " + estimate_path + " and " + truth_path +
-                                 " lie within --max-diff " + std::to_string(max_diff) + " s");
-      for (const auto& [i, j] : pairs) {
-        e.push_back(est.poses[i]);
-        t.push_back(truth.poses[j]);
-      }
-      association = "by timestamp (max diff " + std::to_string(max_diff) +
-                    " s): " + std::to_string(pairs.size()) + " pairs of " +
-                    std::to_string(std::min(est.poses.size(), truth.poses.size())) +
-                    " possible";
-    }
-    else {
-      const std::size_t n = std::min(est.poses.size(), truth.poses.size());
-      if (est.poses.size() != truth.poses.size() && !truncate)
-        throw std::runtime_error("pairing by index (not both files have timestamps), but " +
-                                 estimate_path + " has " + std::to_string(est.poses.size()) +
-                                 " poses and " + truth_path + " " +
-                                 std::to_string(truth.poses.size()) +
-                                 " (--truncate compares the first " + std::to_string(n) + ")");
-      e.assign(est.poses.begin(), est.poses.begin() + static_cast<std::ptrdiff_t>(n));
-      t.assign(truth.poses.begin(), truth.poses.begin() + static_cast<std::ptrdiff_t>(n));
-      association = "by index" +
-                    std::string(est.poses.size() != truth.poses.size()
-                                    ? " (truncated to the first " + std::to_string(n) + ")"
-                                    : "") +
-                    (est.timestamps.empty() && truth.timestamps.empty()
-                         ? ": neither file has timestamps"
-                         : ": only one file has timestamps");
-    }
+    const Paired paired =
+        pairTrajectories(est, estimate_path, truth, truth_path, max_diff, truncate);
+    const ev::Poses& e = paired.estimate;
+    const ev::Poses& t = paired.truth;
+    const std::string& association = paired.association;
     const ev::TrajectoryEvaluation result = ev::evaluateTrajectory(e, t, eo);
     if (as_json) {
       auto file = [](const std::string& path, const pio::Trajectory& tr) {
