@@ -729,6 +729,30 @@ TEST(Pipeline, BadInputIsAClearError)
   EXPECT_EQ(timed.addScan(one, std::nullopt, std::nullopt, times), 0u);
 }
 
+// A driver's no-returns at the origin (an organised cloud, here 1.5 per point) change
+// nothing: without them the median range, and every length from it, would be zero.
+TEST(Pipeline, NoReturnsAtTheOriginChangeNothing)
+{
+  sim::SimulatedScanSet zeros = corridorSet();
+  for (auto& scan : zeros.scans) {
+    Cloud::Ptr padded(new Cloud);
+    for (const auto& p : *scan) {
+      padded->push_back(pcl::PointXYZ(0, 0, 0));
+      padded->push_back(p);
+      padded->push_back(pcl::PointXYZ(0, 0, 0));
+    }
+    scan = padded;
+  }
+  slam::Parameters p;
+  p.num_threads = 2;
+  const PipelineRun run = runPipeline(zeros, p);
+  ASSERT_EQ(run.final.size(), defaultRun().final.size());
+  for (std::size_t i = 0; i < run.final.size(); ++i) {
+    EXPECT_EQ(run.front_end[i], defaultRun().front_end[i]) << "scan " << i;
+    EXPECT_EQ(run.final[i], defaultRun().final[i]) << "scan " << i;
+  }
+}
+
 // Odometry in another frame than the scans (KITTI's poses.txt: the left camera's, here
 // the corridor's odometry turned so) is told from odometry in the scans' frame: the scans
 // contradict its steps by about their length.
@@ -1072,6 +1096,10 @@ TEST(Preprocess, CropRangeKeepsFiniteInRange)
   const auto out = slam::cropRange(c, 1.0, 50.0);
   ASSERT_EQ(out->size(), 1u);
   EXPECT_EQ((*out)[0].x, 3.0f);
+  // A point at the origin is a no-return, also without a minimum range.
+  Cloud zero = c;
+  zero.push_back(pcl::PointXYZ(0, 0, 0));
+  EXPECT_EQ(slam::cropRange(zero, 0.0, 1e9)->size(), 3u);
   // With times, the kept points' own.
   std::vector<float> kept = {9.0f};
   EXPECT_EQ(slam::cropRange(c, 1.0, 50.0, {0.1f, 0.2f, 0.3f, 0.4f}, kept)->size(), 1u);

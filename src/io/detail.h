@@ -327,7 +327,7 @@ public:
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
       return;
     const double r = std::sqrt(x * x + y * y + z * z); // inf beyond 1e154: dropped or failed
-    if (r < min_range_ || r > max_range_)
+    if (r == 0.0 || r < min_range_ || r > max_range_) // at the origin: a no-return
       return;
     constexpr double kFloatMax = std::numeric_limits<float>::max();
     if (std::abs(x) > kFloatMax || std::abs(y) > kFloatMax || std::abs(z) > kFloatMax)

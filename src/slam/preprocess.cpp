@@ -35,7 +35,7 @@ crop(const Cloud& scan,
     if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
       continue;
     const double r2 = double(p.x) * p.x + double(p.y) * p.y + double(p.z) * p.z;
-    if (r2 >= lo && r2 <= hi) {
+    if (r2 > 0.0 && r2 >= lo && r2 <= hi) { // at the origin: a driver's no-return
       out->push_back(p);
       if (times)
         kept_times->push_back((*times)[i]);

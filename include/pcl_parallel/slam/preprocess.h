@@ -15,7 +15,10 @@
 namespace pcl_parallel {
 namespace slam {
 
-/** The finite points whose distance from the scanner lies in [min_range, max_range]. */
+/** The finite points whose distance from the scanner lies in [min_range, max_range];
+ *  never a point at the scanner's origin, which drivers write for a beam without a return
+ *  (Ouster's organised clouds: often more than half the points, which would make the
+ *  median range, and every length derived from it, zero). */
 Cloud::Ptr
 cropRange(const Cloud& scan, double min_range, double max_range);
 /** ... and the times of the points kept (`times`: one per point of `scan`). */
