@@ -219,6 +219,9 @@ openDirectory(const Options& o)
   for (const std::string& f : {o.poses_file, o.times_file})
     if (!f.empty() && !fs::is_regular_file(f))
       throw UsageError(f + ": no such file");
+  if (std::error_code ec; !o.out.empty() && fs::equivalent(o.out, o.dir, ec))
+    throw UsageError(o.out + ": --out is the scan directory, whose map.pcd the next run "
+                             "would read as a scan; choose another");
   const auto [format, files] = listScanFiles(o);
   Input in;
   in.format = format;
