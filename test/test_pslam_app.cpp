@@ -26,6 +26,7 @@
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <iomanip>
 #include <random>
 #include <sstream>
 #include <sys/resource.h>
@@ -434,6 +435,48 @@ TEST(PslamInput, NumberedNamesAreReadInTheirNumbersOrder)
   EXPECT_EQ(order("order_mixed", {"b2", "a10", "a3"}), (Names{"a10", "a3", "b2"}));
   EXPECT_EQ(order("order_twice", {"scan1", "scan01", "scan2"}),
             (Names{"scan01", "scan1", "scan2"}));
+}
+
+// --poses reads KITTI and TUM alike (a TUM file: the same poses, and its stamps become the
+// scans' unless times.txt gives them).
+TEST(PslamInput, PosesInKittiOrTumFormat)
+{
+  const fs::path dir = scratch("tum_poses");
+  for (int s = 0; s < 3; ++s)
+    std::ofstream(dir / ("scan" + std::to_string(s) + ".xyz")) << "0 0 1\n1 0 1\n0 1 1\n";
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()));
+  std::ofstream kitti(dir.parent_path() / "tum_poses.kitti"),
+      tum(dir.parent_path() / "tum_poses.tum");
+  tum << "# timestamp tx ty tz qx qy qz qw\n" << std::setprecision(17);
+  kitti << std::setprecision(17);
+  for (int s = 0; s < 3; ++s) {
+    const Eigen::Matrix3d r = q.toRotationMatrix();
+    for (int row = 0; row < 3; ++row)
+      kitti << r(row, 0) << ' ' << r(row, 1) << ' ' << r(row, 2) << ' ' << s + row << ' ';
+    kitti << '\n';
+    tum << 100.5 + 0.1 * s << ' ' << s << ' ' << s + 1 << ' ' << s + 2 << ' ' << q.x() << ' '
+        << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
+  }
+  kitti.close();
+  tum.close();
+  pcl_pslam::Options o;
+  o.command = "run";
+  o.dir = dir.string();
+  o.poses_file = (dir.parent_path() / "tum_poses.kitti").string();
+  const pcl_pslam::Input from_kitti = pcl_pslam::openDirectory(o);
+  o.poses_file = (dir.parent_path() / "tum_poses.tum").string();
+  const pcl_pslam::Input from_tum = pcl_pslam::openDirectory(o);
+  ASSERT_EQ(from_tum.initial.size(), 3u);
+  for (std::size_t s = 0; s < 3; ++s)
+    EXPECT_TRUE(from_tum.initial[s].isApprox(from_kitti.initial[s], 1e-12)) << "scan " << s;
+  EXPECT_FALSE(from_kitti.has_stamps);
+  EXPECT_TRUE(from_tum.has_stamps);
+  EXPECT_EQ(from_tum.stamps, (std::vector<double>{100.5, 100.6, 100.7}));
+  std::ofstream(dir / "times.txt") << "7\n8\n9\n";
+  EXPECT_EQ(pcl_pslam::openDirectory(o).stamps, (std::vector<double>{7, 8, 9}));
+  fs::remove_all(dir);
+  fs::remove(dir.parent_path() / "tum_poses.kitti");
+  fs::remove(dir.parent_path() / "tum_poses.tum");
 }
 
 TEST(PslamInput, UnreadableDirectoryAndScanFileAreErrorsNamingThem)

@@ -145,23 +145,25 @@ scanNumbers(const std::vector<fs::path>& files)
   return numbers;
 }
 
-/** --poses: one pose per scan file in the directory (before -s/-e); none without it. */
-Poses
+/** --poses: KITTI or TUM (io::detectPoseFileFormat), one pose per scan file in the
+ *  directory (before -s/-e), TUM's timestamps with them; none without it. */
+pcl_parallel::io::Trajectory
 readPosesFile(const Options& o, std::size_t files, const std::string& format)
 {
   if (o.poses_file.empty())
     return {};
-  Poses poses;
+  pcl_parallel::io::Trajectory odometry;
   try {
-    poses = pcl_parallel::io::loadKittiPoses(o.poses_file);
+    odometry = pcl_parallel::io::loadTrajectory(o.poses_file);
   }
   catch (const std::runtime_error& e) {
     throw DataError(withoutPrefix(e.what()));
   }
-  if (poses.size() != files)
-    throw DataError(o.poses_file + ": " + std::to_string(poses.size()) + " poses for " +
-                    std::to_string(files) + " ." + format + " scans in " + o.dir);
-  return poses;
+  if (odometry.poses.size() != files)
+    throw DataError(o.poses_file + ": " + std::to_string(odometry.poses.size()) +
+                    " poses for " + std::to_string(files) + " ." + format + " scans in " +
+                    o.dir);
+  return odometry;
 }
 
 /** --times, else times.txt in the directory or its parent (KITTI's sequences/NN/ beside
@@ -232,8 +234,11 @@ openDirectory(const Options& o)
   in.min_range = o.min_range;
   in.max_range = o.max_range;
   const std::vector<long> numbers = scanNumbers(files);
-  const Poses all_poses = readPosesFile(o, files.size(), format);
-  const std::vector<double> all_times = readScanTimes(o, files.size());
+  const auto odometry = readPosesFile(o, files.size(), format);
+  const Poses& all_poses = odometry.poses;
+  std::vector<double> all_times = readScanTimes(o, files.size());
+  if (all_times.empty()) // a TUM odometry's stamps are its scans'
+    all_times = odometry.timestamps;
 
   std::vector<std::size_t> selected;
   for (std::size_t i = 0; i < files.size(); ++i)

@@ -58,9 +58,11 @@ struct Descriptions {
       ("min,min-range,M", po::value<double>(&o.min_range)->value_name("NR"),
        "drop points closer than NR to the scanner, files' units (also --min-range) [default 0]")
       ("poses", po::value<std::string>(&o.poses_file)->value_name("FILE"),
-       "initial poses, KITTI format (12 numbers a line), one line per scan file in DIR, "
-       "files' units, the scanner's frame (KITTI's poses.txt is the left camera's). "
-       "Default: .pose files beside .3d scans, else none (constant velocity)")
+       "initial poses, KITTI (12 numbers a line) or TUM (timestamp tx ty tz qx qy qz qw: "
+       "its stamps are the scans' unless --times or times.txt give them), one line per "
+       "scan file in DIR, files' units, the scanner's frame (KITTI's poses.txt is the "
+       "left camera's). Default: .pose files beside .3d scans, else none (constant "
+       "velocity)")
       ("times", po::value<std::string>(&o.times_file)->value_name("FILE"),
        "one timestamp (s) per scan file in DIR, for poses_tum.txt [default: times.txt in DIR "
        "or its parent, else the scan index]")
