@@ -107,16 +107,16 @@ loadKittiPoses(const std::string& path);
 
 /** Reads a scan in any supported format, chosen by the extension (case-insensitive):
  *  .3d (loadUosScan), .xyz and .txt (loadXyzScan), .bin (loadKittiScan), .pcd
- *  (loadPcdScan) and .ply (loadPlyScan). Every format gets
- *  the same treatment: non-finite points dropped, and points at the origin (drivers write
- *  (0, 0, 0) for a beam without a return, Ouster's organised clouds for often more than
- *  half the points), the range filter applied, an unorganised dense cloud returned. Throws std::invalid_argument for an unsupported extension (the
- *  message lists the supported ones), std::runtime_error naming the file when it does not
- *  exist, is not a regular file, or cannot be parsed (also for PCD/PLY files without x, y,
- *  z fields), when a PCD/PLY header claims more points than the file size can hold, and
- *  when memory runs out (no
- *  bare std::bad_alloc). `point_times`, if given, receives the per-point times of PCD and
- *  PLY scans that have a time field (loadPcdScan); it stays empty for the other formats. */
+ *  (loadPcdScan) and .ply (loadPlyScan). Every format gets the same treatment: non-finite
+ *  points dropped, and points at the origin (drivers write (0, 0, 0) for a beam without a
+ *  return, Ouster's organised clouds for often more than half the points), the range
+ *  filter applied, an unorganised dense cloud returned. Throws std::invalid_argument for
+ *  an unsupported extension (the message lists the supported ones), std::runtime_error
+ *  naming the file when it does not exist, is not a regular file, or cannot be parsed
+ *  (also for PCD/PLY files without x, y, z fields), when a PCD/PLY header claims more
+ *  points than the file size can hold, and when memory runs out (no bare std::bad_alloc).
+ *  `point_times`, if given, receives the per-point times of PCD and PLY scans that have a
+ *  time field (loadPcdScan); it stays empty for the other formats. */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadScan(const std::string& path,
          double min_range = 0.0,
