@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <numeric>
 #include <optional>
 #include <sstream>
 #include <unistd.h>
@@ -50,6 +51,21 @@ trailingNumber(const fs::path& file)
   return std::stol(stem.substr(k));
 }
 
+/** The files' trailing numbers, where every file has one and no two share it; else none. */
+std::optional<std::vector<long>>
+distinctNumbers(const std::vector<fs::path>& files)
+{
+  std::vector<long> numbers;
+  for (const auto& f : files)
+    numbers.push_back(trailingNumber(f));
+  std::vector<long> sorted = numbers;
+  std::sort(sorted.begin(), sorted.end());
+  if (!sorted.empty() &&
+      (sorted.front() < 0 || std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()))
+    return std::nullopt;
+  return numbers;
+}
+
 /** Sorts scan files as a user numbered them: by their trailing numbers where every stem
  *  is one prefix and a distinct number (scan2 before scan10, as 3DTK's scanNNN), else by
  *  name. A prefix ending in '.' makes the number a decimal fraction (1317384506.25), whose
@@ -62,19 +78,23 @@ sortScanFiles(std::vector<fs::path>& files)
     const std::string stem = f.stem().string();
     return stem.substr(0, stem.find_last_not_of("0123456789") + 1);
   };
-  std::vector<long> numbers;
   for (const auto& f : files) {
     const std::string p = prefix(f);
-    if (trailingNumber(f) < 0 || p != prefix(files.front()) || (!p.empty() && p.back() == '.'))
+    if (p != prefix(files.front()) || (!p.empty() && p.back() == '.'))
       return;
-    numbers.push_back(trailingNumber(f));
   }
-  std::sort(numbers.begin(), numbers.end());
-  if (std::adjacent_find(numbers.begin(), numbers.end()) != numbers.end())
-    return; // scan1 and scan01: the names decide
-  std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
-    return trailingNumber(a) < trailingNumber(b);
+  const auto numbers = distinctNumbers(files);
+  if (!numbers) // a name without a number, or scan1 and scan01: the names decide
+    return;
+  std::vector<std::size_t> order(files.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return (*numbers)[a] < (*numbers)[b];
   });
+  std::vector<fs::path> sorted;
+  for (const std::size_t i : order)
+    sorted.push_back(files[i]);
+  files = std::move(sorted);
 }
 
 /** One timestamp (seconds) per non-blank line (io::loadKittiTimes). */
@@ -134,15 +154,11 @@ listScanFiles(const Options& o)
 std::vector<long>
 scanNumbers(const std::vector<fs::path>& files)
 {
-  std::vector<long> numbers;
-  for (const auto& f : files)
-    numbers.push_back(trailingNumber(f));
-  std::vector<long> sorted = numbers;
-  std::sort(sorted.begin(), sorted.end());
-  if (sorted.front() < 0 || std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
-    for (std::size_t i = 0; i < numbers.size(); ++i)
-      numbers[i] = static_cast<long>(i);
-  return numbers;
+  if (auto numbers = distinctNumbers(files))
+    return *numbers;
+  std::vector<long> positions(files.size());
+  std::iota(positions.begin(), positions.end(), 0L);
+  return positions;
 }
 
 /** --poses: KITTI or TUM (io::detectPoseFileFormat), one pose per scan file in the

@@ -448,11 +448,7 @@ FrontEnd::hypotheses(const Cloud& source, const Pose& prediction) const
     h.sigma = sigma;
   // Turn rate: the predicted turn stopped or doubled moves the scan's points at its median
   // range by the turn's angle times that range; tried where that leaves the refinement gate.
-  std::vector<float> ranges(source.size());
-  for (std::size_t i = 0; i < source.size(); ++i)
-    ranges[i] = source[i].getVector3fMap().norm();
-  std::nth_element(ranges.begin(), ranges.begin() + ranges.size() / 2, ranges.end());
-  h.range = ranges[ranges.size() / 2];
+  h.range = medianRange(source);
   const Eigen::AngleAxisd turn(Eigen::Matrix3d(step.topLeftCorner<3, 3>()));
   if (turn.angle() * h.range > same)
     h.turn = turn;

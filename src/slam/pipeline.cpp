@@ -33,20 +33,6 @@ orAuto(double value, double automatic)
 
 } // namespace
 
-double
-medianRange(const Cloud& scan)
-{
-  std::vector<float> r;
-  r.reserve(scan.size());
-  for (const auto& p : scan)
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-      r.push_back(p.getVector3fMap().norm());
-  if (r.empty())
-    return 0.0;
-  std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
-  return r[r.size() / 2];
-}
-
 FrontEndParameters
 frontEndParameters(const Parameters& p, double r)
 {

@@ -46,6 +46,20 @@ crop(const Cloud& scan,
 
 } // namespace
 
+double
+medianRange(const Cloud& scan)
+{
+  std::vector<float> r;
+  r.reserve(scan.size());
+  for (const auto& p : scan)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
+      r.push_back(p.getVector3fMap().norm());
+  if (r.empty())
+    return 0.0;
+  std::nth_element(r.begin(), r.begin() + r.size() / 2, r.end());
+  return r[r.size() / 2];
+}
+
 void
 requireOnePerPoint(const Cloud& scan, std::size_t times, const std::string& context)
 {

@@ -6,6 +6,7 @@
 
 #include <pcl_parallel/slam/front_end.h>
 #include <pcl_parallel/slam/loop_closure.h>
+#include <pcl_parallel/slam/preprocess.h>
 #include <pcl_parallel/slam/types.h>
 
 #include <functional>
@@ -63,10 +64,6 @@ struct Parameters {
   bool sequence_constraints = true;
   unsigned num_threads = 0; ///< 0: all cores
 };
-
-/** Median distance of the finite points from the scanner (0 for an empty scan). */
-double
-medianRange(const Cloud& scan);
 
 /** The front end's and loop closing's settings for parameters p on scans of median range
  *  r (resolves the automatic lengths). frontEndParameters throws std::invalid_argument

@@ -29,6 +29,10 @@ cropRange(const Cloud& scan,
           const std::vector<float>& times,
           std::vector<float>& kept_times);
 
+/** Median distance of the finite points from the scanner (0 for an empty scan). */
+double
+medianRange(const Cloud& scan);
+
 /** Throws std::invalid_argument "`context`: N point times for M points" unless `times`
  *  (a count of per-point times) is one per point of `scan`. */
 void
