@@ -118,9 +118,13 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     if (o.keep.empty())
       cleanup.dir = demo_dir; // the temporary scans go when main returns
     progress.note(std::to_string(in.size()) + " scans" +
-                  (in.odometry ? "" : "; no initial poses: constant-velocity guesses"));
+                  (in.odometry               ? ""
+                   : o.no_pose_search ? "; no initial poses: constant-velocity guesses"
+                                      : "; no initial poses: constant-velocity guesses, "
+                                        "poses searched where a match looks wrong"));
     pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);
     params.odometry = in.odometry;
+    params.up = Eigen::Vector3d::Unit(in.up);
     if (in.has_stamps)
       params.stamps = in.stamps;
     else if (params.sweep_period > 0.0)

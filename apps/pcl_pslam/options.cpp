@@ -129,6 +129,10 @@ struct Descriptions {
       ("no-sequence-constraints", po::bool_switch(&o.no_sequence_constraints),
        "pLUM without the front end's matches as constraints between consecutive scans "
        "(only the scan pairs' links, as the paper)")
+      ("no-pose-search", po::bool_switch(&o.no_pose_search),
+       "without initial poses, never search a scan's pose over all headings and "
+       "translations (by default searched where a match to the previous scan looks wrong: "
+       "stop-and-go scanners carried between stations)")
       ("no-loops", po::bool_switch(&o.no_loops), "no loop closing (front end only)");
     output.add_options()
       ("out,o", po::value<std::string>(&o.out)->value_name("DIR"),
@@ -392,6 +396,7 @@ toParameters(const Options& o, double scale)
   p.sweep_clockwise = !o.sweep_ccw;
   p.normals_from_map = o.map_normals;
   p.close_loops = !o.no_loops;
+  p.pose_search = !o.no_pose_search;
   p.elch = o.elch != 0;
   p.sequence_constraints = !o.no_sequence_constraints;
   p.segment_size = o.segment_size.value_or(0);

@@ -60,6 +60,7 @@ struct Options {
   bool sweep_ccw = false;    ///< the head turns counter-clockwise in the scans' frame
   bool map_normals = false;  ///< point-to-plane normals on the local map (sparse scanners)
   bool no_loops = false;
+  bool no_pose_search = false;
   int elch = 4; ///< [-L] 3DTK's loop closing algorithm: 0 none, else ELCH
   bool no_sequence_constraints = false;
   unsigned threads = 0;

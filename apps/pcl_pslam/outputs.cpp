@@ -503,6 +503,8 @@ parametersJson(const Parameters& params, const Result& r, double map_voxel)
           {"deskew", fe.deskew},
           {"sweep_period_s", fe.sweep_period},
           {"sweep_clockwise", fe.sweep_clockwise},
+          {"pose_search", fe.pose_search},
+          {"up", std::vector<double>{fe.up.x(), fe.up.y(), fe.up.z()}},
           {"close_loops", params.close_loops}};
 }
 
@@ -524,6 +526,9 @@ scansJson(const Input& in, const Result& r)
     s["icp_correction"] = rep.correction;
     s["icp_start_offset"] = rep.start_offset;
     s["icp_start_turn"] = rep.start_turn;
+    s["pose_searched"] = rep.pose_searched;
+    if (std::isfinite(rep.start_heading)) // the pose search's start won (degrees)
+      s["pose_search_heading_deg"] = rep.start_heading * 180.0 / M_PI;
     s["icp_source_points"] = rep.source_points;
     s["seconds"] = rep.seconds;
     s["lum_iterations"] = rep.lum_iterations;

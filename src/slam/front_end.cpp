@@ -9,7 +9,9 @@
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/lum_solver.h>
 #include <pcl_parallel/search/kdtree.h>
+#include <pcl_parallel/slam/correlative_search.h>
 #include <pcl_parallel/slam/front_end.h>
+#include <pcl_parallel/slam/overlap.h>
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <pcl/common/transforms.h>
@@ -48,6 +50,22 @@ constexpr std::size_t kPriorSpreadSamples = 20;
  *  (test_slam ConstantVelocityOverAnUnseenStop: 3 m ATE unbounded, 1.4 cm at k = 4).
  *  Keyframes of a steady drive taken by distance and by turn reach 1/4-4 (mulran). */
 constexpr double kMaxVelocityScale = 4.0;
+
+/** Without odometry, a match to the previous scan that overlaps it less than this
+ *  fraction of the recent matches' median overlap is searched for (pose_search). */
+constexpr double kSearchOverlapRatio = 0.7;
+/** The search's match replaces the prediction's only if it overlaps the previous scan by
+ *  this factor more: along a street or a corridor, shifted matches overlap alike. */
+constexpr double kSearchMargin = 1.25;
+/** ... the last this many. */
+constexpr std::size_t kSearchOverlapHistory = 20;
+
+double
+median(std::vector<double> v)
+{
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
 
 /** The reduced points' k-d tree (scanner frame): the scan's one tree, for its normals,
  *  the next scan's match to it and pLUM (ParallelLUM::setSearchTree: the tree pLUM would
@@ -282,19 +300,18 @@ FrontEnd::track(const Cloud& scan,
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
       matched = align(icp,
-                      initialGuess(source, r.prediction, odometry.has_value(), r),
+                      initialGuess(source, *reduced, r.prediction, odometry.has_value(), r),
                       r.gate,
                       params_.final_correspondence_distance,
                       icp_->threshold != nullptr,
                       r.prediction,
                       priorSpreadIfUsed());
     }
-    else { // the hypotheses' best start refined, if one beats the prediction's
-      const Hypotheses h = odometry ? Hypotheses() : hypotheses(*source, r.prediction);
+    else { // the best guess refined (without odometry; with it, the prediction)
       std::optional<Pose> better;
-      if (h.any())
-        better = bestHypothesis(
-            source, r.prediction, alignToPrevious(source, r.prediction, false), h, r);
+      if (!odometry)
+        better = betterGuess(
+            source, *reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
       matched = better ? alignToPrevious(source, *better, true, &r.prediction)
                        : alignToPrevious(source, r.prediction, true);
     }
@@ -369,6 +386,8 @@ FrontEnd::keep(const Cloud::Ptr& reduced)
     return kept; // the previous scan is not matched
   previous_ = scannerFrameCloud(*reduced, kept.normals);
   previous_tree_->setInputCloudAndIndex(previous_, kept.tree);
+  previous_index_ = kept.tree;
+  previous_points_ = reduced;
   return kept;
 }
 
@@ -507,8 +526,72 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
   return winner;
 }
 
+std::optional<Pose>
+FrontEnd::searchPose(const Cloud::ConstPtr& source,
+                     const Cloud& reduced,
+                     const std::optional<Pose>& own,
+                     FrontEndResult& r)
+{
+  if (!params_.pose_search || !hasPrevious() || source->empty())
+    return std::nullopt;
+  // In the previous scan's frame: how much of it the prediction's match sees.
+  const double same = sameSolution();
+  const std::optional<Pose> own_local =
+      own ? std::optional<Pose>(pose_.inverse() * *own) : std::nullopt;
+  const double own_overlap =
+      own_local ? overlap(*source, *own_local, *previous_index_, same) : 0.0;
+  // Searched only where the match looks wrong: the first, or one that sees far less of
+  // the previous scan than the recent matches did.
+  if (!overlaps_.empty() && own_overlap >= kSearchOverlapRatio * median(overlaps_)) {
+    keepOverlap(own_overlap);
+    return std::nullopt;
+  }
+  r.pose_searched = true;
+  CorrelativeSearchParameters search;
+  search.cell = 2.0 * params_.voxel_size;
+  search.num_threads = params_.num_threads;
+  Icp& icp = icp_->to_previous;
+  icp.setSearchMethodTarget(previous_tree_, true);
+  icp.setInputTarget(previous_);
+  icp.setInputSource(source);
+  const double range = medianRange(*source);
+  double best = kSearchMargin * own_overlap;
+  std::optional<Pose> winner;
+  for (const Pose& start : correlativeSearch(reduced, *previous_points_, params_.up, search)) {
+    // From a candidate good to a cell: a gate of two cells, no prior (none predicted it).
+    const auto m = align(icp,
+                         start,
+                         std::min(params_.max_correspondence_distance, 2.0 * search.cell),
+                         params_.final_correspondence_distance,
+                         icp_->threshold != nullptr,
+                         start,
+                         std::nullopt);
+    if (!m ||
+        (own_local &&
+         registration::motionDisplacement(own_local->inverse() * *m, range) <= same))
+      continue;
+    if (const double o = overlap(*source, *m, *previous_index_, same); o > best) {
+      best = o;
+      winner = pose_ * *m;
+      const Eigen::AngleAxisd turn(Eigen::Matrix3d(start.topLeftCorner<3, 3>()));
+      r.start_heading = turn.axis().dot(params_.up) < 0.0 ? -turn.angle() : turn.angle();
+    }
+  }
+  keepOverlap(winner ? best : own_overlap);
+  return winner;
+}
+
+void
+FrontEnd::keepOverlap(double o)
+{
+  overlaps_.push_back(o);
+  if (overlaps_.size() > kSearchOverlapHistory)
+    overlaps_.erase(overlaps_.begin());
+}
+
 Pose
 FrontEnd::initialGuess(const Cloud::ConstPtr& source,
+                       const Cloud& reduced,
                        const Pose& prediction,
                        bool odometry,
                        FrontEndResult& r)
@@ -516,11 +599,25 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source,
   if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
     return prediction;
   const std::optional<Pose> own = alignToPrevious(source, prediction, false);
+  return betterGuess(source, reduced, prediction, own, r).value_or(own.value_or(prediction));
+}
+
+std::optional<Pose>
+FrontEnd::betterGuess(const Cloud::ConstPtr& source,
+                      const Cloud& reduced,
+                      const Pose& prediction,
+                      const std::optional<Pose>& own,
+                      FrontEndResult& r)
+{
+  // A hypothesis' match where one fits better, the search's where even that looks wrong:
+  // the search is the last resort, the costliest and the least local.
+  std::optional<Pose> better;
   const Hypotheses h = hypotheses(*source, prediction);
   if (h.any())
-    if (const auto better = bestHypothesis(source, prediction, own, h, r))
-      return *better;
-  return own.value_or(prediction);
+    better = bestHypothesis(source, prediction, own, h, r);
+  if (auto found = searchPose(source, reduced, better ? better : own, r))
+    better = found;
+  return better;
 }
 
 void

@@ -8,6 +8,7 @@
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/lum.h>
 #include <pcl_parallel/slam/loop_closure.h>
+#include <pcl_parallel/slam/overlap.h>
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <Eigen/Geometry>
@@ -25,32 +26,6 @@ struct LoopCloser::Impl {
   std::size_t points = 0;                                ///< of every scan
   std::size_t kept_points = 0;                           ///< of the scans held here
 };
-
-namespace {
-
-/** Fraction of (every step-th point of) `source`, moved by `pose`, that has a point of
- *  `target` within max_distance. */
-double
-overlap(const Cloud& source,
-        const Pose& pose,
-        const KdTreeIndex& target,
-        double max_distance,
-        std::size_t step)
-{
-  const Eigen::Matrix3f r = pose.topLeftCorner<3, 3>().cast<float>();
-  const Eigen::Vector3f t = pose.topRightCorner<3, 1>().cast<float>();
-  const float max_sqr = static_cast<float>(max_distance * max_distance);
-  std::size_t tried = 0, hits = 0;
-  for (std::size_t k = 0; k < source.size(); k += step) {
-    const Eigen::Vector3f q = r * source[k].getVector3fMap() + t;
-    float d2;
-    ++tried;
-    hits += target.nearest(q.data(), max_sqr, d2) != KdTreeIndex::kInvalid ? 1 : 0;
-  }
-  return tried ? static_cast<double>(hits) / static_cast<double>(tried) : 0.0;
-}
-
-} // namespace
 
 LoopCloser::LoopCloser(const LoopClosureParameters& params)
     : params_(params)

@@ -57,6 +57,8 @@ frontEndParameters(const Parameters& p, double r)
   f.deskew = p.deskew;
   f.sweep_period = p.sweep_period;
   f.sweep_clockwise = p.sweep_clockwise;
+  f.pose_search = p.pose_search;
+  f.up = p.up;
   f.num_threads = p.num_threads;
   return f;
 }

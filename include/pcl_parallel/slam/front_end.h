@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include <limits>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -69,6 +70,15 @@ struct FrontEndParameters {
    *  (docs/design.md, "Speed hypotheses"). Starts within the refinement gate of the
    *  prediction are not tried, so a narrow gate costs nothing. */
   bool speed_hypotheses = true;
+  /** Without odometry, where the match to the previous scan looks wrong (the first one,
+   *  or one that overlaps the previous scan less than 0.7 times the recent matches'
+   *  median), the pose is also searched over all headings about `up` and translations
+   *  (correlativeSearch), and pICP from its best candidates gives the guess where one
+   *  overlaps the previous scan more (docs/design.md, "Pose search"). For motion nothing
+   *  predicts: a stop-and-go scanner without initial poses is carried from one station
+   *  to the next and turned by any angle. */
+  bool pose_search = true;
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ(); ///< the vertical axis, scanner frame
   /** Point-to-plane pICP instead of point-to-point. */
   bool point_to_plane = true;
   /** Point-to-plane normals: false (default) estimates them once per scan from its
@@ -119,6 +129,10 @@ struct FrontEndResult {
   /** The winning turn-rate hypothesis: the predicted turn scaled by 1 + start_turn (-1:
    *  stopped, 1: doubled; 0: the prediction's, or none tried). */
   double start_turn = 0.0;
+  bool pose_searched = false; ///< the pose search ran (FrontEndParameters::pose_search)
+  /** The pose search's winning start, turned about `up` from the previous scan's
+   *  heading (rad); NaN: no search ran, or the prediction's match won. */
+  double start_heading = std::numeric_limits<double>::quiet_NaN();
   /** The match's information (point-to-plane: pICP's final Hessian over its residual
    *  variance, without the motion prior): how well the scan's pose relative to the map,
    *  or to the previous scan, is known. Zero when pICP did not run or failed. */
@@ -201,11 +215,33 @@ private:
       return sigma > 0.0 || turn.angle() > 0.0;
     }
   };
+  /** Right after `own`, the prediction's match to the previous scan: where `own` looks
+   *  wrong (pose_search), the best of correlativeSearch's candidates matched, if it
+   *  overlaps the previous scan more than `own` and ends elsewhere; r.start_heading
+   *  says which. */
+  std::optional<Pose>
+  searchPose(const Cloud::ConstPtr& source,
+             const Cloud& reduced,
+             const std::optional<Pose>& own,
+             FrontEndResult& r);
+  /** Keeps the overlap of the latest match to the previous scan (the last 20). */
+  void
+  keepOverlap(double overlap);
+  /** Without odometry, right after `own`, the prediction's match to the previous scan:
+   *  the best of the hypotheses' matches (bestHypothesis) where one beats it, the pose
+   *  search's (searchPose) where even that looks wrong; none if neither won. */
+  std::optional<Pose>
+  betterGuess(const Cloud::ConstPtr& source,
+              const Cloud& reduced,
+              const Pose& prediction,
+              const std::optional<Pose>& own,
+              FrontEndResult& r);
   /** Where the match starts: the prediction, or its match to the previous scan
-   *  (guess_from_previous_scan), the best of the hypotheses' (speed_hypotheses; which
-   *  one won goes to r.start_offset and r.start_turn). */
+   *  (guess_from_previous_scan), or betterGuess's (which start won goes to
+   *  r.start_offset, r.start_turn and r.start_heading). */
   Pose
   initialGuess(const Cloud::ConstPtr& source,
+               const Cloud& reduced,
                const Pose& prediction,
                bool odometry,
                FrontEndResult& r);
@@ -255,6 +291,9 @@ private:
    *  one built for its normals. */
   MapCloud::Ptr previous_;
   pcl::shared_ptr<search::KdTree<MapPoint>> previous_tree_;
+  std::shared_ptr<const KdTreeIndex> previous_index_; ///< previous_tree_'s index
+  Cloud::ConstPtr previous_points_;                   ///< its points, without normals
+  std::vector<double> overlaps_; ///< of the recent matches to the previous scan
   /** The direction of the last step longer than a voxel, in the scanner's frame: where
    *  speed hypotheses go when the predicted step is too short to have one. */
   Eigen::Vector3d heading_ = Eigen::Vector3d::Zero();

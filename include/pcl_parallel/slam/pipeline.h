@@ -43,6 +43,8 @@ struct Parameters {
    *  consecutive sweeps. */
   double sweep_period = 0.0;
   bool sweep_clockwise = true; ///< see FrontEndParameters::sweep_clockwise
+  bool pose_search = true; ///< see FrontEndParameters::pose_search
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ(); ///< the vertical axis, scanner frame
   bool close_loops = true;
   double loop_distance = 0.0;      ///< [--cldist] auto r
   int loop_size = 5;               ///< [--loopsize] (3DTK: 20; the path rule does the rest)
@@ -91,6 +93,8 @@ struct ScanReport {
    *  prediction). */
   double start_offset = 0.0;
   double start_turn = 0.0;          ///< FrontEndResult::start_turn
+  bool pose_searched = false;       ///< FrontEndResult::pose_searched
+  double start_heading = std::numeric_limits<double>::quiet_NaN(); ///< ... ::start_heading
   double seconds = 0.0;             ///< all stages for this scan
   std::vector<LoopCandidate> loops; ///< loop pairs tried
   int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
@@ -98,7 +102,7 @@ struct ScanReport {
   double sequence_chi2 = -1.0;
 
   /** Takes the match's figures from the front end's result: source points, convergence,
-   *  fitness, gate, start offset and turn (one place for the pipeline and the MPI reader). */
+   *  fitness, gate, the winning starts (one place for the pipeline and the MPI reader). */
   void
   setMatch(const FrontEndResult& fe)
   {
@@ -108,6 +112,8 @@ struct ScanReport {
     gate = fe.gate;
     start_offset = fe.start_offset;
     start_turn = fe.start_turn;
+    pose_searched = fe.pose_searched;
+    start_heading = fe.start_heading;
   }
 };
 

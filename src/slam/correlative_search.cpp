@@ -1,0 +1,296 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/parallel.h>
+#include <pcl_parallel/slam/correlative_search.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+#include <limits>
+#include <utility>
+
+namespace pcl_parallel {
+namespace slam {
+
+namespace {
+
+/** The coarse search's cell, in fine cells. */
+constexpr int kCoarseCells = 2;
+/** Coarse peaks refined by the fine search. */
+constexpr std::size_t kCoarsePeaks = 16;
+/** The fine search: headings within half a coarse step, translations within a coarse
+ *  cell (plus one fine cell) of a coarse peak, heights within kFineCells too. */
+constexpr int kFineHeadings = 2; ///< either side, at a quarter of the coarse step
+constexpr int kFineCells = kCoarseCells / 2 + 1;
+/** The grids reach at most this many cells from the origin horizontally (memory). */
+constexpr int kMaxHalfCells = 1024;
+
+/** The horizontal plane and the vertical: u, v, up right-handed (u x v = up). */
+struct Frame {
+  Eigen::Vector3d u, v, up;
+
+  explicit Frame(const Eigen::Vector3d& vertical)
+      : up(vertical.normalized())
+  {
+    u = up.unitOrthogonal();
+    v = up.cross(u);
+  }
+
+  Eigen::Vector3d
+  of(const PointT& point) const
+  {
+    const Eigen::Vector3d p = point.getVector3fMap().cast<double>();
+    return {p.dot(u), p.dot(v), p.dot(up)};
+  }
+};
+
+/** A box of occupied cells (in the search frame, centred on the origin horizontally),
+ *  dilated by one cell: a point scores where it falls within a cell of a target point. */
+class Occupancy {
+public:
+  Occupancy(const std::vector<Eigen::Vector3d>& points, double cell, int half_cells, int dilation = 1)
+      : cell_(cell)
+      , half_(half_cells)
+      , side_(2 * half_cells)
+  {
+    double low = std::numeric_limits<double>::infinity(), high = -low;
+    for (const auto& p : points)
+      low = std::min(low, p.z()), high = std::max(high, p.z());
+    low_ = std::floor(low / cell) - dilation;
+    layers_ = points.empty() ? 0 : static_cast<int>(std::floor(high / cell) - low_) + 1 + dilation;
+    occupied_.assign(static_cast<std::size_t>(side_) * side_ * layers_, 0);
+    for (const auto& p : points) {
+      const int i = index(p.x()), j = index(p.y()), k = layer(p.z());
+      const int d = dilation;
+      for (int di = -d; di <= d; ++di)
+        for (int dj = -d; dj <= d; ++dj)
+          for (int dk = -d; dk <= d; ++dk)
+            if (inside(i + di, j + dj, k + dk)) {
+              const int near = d + 1 - std::max({std::abs(di), std::abs(dj), std::abs(dk)});
+              std::uint8_t& o = occupied_[offset(i + di, j + dj, k + dk)];
+              o = std::max<std::uint8_t>(o, static_cast<std::uint8_t>(near));
+            }
+    }
+  }
+
+  int
+  index(double x) const
+  {
+    const double i = std::floor(x / cell_) + half_;
+    return i < 0.0 || i >= side_ ? -1 : static_cast<int>(i);
+  }
+
+  int
+  layer(double z) const
+  {
+    const double k = std::floor(z / cell_) - low_;
+    return k < 0.0 || k >= layers_ ? -1 : static_cast<int>(k);
+  }
+
+  bool
+  inside(int i, int j, int k) const
+  {
+    return i >= 0 && i < side_ && j >= 0 && j < side_ && k >= 0 && k < layers_;
+  }
+
+  int
+  at(int i, int j, int k) const
+  {
+    return inside(i, j, k) ? occupied_[offset(i, j, k)] : 0;
+  }
+
+  int
+  hit(const Eigen::Vector3d& p) const
+  {
+    return at(index(p.x()), index(p.y()), layer(p.z()));
+  }
+
+private:
+  std::size_t
+  offset(int i, int j, int k) const
+  {
+    return (static_cast<std::size_t>(i) * side_ + j) * layers_ + k;
+  }
+
+  double cell_;
+  int half_, side_;
+  double low_ = 0.0;
+  int layers_ = 0;
+  std::vector<std::uint8_t> occupied_;
+};
+
+/** A pose in the plane (heading about up, translation) and how many source points it
+ *  lands on the target's. */
+struct Peak {
+  int score = -1;
+  double heading = 0.0;
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+};
+
+Eigen::Vector3d
+rotated(const Eigen::Vector3d& p, double heading)
+{
+  const double c = std::cos(heading), s = std::sin(heading);
+  return {c * p.x() - s * p.y(), s * p.x() + c * p.y(), p.z()};
+}
+
+int
+score(const std::vector<Eigen::Vector3d>& source,
+      const Occupancy& target,
+      double heading,
+      const Eigen::Vector3d& translation)
+{
+  int n = 0;
+  for (const auto& p : source)
+    n += target.hit(rotated(p, heading) + translation);
+  return n;
+}
+
+/** Peaks best first, each kept only if no better one lies within `distance` and `turn`
+ *  radians of it (non-maximum suppression); at most `count`. */
+std::vector<Peak>
+distinctPeaks(std::vector<Peak> peaks, double distance, double turn, std::size_t count)
+{
+  std::stable_sort(
+      peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) { return a.score > b.score; });
+  std::vector<Peak> kept;
+  for (const Peak& p : peaks) {
+    if (kept.size() == count || p.score <= 0)
+      break;
+    const bool near = std::any_of(kept.begin(), kept.end(), [&](const Peak& k) {
+      const double dh = std::remainder(p.heading - k.heading, 2.0 * M_PI);
+      return (p.translation - k.translation).norm() <= distance && std::abs(dh) <= turn;
+    });
+    if (!near)
+      kept.push_back(p);
+  }
+  return kept;
+}
+
+/** The cloud's points in the search frame within `reach` of the origin horizontally. */
+std::vector<Eigen::Vector3d>
+within(const Cloud& cloud, const Frame& frame, double reach)
+{
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(cloud.size());
+  for (const auto& point : cloud) {
+    const Eigen::Vector3d p = frame.of(point);
+    if (p.allFinite() && p.head<2>().squaredNorm() <= reach * reach)
+      out.push_back(p);
+  }
+  return out;
+}
+
+} // namespace
+
+std::vector<Pose>
+correlativeSearch(const Cloud& source,
+                  const Cloud& target,
+                  const Eigen::Vector3d& up,
+                  const CorrelativeSearchParameters& params)
+{
+  if (!(params.cell > 0.0) || !std::isfinite(params.cell) || params.headings < 1 ||
+      !(params.radius >= 0.0) || !std::isfinite(params.radius) || !(up.norm() > 0.0))
+    throw std::invalid_argument("correlativeSearch: cell > 0, radius >= 0, headings >= 1 "
+                                "and a non-zero up axis needed");
+  const Frame frame(up);
+  double radius = params.radius;
+  if (radius == 0.0) { // as far as the target reaches: its 90th percentile range
+    std::vector<double> ranges;
+    ranges.reserve(target.size());
+    for (const auto& p : target)
+      if (const double r = frame.of(p).head<2>().norm(); std::isfinite(r))
+        ranges.push_back(r);
+    if (ranges.empty())
+      return {};
+    const auto at = ranges.begin() + static_cast<std::ptrdiff_t>(0.9 * (ranges.size() - 1));
+    std::nth_element(ranges.begin(), at, ranges.end());
+    radius = std::max(*at, params.cell);
+  }
+  // Points of either scan within twice the radius can meet; the grids reach as far.
+  const double coarse_cell = kCoarseCells * params.cell;
+  const int half_fine =
+      std::min(kMaxHalfCells, static_cast<int>(std::ceil(2.0 * radius / params.cell)));
+  const double reach = half_fine * params.cell;
+  const std::vector<Eigen::Vector3d> target_points = within(target, frame, reach);
+  std::vector<Eigen::Vector3d> points = within(source, frame, reach);
+  if (target_points.empty() || points.empty())
+    return {};
+  if (points.size() > params.max_points) { // every k-th: the scan is reduced, so spread
+    const std::size_t step = (points.size() + params.max_points - 1) / params.max_points;
+    std::vector<Eigen::Vector3d> every;
+    for (std::size_t i = 0; i < points.size(); i += step)
+      every.push_back(points[i]);
+    points.swap(every);
+  }
+  const Occupancy fine(target_points, params.cell, half_fine);
+  const Occupancy coarse(target_points, coarse_cell, (half_fine + kCoarseCells - 1) / kCoarseCells);
+
+  // Coarse: every heading, every translation in coarse cells within the radius (the
+  // heights as they are: the coarse cells' dilation takes a step up or down).
+  const int n = static_cast<int>(std::ceil(radius / coarse_cell));
+  const int side = 2 * n + 1;
+  const double step = 2.0 * M_PI / params.headings;
+  std::vector<std::vector<int>> scores(static_cast<std::size_t>(params.headings));
+#pragma omp parallel for schedule(dynamic, 1) num_threads(resolveNumberOfThreads(params.num_threads))
+  for (int h = 0; h < params.headings; ++h) {
+    std::vector<int>& s = scores[h];
+    s.assign(static_cast<std::size_t>(side) * side, 0);
+    for (const auto& p : points) {
+      const Eigen::Vector3d q = rotated(p, h * step);
+      const int i = coarse.index(q.x()), j = coarse.index(q.y()), k = coarse.layer(q.z());
+      if (i < 0 || j < 0 || k < 0)
+        continue;
+      for (int a = -n; a <= n; ++a) {
+        int* row = &s[static_cast<std::size_t>(a + n) * side];
+        for (int b = -n; b <= n; ++b)
+          row[b + n] += coarse.at(i + a, j + b, k);
+      }
+    }
+  }
+  std::vector<Peak> peaks;
+  for (int h = 0; h < params.headings; ++h)
+    for (int a = -n; a <= n; ++a)
+      for (int b = -n; b <= n; ++b)
+        if (const int s = scores[h][static_cast<std::size_t>(a + n) * side + b + n];
+            s > 0 && a * a + b * b <= n * n)
+          peaks.push_back({s, h * step, Eigen::Vector3d(a, b, 0.0) * coarse_cell});
+  peaks = distinctPeaks(std::move(peaks), coarse_cell, step, kCoarsePeaks);
+
+  // Fine: around each coarse peak, heights too, by direct lookup.
+  std::vector<Peak> refined(peaks.size());
+#pragma omp parallel for schedule(dynamic, 1) num_threads(resolveNumberOfThreads(params.num_threads))
+  for (int k = 0; k < static_cast<int>(peaks.size()); ++k) {
+    Peak best;
+    for (int dh = -kFineHeadings; dh <= kFineHeadings; ++dh)
+      for (int a = -kFineCells; a <= kFineCells; ++a)
+        for (int b = -kFineCells; b <= kFineCells; ++b)
+          for (int c = -kFineCells; c <= kFineCells; ++c) {
+            const double heading = peaks[k].heading + dh * step / (2 * kFineHeadings);
+            const Eigen::Vector3d t =
+                peaks[k].translation + Eigen::Vector3d(a, b, c) * params.cell;
+            const int s = score(points, fine, heading, t);
+            if (s > best.score)
+              best = {s, heading, t};
+          }
+    refined[k] = best;
+  }
+  std::vector<Pose> out;
+  for (const Peak& p :
+       distinctPeaks(std::move(refined), 2.0 * params.cell, step / 2.0, params.candidates)) {
+    Pose pose = Pose::Identity();
+    pose.topLeftCorner<3, 3>() = Eigen::AngleAxisd(p.heading, frame.up).toRotationMatrix();
+    pose.topRightCorner<3, 1>() =
+        p.translation.x() * frame.u + p.translation.y() * frame.v + p.translation.z() * frame.up;
+    out.push_back(pose);
+  }
+  return out;
+}
+
+} // namespace slam
+} // namespace pcl_parallel
