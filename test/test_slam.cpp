@@ -537,7 +537,8 @@ TEST(CorrelativeSearch, FindsTheStepsOfAStopAndGoScanner)
       const Pose error = truth.inverse() * f;
       const double d = error.topRightCorner<3, 1>().norm();
       if (d < nearest)
-        nearest = d, turn = Eigen::AngleAxisd(Eigen::Matrix3d(error.topLeftCorner<3, 3>())).angle();
+        nearest = d,
+        turn = Eigen::AngleAxisd(Eigen::Matrix3d(error.topLeftCorner<3, 3>())).angle();
     }
     std::printf("step %zu (%.1f m, %.1f deg): nearest candidate %.2f m, %.2f deg off\n",
                 i,

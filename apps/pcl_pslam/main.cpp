@@ -118,7 +118,7 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
     if (o.keep.empty())
       cleanup.dir = demo_dir; // the temporary scans go when main returns
     progress.note(std::to_string(in.size()) + " scans" +
-                  (in.odometry               ? ""
+                  (in.odometry        ? ""
                    : o.no_pose_search ? "; no initial poses: constant-velocity guesses"
                                       : "; no initial poses: constant-velocity guesses, "
                                         "poses searched where a match looks wrong"));

@@ -10,8 +10,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <stdexcept>
 #include <limits>
+#include <stdexcept>
 #include <utility>
 
 namespace pcl_parallel {
@@ -27,8 +27,10 @@ constexpr std::size_t kCoarsePeaks = 16;
  *  cell (plus one fine cell) of a coarse peak, heights within kFineCells too. */
 constexpr int kFineHeadings = 2; ///< either side, at a quarter of the coarse step
 constexpr int kFineCells = kCoarseCells / 2 + 1;
-/** The grids reach at most this many cells from the origin horizontally (memory). */
+/** The grids reach at most this many cells from the origin horizontally, and hold at most
+ *  kMaxCells (a byte each): taller scenes keep a band about the scanner's height. */
 constexpr int kMaxHalfCells = 1024;
+constexpr std::size_t kMaxCells = std::size_t(1) << 26;
 
 /** The horizontal plane and the vertical: u, v, up right-handed (u x v = up). */
 struct Frame {
@@ -49,11 +51,12 @@ struct Frame {
   }
 };
 
-/** A box of occupied cells (in the search frame, centred on the origin horizontally),
- *  dilated by one cell: a point scores where it falls within a cell of a target point. */
-class Occupancy {
+/** How near a cell lies to a target point, a coarse likelihood field (Olson 2009): 2 in
+ *  the point's cell, 1 in the 26 around it, 0 elsewhere; in the search frame, centred on
+ *  the origin horizontally. A source point scores the value of the cell it falls in. */
+class LikelihoodField {
 public:
-  Occupancy(const std::vector<Eigen::Vector3d>& points, double cell, int half_cells, int dilation = 1)
+  LikelihoodField(const std::vector<Eigen::Vector3d>& points, double cell, int half_cells)
       : cell_(cell)
       , half_(half_cells)
       , side_(2 * half_cells)
@@ -61,19 +64,25 @@ public:
     double low = std::numeric_limits<double>::infinity(), high = -low;
     for (const auto& p : points)
       low = std::min(low, p.z()), high = std::max(high, p.z());
-    low_ = std::floor(low / cell) - dilation;
-    layers_ = points.empty() ? 0 : static_cast<int>(std::floor(high / cell) - low_) + 1 + dilation;
-    occupied_.assign(static_cast<std::size_t>(side_) * side_ * layers_, 0);
+    low_ = std::floor(low / cell) - 1;
+    layers_ = points.empty() ? 0 : static_cast<int>(std::floor(high / cell) - low_) + 2;
+    const std::size_t column = static_cast<std::size_t>(side_) * side_;
+    if (column * layers_ > kMaxCells) { // a band about the scanner's height
+      layers_ = static_cast<int>(std::max<std::size_t>(1, kMaxCells / column));
+      low_ = -std::floor(layers_ / 2.0);
+    }
+    near_.assign(static_cast<std::size_t>(side_) * side_ * layers_, 0);
     for (const auto& p : points) {
       const int i = index(p.x()), j = index(p.y()), k = layer(p.z());
-      const int d = dilation;
-      for (int di = -d; di <= d; ++di)
-        for (int dj = -d; dj <= d; ++dj)
-          for (int dk = -d; dk <= d; ++dk)
+      if (i < 0 || j < 0 || k < 0)
+        continue; // outside the grid (its reach, or the band of a tall scene)
+      for (int di = -1; di <= 1; ++di)
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int dk = -1; dk <= 1; ++dk)
             if (inside(i + di, j + dj, k + dk)) {
-              const int near = d + 1 - std::max({std::abs(di), std::abs(dj), std::abs(dk)});
-              std::uint8_t& o = occupied_[offset(i + di, j + dj, k + dk)];
-              o = std::max<std::uint8_t>(o, static_cast<std::uint8_t>(near));
+              const std::uint8_t near = di == 0 && dj == 0 && dk == 0 ? 2 : 1;
+              std::uint8_t& o = near_[offset(i + di, j + dj, k + dk)];
+              o = std::max(o, near);
             }
     }
   }
@@ -101,11 +110,11 @@ public:
   int
   at(int i, int j, int k) const
   {
-    return inside(i, j, k) ? occupied_[offset(i, j, k)] : 0;
+    return inside(i, j, k) ? near_[offset(i, j, k)] : 0;
   }
 
   int
-  hit(const Eigen::Vector3d& p) const
+  value(const Eigen::Vector3d& p) const
   {
     return at(index(p.x()), index(p.y()), layer(p.z()));
   }
@@ -121,7 +130,7 @@ private:
   int half_, side_;
   double low_ = 0.0;
   int layers_ = 0;
-  std::vector<std::uint8_t> occupied_;
+  std::vector<std::uint8_t> near_;
 };
 
 /** A pose in the plane (heading about up, translation) and how many source points it
@@ -141,13 +150,13 @@ rotated(const Eigen::Vector3d& p, double heading)
 
 int
 score(const std::vector<Eigen::Vector3d>& source,
-      const Occupancy& target,
+      const LikelihoodField& target,
       double heading,
       const Eigen::Vector3d& translation)
 {
   int n = 0;
   for (const auto& p : source)
-    n += target.hit(rotated(p, heading) + translation);
+    n += target.value(rotated(p, heading) + translation);
   return n;
 }
 
@@ -156,8 +165,9 @@ score(const std::vector<Eigen::Vector3d>& source,
 std::vector<Peak>
 distinctPeaks(std::vector<Peak> peaks, double distance, double turn, std::size_t count)
 {
-  std::stable_sort(
-      peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) { return a.score > b.score; });
+  std::stable_sort(peaks.begin(), peaks.end(), [](const Peak& a, const Peak& b) {
+    return a.score > b.score;
+  });
   std::vector<Peak> kept;
   for (const Peak& p : peaks) {
     if (kept.size() == count || p.score <= 0)
@@ -228,8 +238,9 @@ correlativeSearch(const Cloud& source,
       every.push_back(points[i]);
     points.swap(every);
   }
-  const Occupancy fine(target_points, params.cell, half_fine);
-  const Occupancy coarse(target_points, coarse_cell, (half_fine + kCoarseCells - 1) / kCoarseCells);
+  const LikelihoodField fine(target_points, params.cell, half_fine);
+  const LikelihoodField coarse(
+      target_points, coarse_cell, (half_fine + kCoarseCells - 1) / kCoarseCells);
 
   // Coarse: every heading, every translation in coarse cells within the radius (the
   // heights as they are: the coarse cells' dilation takes a step up or down).
@@ -237,7 +248,8 @@ correlativeSearch(const Cloud& source,
   const int side = 2 * n + 1;
   const double step = 2.0 * M_PI / params.headings;
   std::vector<std::vector<int>> scores(static_cast<std::size_t>(params.headings));
-#pragma omp parallel for schedule(dynamic, 1) num_threads(resolveNumberOfThreads(params.num_threads))
+#pragma omp parallel for schedule(dynamic, 1)                                                  \
+    num_threads(resolveNumberOfThreads(params.num_threads))
   for (int h = 0; h < params.headings; ++h) {
     std::vector<int>& s = scores[h];
     s.assign(static_cast<std::size_t>(side) * side, 0);
@@ -264,7 +276,8 @@ correlativeSearch(const Cloud& source,
 
   // Fine: around each coarse peak, heights too, by direct lookup.
   std::vector<Peak> refined(peaks.size());
-#pragma omp parallel for schedule(dynamic, 1) num_threads(resolveNumberOfThreads(params.num_threads))
+#pragma omp parallel for schedule(dynamic, 1)                                                  \
+    num_threads(resolveNumberOfThreads(params.num_threads))
   for (int k = 0; k < static_cast<int>(peaks.size()); ++k) {
     Peak best;
     for (int dh = -kFineHeadings; dh <= kFineHeadings; ++dh)
@@ -285,8 +298,8 @@ correlativeSearch(const Cloud& source,
        distinctPeaks(std::move(refined), 2.0 * params.cell, step / 2.0, params.candidates)) {
     Pose pose = Pose::Identity();
     pose.topLeftCorner<3, 3>() = Eigen::AngleAxisd(p.heading, frame.up).toRotationMatrix();
-    pose.topRightCorner<3, 1>() =
-        p.translation.x() * frame.u + p.translation.y() * frame.v + p.translation.z() * frame.up;
+    pose.topRightCorner<3, 1>() = p.translation.x() * frame.u + p.translation.y() * frame.v +
+                                  p.translation.z() * frame.up;
     out.push_back(pose);
   }
   return out;

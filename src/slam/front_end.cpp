@@ -566,9 +566,8 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
                          icp_->threshold != nullptr,
                          start,
                          std::nullopt);
-    if (!m ||
-        (own_local &&
-         registration::motionDisplacement(own_local->inverse() * *m, range) <= same))
+    if (!m || (own_local &&
+               registration::motionDisplacement(own_local->inverse() * *m, range) <= same))
       continue;
     if (const double o = overlap(*source, *m, *previous_index_, same); o > best) {
       best = o;

@@ -42,8 +42,8 @@ struct Parameters {
    *  (FrontEndParameters::sweep_period); needs every scan's time stamp. 0: the scans are
    *  consecutive sweeps. */
   double sweep_period = 0.0;
-  bool sweep_clockwise = true; ///< see FrontEndParameters::sweep_clockwise
-  bool pose_search = true; ///< see FrontEndParameters::pose_search
+  bool sweep_clockwise = true;                   ///< see FrontEndParameters::sweep_clockwise
+  bool pose_search = true;                       ///< see FrontEndParameters::pose_search
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ(); ///< the vertical axis, scanner frame
   bool close_loops = true;
   double loop_distance = 0.0;      ///< [--cldist] auto r
@@ -92,12 +92,12 @@ struct ScanReport {
   /** FrontEndResult::start_offset: the speed hypothesis pICP started from (0: the
    *  prediction). */
   double start_offset = 0.0;
-  double start_turn = 0.0;          ///< FrontEndResult::start_turn
-  bool pose_searched = false;       ///< FrontEndResult::pose_searched
+  double start_turn = 0.0;    ///< FrontEndResult::start_turn
+  bool pose_searched = false; ///< FrontEndResult::pose_searched
   double start_heading = std::numeric_limits<double>::quiet_NaN(); ///< ... ::start_heading
-  double seconds = 0.0;             ///< all stages for this scan
-  std::vector<LoopCandidate> loops; ///< loop pairs tried
-  int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
+  double seconds = 0.0;                                            ///< all stages for this scan
+  std::vector<LoopCandidate> loops;                                ///< loop pairs tried
+  int lum_iterations = 0; ///< pLUM run after this scan (0: none)
   /** After finish(): LoopCloser::sequenceChi2() of this scan (-1: no constraint). */
   double sequence_chi2 = -1.0;
 
