@@ -21,6 +21,9 @@ namespace {
 
 /** The coarse search's cell, in fine cells. */
 constexpr int kCoarseCells = 2;
+/** The coarse search tries at most this many cells either way (257 x 257 translations
+ *  a heading): 25 median ranges at the pipeline's cell, past any scan's 90th percentile. */
+constexpr int kMaxCoarseSteps = 128;
 /** Coarse peaks refined by the fine search. */
 constexpr std::size_t kCoarsePeaks = 16;
 /** The fine search: headings within half a coarse step, translations within a coarse
@@ -244,7 +247,7 @@ correlativeSearch(const Cloud& source,
 
   // Coarse: every heading, every translation in coarse cells within the radius (the
   // heights as they are: the coarse cells' dilation takes a step up or down).
-  const int n = static_cast<int>(std::ceil(radius / coarse_cell));
+  const int n = std::min(kMaxCoarseSteps, static_cast<int>(std::ceil(radius / coarse_cell)));
   const int side = 2 * n + 1;
   const double step = 2.0 * M_PI / params.headings;
   std::vector<std::vector<int>> scores(static_cast<std::size_t>(params.headings));

@@ -17,8 +17,8 @@ namespace slam {
 /** Settings of correlativeSearch; lengths in the scans' units. */
 struct CorrelativeSearchParameters {
   double cell = 0.2; ///< grid cell of the fine search (the pipeline: 2 voxels)
-  /** Translations are searched this far from the target's origin; 0: as far as the
-   *  target's points reach (their 90th percentile horizontal range). */
+  /** Translations are searched this far from the target's origin (at most 256 cells);
+   *  0: as far as the target's points reach (their 90th percentile horizontal range). */
   double radius = 0.0;
   int headings = 72;            ///< headings of the coarse search (5 degrees)
   std::size_t max_points = 500; ///< the source's columns used, at most
