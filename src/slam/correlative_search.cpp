@@ -250,12 +250,11 @@ correlativeSearch(const Cloud& source,
   const int n = std::min(kMaxCoarseSteps, static_cast<int>(std::ceil(radius / coarse_cell)));
   const int side = 2 * n + 1;
   const double step = 2.0 * M_PI / params.headings;
-  std::vector<std::vector<int>> scores(static_cast<std::size_t>(params.headings));
+  std::vector<std::vector<Peak>> best(static_cast<std::size_t>(params.headings));
 #pragma omp parallel for schedule(dynamic, 1)                                                  \
     num_threads(resolveNumberOfThreads(params.num_threads))
   for (int h = 0; h < params.headings; ++h) {
-    std::vector<int>& s = scores[h];
-    s.assign(static_cast<std::size_t>(side) * side, 0);
+    std::vector<int> s(static_cast<std::size_t>(side) * side, 0);
     for (const auto& p : points) {
       const Eigen::Vector3d q = rotated(p, h * step);
       const int i = coarse.index(q.x()), j = coarse.index(q.y()), k = coarse.layer(q.z());
@@ -267,14 +266,18 @@ correlativeSearch(const Cloud& source,
           row[b + n] += coarse.at(i + a, j + b, k);
       }
     }
-  }
-  std::vector<Peak> peaks;
-  for (int h = 0; h < params.headings; ++h)
+    // This heading's best distinct peaks (memory: a few per heading, not every cell).
+    std::vector<Peak> peaks;
     for (int a = -n; a <= n; ++a)
       for (int b = -n; b <= n; ++b)
-        if (const int s = scores[h][static_cast<std::size_t>(a + n) * side + b + n];
-            s > 0 && a * a + b * b <= n * n)
-          peaks.push_back({s, h * step, Eigen::Vector3d(a, b, 0.0) * coarse_cell});
+        if (const int v = s[static_cast<std::size_t>(a + n) * side + b + n];
+            v > 0 && a * a + b * b <= n * n)
+          peaks.push_back({v, h * step, Eigen::Vector3d(a, b, 0.0) * coarse_cell});
+    best[h] = distinctPeaks(std::move(peaks), coarse_cell, 0.0, kCoarsePeaks);
+  }
+  std::vector<Peak> peaks;
+  for (const auto& b : best) // in heading order: ties keep it
+    peaks.insert(peaks.end(), b.begin(), b.end());
   peaks = distinctPeaks(std::move(peaks), coarse_cell, step, kCoarsePeaks);
 
   // Fine: around each coarse peak, heights too, by direct lookup.
