@@ -1,13 +1,15 @@
 # Runs pcl_pslam and checks its exit status AND its message (and, optionally, files).
 #   cmake -DCMD="prog|arg|..." -DEXPECT_RC=N -DEXPECT_REGEX=RE [-DOUT_DIR=D]
 #         [-DEXPECT_FILES="a|b"] [-DEXPECT_ABSENT="a|b"] [-DCLEAN=D] [-DCHECK_REPORT=1]
-#         [-DINTERRUPT_AFTER=S] [-DFILE_SIZE_LIMIT=BLOCKS] [-DSTDOUT=FILE] -P run_app.cmake
+#         [-DEXPECT_JSON="KEY... =VALUE"] [-DINTERRUPT_AFTER=S] [-DFILE_SIZE_LIMIT=BLOCKS] [-DSTDOUT=FILE] -P run_app.cmake
 # '|' separates list items (ctest would split ';'). INTERRUPT_AFTER sends SIGINT after S
 # seconds (coreutils timeout). FILE_SIZE_LIMIT: files limited to BLOCKS x 512 bytes, as on
 # a full disk (file_size_limit.sh). STDOUT: standard output goes there (e.g. /dev/full), not
 # into the checked output. CHECK_REPORT: OUT_DIR/report.json parses, has scan 1's
 # sequence_chi2 and holds a time for
-# each pipeline stage. Every output in OUT_DIR must be complete: no temporary left.
+# each pipeline stage. EXPECT_JSON="KEY... =VALUE": OUT_DIR/report.json holds VALUE at the
+# path of keys and indices (string(JSON GET): booleans read ON/OFF). Every output in
+# OUT_DIR must be complete: no temporary left.
 cmake_minimum_required(VERSION 3.19) # string(JSON), IN_LIST
 string(REPLACE "|" ";" cmd "${CMD}")
 list(FILTER cmd EXCLUDE REGEX "^$")
@@ -57,6 +59,16 @@ if(OUT_DIR AND EXISTS "${OUT_DIR}")
   file(GLOB tmp "${OUT_DIR}/.*tmp*" "${OUT_DIR}/*.tmp*")
   if(tmp)
     message(FATAL_ERROR "temporary files left: ${tmp}")
+  endif()
+endif()
+if(EXPECT_JSON)
+  string(REGEX MATCH "^(.*)=(.*)$" matched "${EXPECT_JSON}")
+  set(want "${CMAKE_MATCH_2}")
+  separate_arguments(path UNIX_COMMAND "${CMAKE_MATCH_1}")
+  file(READ "${OUT_DIR}/report.json" json)
+  string(JSON got GET "${json}" ${path})
+  if(NOT got STREQUAL want)
+    message(FATAL_ERROR "report.json: ${path} is '${got}', expected '${want}'")
   endif()
 endif()
 if(CHECK_REPORT)
