@@ -574,19 +574,21 @@ TEST(Pipeline, PoseSearchFindsStopAndGoStepsWithoutPoses)
         .translation.rmse;
   };
   const PipelineRun searched = runPipeline(s.set, p, false);
+  EXPECT_LT(ate(searched.front_end, s.set.truth), 0.02);
+  for (std::size_t i = 1; i < searched.reports.size(); ++i) {
+    EXPECT_TRUE(searched.reports[i].pose_searched) << i;
+    EXPECT_TRUE(std::isfinite(searched.reports[i].start_heading)) << i;
+  }
+  if (test::kSanitized)
+    return; // the search's run is what the sanitizers look at
   p.pose_search = false;
   const PipelineRun guessed = runPipeline(s.set, p, false);
   std::printf("riegl without poses, front-end ATE: searched %.4f m, constant velocity %.3f m\n",
               ate(searched.front_end, s.set.truth),
               ate(guessed.front_end, s.set.truth));
-  EXPECT_LT(ate(searched.front_end, s.set.truth), 0.02);
   EXPECT_GT(ate(guessed.front_end, s.set.truth), 1.0);
-  for (std::size_t i = 1; i < searched.reports.size(); ++i) {
-    EXPECT_TRUE(searched.reports[i].pose_searched) << i;
-    EXPECT_TRUE(std::isfinite(searched.reports[i].start_heading)) << i;
-  }
 
-  const sim::SimulatedScanSet kitti = presetScans("kitti", test::kSanitized ? 4 : 12);
+  const sim::SimulatedScanSet kitti = presetScans("kitti", 12);
   p.pose_search = true;
   const PipelineRun lidar = runPipeline(kitti, p, false);
   p.pose_search = false;
