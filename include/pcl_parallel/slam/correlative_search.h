@@ -21,22 +21,25 @@ struct CorrelativeSearchParameters {
    *  0: as far as the target's points reach (their 90th percentile horizontal range). */
   double radius = 0.0;
   int headings = 72;            ///< headings of the coarse search (5 degrees)
-  std::size_t max_points = 500; ///< the source's columns used, at most
+  std::size_t max_points = 500; ///< the source's points scored, at most (every k-th)
   std::size_t candidates = 3;   ///< distinct poses returned, at most
   unsigned num_threads = 0;
 };
 
 /**
- * \brief Planar correlative scan matching (Olson, "Real-time correlative scan matching",
- * ICRA 2009): the poses of `source` in `target`'s frame, turned about `up` and moved
- * across it, at which most of the source's vertical structure (walls, trunks, poles:
- * grid columns whose points span at least two cells in height) falls on the target's,
- * best first. A coarse search (4 cells, every 360/headings degrees) over all
- * translations within the radius, then a fine one (1 cell, a quarter of the heading
- * step) around its best peaks. For scans with no prediction at all (a stop-and-go
- * scanner without initial poses): the result starts pICP. The scanners are assumed
- * level (tilt between the two scans well below a cell over the range). Same result
- * for any thread count. Empty if either scan has no vertical structure.
+ * \brief Correlative scan matching (Olson, "Real-time correlative scan matching", ICRA
+ * 2009) about a vertical axis: the poses of `source` in `target`'s frame, turned about
+ * `up` and moved across it, at which the source's points fall nearest the target's,
+ * best first. Scored on a likelihood field of the target's points (2 in a point's cell,
+ * 1 in the cells around it, 0 elsewhere): a coarse search (2 cells, every
+ * 360/headings degrees) over all translations within the radius, at the source's own
+ * heights, then a fine one (1 cell, a quarter of the heading step, heights within 2
+ * cells) around the 16 best distinct coarse peaks. For scans whose relative pose nothing
+ * predicts (a stop-and-go scanner without initial poses): the candidates start pICP,
+ * which also takes what the search leaves (tilt: the scanners are assumed level). Same
+ * result for any thread count. Empty if either scan has no points within reach.
+ * Throws std::invalid_argument for cell <= 0 or not finite, headings < 1, a negative or
+ * non-finite radius, or a zero `up`.
  */
 std::vector<Pose>
 correlativeSearch(const Cloud& source,
