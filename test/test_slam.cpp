@@ -598,6 +598,25 @@ TEST(Pipeline, PoseSearchFindsStopAndGoStepsWithoutPoses)
     EXPECT_FALSE(lidar.reports[i].pose_searched) << i;
 }
 
+// The search's candidates are matched without a motion prior: pICP's object keeps the
+// prior of the match before (at the prediction), and on a sparse scanner (hannover's
+// first step, 45 degrees and 1.2 m) that prior pulled the right candidate back to the
+// prediction's heading, 42 degrees off.
+TEST(Pipeline, PoseSearchMatchesItsCandidatesWithoutAPrior)
+{
+  const sim::SimulatedScanSet set = presetScans("hannover", 2);
+  const PipelineRun run = runPipeline(set, frontEndOnly(), false);
+  ASSERT_TRUE(run.reports[1].pose_searched);
+  const Pose error = (set.truth[0].inverse() * set.truth[1]).inverse() *
+                     (run.front_end[0].inverse() * run.front_end[1]);
+  const double angle = Eigen::AngleAxisd(Eigen::Matrix3d(error.topLeftCorner<3, 3>())).angle();
+  const double distance = error.topRightCorner<3, 1>().norm();
+  std::printf(
+      "hannover's first step without poses: %.3f m, %.2f deg off\n", distance, angle / kDeg);
+  EXPECT_LT(distance, 0.05);
+  EXPECT_LT(angle, 1.0 * kDeg);
+}
+
 // Keyframes every 5th sweep without odometry through the preset's first 1.5 g corner
 // (keyframes 10-12 turn 12-46 degrees each): constant velocity enters it with no turn,
 // and the match, 25 degrees off at keyframe 11, loses the street. The pose search finds

@@ -146,6 +146,7 @@ configure(Icp& icp,
           const std::optional<std::pair<double, double>>& prior_spread)
 {
   icp.setMaxCorrespondenceDistance(gate);
+  icp.clearMotionPrior(); // a match without a prior must not keep the last one's
   if (!adaptive)
     return;
   const double scale = gate / 9.0;
