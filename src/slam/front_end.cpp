@@ -52,13 +52,13 @@ constexpr std::size_t kPriorSpreadSamples = 20;
 constexpr double kMaxVelocityScale = 4.0;
 
 /** Without odometry, a match to the previous scan that overlaps it less than this
- *  fraction of the recent matches' median overlap is searched for (pose_search). */
+ *  fraction of the recent matches' median overlap is searched for (pose_search) ... */
 constexpr double kSearchOverlapRatio = 0.7;
+/** ... the recent matches being the last this many. */
+constexpr std::size_t kSearchOverlapHistory = 20;
 /** The search's match replaces the prediction's only if it overlaps the previous scan by
  *  this factor more: along a street or a corridor, shifted matches overlap alike. */
 constexpr double kSearchMargin = 1.25;
-/** ... the last this many. */
-constexpr std::size_t kSearchOverlapHistory = 20;
 
 double
 median(std::vector<double> v)
