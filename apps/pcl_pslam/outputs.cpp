@@ -508,6 +508,18 @@ parametersJson(const Parameters& params, const Result& r, double map_voxel)
           {"close_loops", params.close_loops}};
 }
 
+/** How many matches the pose search ran for, and how many it placed. */
+std::pair<std::size_t, std::size_t>
+poseSearches(const std::vector<pcl_parallel::slam::ScanReport>& reports)
+{
+  std::size_t searched = 0, found = 0;
+  for (const auto& rep : reports) {
+    searched += rep.pose_searched ? 1 : 0;
+    found += std::isfinite(rep.start_heading) ? 1 : 0;
+  }
+  return {searched, found};
+}
+
 /** Per scan: what it was, what the front end did with it, the loop pairs tried. */
 nlohmann::json
 scansJson(const Input& in, const Result& r)
@@ -602,9 +614,12 @@ writeOutputs(const Options& o,
   j["stages"] = stages;
   j["total_seconds"] = progress.elapsed();
   j["scans"] = scansJson(in, r);
+  const auto [searched, found] = poseSearches(r.reports);
   j["icp"] = {
       {"matches", n - 1},
       {"not_converged", r.icp_failures},
+      {"pose_searched", searched},
+      {"pose_search_won", found},
       {"odometry_disagreement",
        r.odometry_disagreement ? nlohmann::json(*r.odometry_disagreement) : nlohmann::json()}};
   nlohmann::json loop_list = nlohmann::json::array();
@@ -645,6 +660,16 @@ printSummary(const Options& o,
               r.links.size(),
               in.size() - 1,
               r.lum_iterations);
+  // Matches the pose search found came from nothing but the scans: right on a distinct
+  // site, possibly a room or corridor away where the site repeats (docs/design.md,
+  // "Pose search").
+  if (const auto [searched, found] = poseSearches(r.reports); found > 0)
+    std::printf("pose search: %zu of %zu matches searched (no initial poses), %zu placed by "
+                "it; where the site repeats (rooms, corridors) check them in map.png, or "
+                "give --poses\n",
+                searched,
+                in.size() - 1,
+                found);
   // Odometry the scans contradict step after step is in another frame, or broken
   // (docs/design.md, "Odometry in another frame").
   if (r.odometry_disagreement &&

@@ -7,8 +7,8 @@
 # a full disk (file_size_limit.sh). STDOUT: standard output goes there (e.g. /dev/full), not
 # into the checked output. CHECK_REPORT: OUT_DIR/report.json parses, has scan 1's
 # sequence_chi2 and holds a time for
-# each pipeline stage. EXPECT_JSON="KEY... =VALUE": OUT_DIR/report.json holds VALUE at the
-# path of keys and indices (string(JSON GET): booleans read ON/OFF). Every output in
+# each pipeline stage. EXPECT_JSON="KEY... =VALUE|...": OUT_DIR/report.json holds each
+# VALUE at its path of keys and indices (string(JSON GET): booleans read ON/OFF). Every output in
 # OUT_DIR must be complete: no temporary left.
 cmake_minimum_required(VERSION 3.19) # string(JSON), IN_LIST
 string(REPLACE "|" ";" cmd "${CMD}")
@@ -62,14 +62,17 @@ if(OUT_DIR AND EXISTS "${OUT_DIR}")
   endif()
 endif()
 if(EXPECT_JSON)
-  string(REGEX MATCH "^(.*)=(.*)$" matched "${EXPECT_JSON}")
-  set(want "${CMAKE_MATCH_2}")
-  separate_arguments(path UNIX_COMMAND "${CMAKE_MATCH_1}")
   file(READ "${OUT_DIR}/report.json" json)
-  string(JSON got GET "${json}" ${path})
-  if(NOT got STREQUAL want)
-    message(FATAL_ERROR "report.json: ${path} is '${got}', expected '${want}'")
-  endif()
+  string(REPLACE "|" ";" checks "${EXPECT_JSON}")
+  foreach(check IN LISTS checks)
+    string(REGEX MATCH "^(.*)=(.*)$" matched "${check}")
+    set(want "${CMAKE_MATCH_2}")
+    separate_arguments(path UNIX_COMMAND "${CMAKE_MATCH_1}")
+    string(JSON got GET "${json}" ${path})
+    if(NOT got STREQUAL want)
+      message(FATAL_ERROR "report.json: ${path} is '${got}', expected '${want}'")
+    endif()
+  endforeach()
 endif()
 if(CHECK_REPORT)
   file(READ "${OUT_DIR}/report.json" json)
