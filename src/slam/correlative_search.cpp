@@ -144,22 +144,27 @@ struct Peak {
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
 };
 
-Eigen::Vector3d
-rotated(const Eigen::Vector3d& p, double heading)
+/** The points turned by `heading` about the vertical (the search frame's z). */
+std::vector<Eigen::Vector3d>
+turned(const std::vector<Eigen::Vector3d>& points, double heading)
 {
   const double c = std::cos(heading), s = std::sin(heading);
-  return {c * p.x() - s * p.y(), s * p.x() + c * p.y(), p.z()};
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(points.size());
+  for (const auto& p : points)
+    out.emplace_back(c * p.x() - s * p.y(), s * p.x() + c * p.y(), p.z());
+  return out;
 }
 
+/** What the turned source points score moved by `translation`. */
 int
-score(const std::vector<Eigen::Vector3d>& source,
+score(const std::vector<Eigen::Vector3d>& turned_points,
       const LikelihoodField& target,
-      double heading,
       const Eigen::Vector3d& translation)
 {
   int n = 0;
-  for (const auto& p : source)
-    n += target.value(rotated(p, heading) + translation);
+  for (const auto& p : turned_points)
+    n += target.value(p + translation);
   return n;
 }
 
@@ -255,8 +260,7 @@ correlativeSearch(const Cloud& source,
     num_threads(resolveNumberOfThreads(params.num_threads))
   for (int h = 0; h < params.headings; ++h) {
     std::vector<int> s(static_cast<std::size_t>(side) * side, 0);
-    for (const auto& p : points) {
-      const Eigen::Vector3d q = rotated(p, h * step);
+    for (const auto& q : turned(points, h * step)) {
       const int i = coarse.index(q.x()), j = coarse.index(q.y()), k = coarse.layer(q.z());
       if (i < 0 || j < 0 || k < 0)
         continue;
@@ -286,17 +290,19 @@ correlativeSearch(const Cloud& source,
     num_threads(resolveNumberOfThreads(params.num_threads))
   for (int k = 0; k < static_cast<int>(peaks.size()); ++k) {
     Peak best;
-    for (int dh = -kFineHeadings; dh <= kFineHeadings; ++dh)
+    for (int dh = -kFineHeadings; dh <= kFineHeadings; ++dh) {
+      const double heading = peaks[k].heading + dh * step / (2 * kFineHeadings);
+      const std::vector<Eigen::Vector3d> turned_points = turned(points, heading);
       for (int a = -kFineCells; a <= kFineCells; ++a)
         for (int b = -kFineCells; b <= kFineCells; ++b)
           for (int c = -kFineCells; c <= kFineCells; ++c) {
-            const double heading = peaks[k].heading + dh * step / (2 * kFineHeadings);
             const Eigen::Vector3d t =
                 peaks[k].translation + Eigen::Vector3d(a, b, c) * params.cell;
-            const int s = score(points, fine, heading, t);
+            const int s = score(turned_points, fine, t);
             if (s > best.score)
               best = {s, heading, t};
           }
+    }
     refined[k] = best;
   }
   std::vector<Pose> out;

@@ -60,13 +60,6 @@ constexpr std::size_t kSearchOverlapHistory = 20;
  *  this factor more: along a street or a corridor, shifted matches overlap alike. */
 constexpr double kSearchMargin = 1.25;
 
-double
-median(std::vector<double> v)
-{
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
 /** The reduced points' k-d tree (scanner frame): the scan's one tree, for its normals,
  *  the next scan's match to it and pLUM (ParallelLUM::setSearchTree: the tree pLUM would
  *  build, default bucket size, ids the point indices). */

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace pcl_parallel {
 namespace slam {
@@ -210,14 +211,10 @@ odometryDisagreement(const std::vector<ScanReport>& reports, double min_step)
   }
   if (steps.size() < 5)
     return std::nullopt;
-  const auto median = [](std::vector<double>& v) {
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
   const double step = median(steps);
   if (!(step >= min_step))
     return std::nullopt;
-  return median(corrections) / step;
+  return median(std::move(corrections)) / step;
 }
 
 void

@@ -47,6 +47,13 @@ crop(const Cloud& scan,
 } // namespace
 
 double
+median(std::vector<double> values)
+{
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+double
 medianRange(const Cloud& scan)
 {
   std::vector<float> r;

@@ -13,8 +13,8 @@ namespace slam {
 
 /** Fraction of (every step-th point of) `source`, moved by `pose`, that has a point of
  *  `target` within max_distance: how much of one scan another sees (3DTK's minimum
- *  overlap). Loop links are kept by it, and the front end's heading search ranks its
- *  starts by it. 0 for an empty source. */
+ *  overlap). Loop links are kept by it, and the front end's pose search decides by it
+ *  when to search and which candidate wins. 0 for an empty source. */
 double
 overlap(const Cloud& source,
         const Pose& pose,

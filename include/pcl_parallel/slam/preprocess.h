@@ -29,6 +29,11 @@ cropRange(const Cloud& scan,
           const std::vector<float>& times,
           std::vector<float>& kept_times);
 
+/** The median of `values` (the upper one of an even count: the size/2-th smallest);
+ *  `values` must not be empty. */
+double
+median(std::vector<double> values);
+
 /** Median distance of the finite points from the scanner (0 for an empty scan). */
 double
 medianRange(const Cloud& scan);
