@@ -542,6 +542,7 @@ scansJson(const Input& in, const Result& r)
     if (std::isfinite(rep.start_heading)) // the pose search's start won (degrees)
       s["pose_search_heading_deg"] = rep.start_heading * 180.0 / M_PI;
     s["icp_source_points"] = rep.source_points;
+    s["icp_map_scans"] = rep.map_scans;
     s["seconds"] = rep.seconds;
     s["lum_iterations"] = rep.lum_iterations;
     if (rep.sequence_chi2 >= 0.0) // the front end's step against the final poses
@@ -681,11 +682,14 @@ printSummary(const Options& o,
                  "calib.txt's Tr.) Without it the front end predicts by constant "
                  "velocity\n",
                  *r.odometry_disagreement);
-  // Where the relaxation and the front end disagree most (the Cauchy kernel let the
-  // front end's match yield): the first places to look at in a map.
+  // Where the relaxation and the front end disagree most: the first places to look at in
+  // a map. Steps beyond chi2's 99 % quantile for 6 degrees of freedom, or the kernel's
+  // scale where one is set.
+  const double notable =
+      r.loop_closure.sequence_cauchy_scale > 0.0 ? r.loop_closure.sequence_cauchy_scale : 16.8;
   std::vector<std::pair<double, std::size_t>> chi2;
   for (std::size_t i = 0; i < r.reports.size(); ++i)
-    if (r.reports[i].sequence_chi2 > r.loop_closure.sequence_cauchy_scale)
+    if (r.reports[i].sequence_chi2 > notable)
       chi2.emplace_back(r.reports[i].sequence_chi2, i);
   std::sort(chi2.rbegin(), chi2.rend());
   if (!chi2.empty()) {

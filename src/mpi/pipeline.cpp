@@ -98,6 +98,7 @@ writeMatched(Writer& w, const slam::MatchedScan& m)
   w.putMatrix(m.step);
   w.putMatrix(fe.information);
   w.put(fe.information_pairs);
+  w.put(fe.map_scans);
   w.put<std::uint64_t>(fe.source_points);
   w.put<std::uint8_t>(fe.converged);
   w.put(fe.fitness);
@@ -140,6 +141,7 @@ readMatched(Reader& in)
   in.getMatrix(m.step);
   in.getMatrix(fe.information);
   fe.information_pairs = in.get<double>();
+  fe.map_scans = in.get<double>();
   fe.source_points = in.get<std::uint64_t>();
   fe.converged = in.get<std::uint8_t>() != 0;
   fe.fitness = in.get<double>();

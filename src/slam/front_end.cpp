@@ -185,6 +185,43 @@ align(Icp& icp,
   return icp.hasConverged() ? Pose(icp.getFinalTransformationDouble()) : matched;
 }
 
+/** The effective number of scans behind a map match (FrontEndResult::map_scans): each
+ *  source point at `pose` counts for the scan of its nearest map point within `gate`. */
+double
+effectiveScans(const Cloud& source,
+               const Pose& pose,
+               const pcl::search::KdTree<MapPoint>& map_tree,
+               const std::vector<std::uint32_t>& map_scans,
+               double gate)
+{
+  std::vector<std::uint32_t> hits;
+  hits.reserve(source.size());
+  const Eigen::Matrix4f t = pose.cast<float>();
+  const float max_sqr = static_cast<float>(gate * gate);
+  pcl::Indices index(1);
+  std::vector<float> sqr(1);
+  MapPoint q;
+  for (const auto& p : source) {
+    q.getVector3fMap() = t.topLeftCorner<3, 3>() * p.getVector3fMap() + t.topRightCorner<3, 1>();
+    if (map_tree.nearestKSearch(q, 1, index, sqr) == 1 && sqr[0] <= max_sqr &&
+        static_cast<std::size_t>(index[0]) < map_scans.size())
+      hits.push_back(map_scans[static_cast<std::size_t>(index[0])]);
+  }
+  if (hits.empty())
+    return 1.0;
+  std::sort(hits.begin(), hits.end());
+  double sum_sqr = 0.0; // the counts' squares; their sum is hits.size()
+  for (std::size_t i = 0; i < hits.size();) {
+    std::size_t j = i;
+    while (j < hits.size() && hits[j] == hits[i])
+      ++j;
+    sum_sqr += static_cast<double>(j - i) * static_cast<double>(j - i);
+    i = j;
+  }
+  const double n = static_cast<double>(hits.size());
+  return n * n / sum_sqr;
+}
+
 /** pICP's body-frame Hessian (rotation first) over the residual variance, in the pose
  *  graph's order (translation first). */
 Information
@@ -319,6 +356,12 @@ FrontEnd::track(const Cloud& scan,
       r.information =
           information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
       r.information_pairs = icp.getFinalWeight();
+      if (to_map && icp.getInputTarget() == map_.cloud()) // the tree of map_.scans()' points
+        r.map_scans = effectiveScans(*source,
+                                     r.pose,
+                                     *icp.getSearchMethodTarget(),
+                                     map_.scans(),
+                                     params_.final_correspondence_distance);
       if (icp_->threshold) // how far the match moved the scan from the prior
         icp_->threshold->updateModelDeviation(r.prediction.inverse() * r.pose);
     }
@@ -374,7 +417,7 @@ FrontEnd::keep(const Cloud::Ptr& reduced)
   if (to_map) {
     const MapCloud::Ptr world = withNormals(*reduced, kept.normals);
     pcl::transformPointCloudWithNormals(*world, *world, pose_);
-    map_.update(*world, pose_.topRightCorner<3, 1>());
+    map_.update(*world, pose_.topRightCorner<3, 1>(), static_cast<std::uint32_t>(scans_));
   }
   if (to_map && !params_.guess_from_previous_scan)
     return kept; // the previous scan is not matched

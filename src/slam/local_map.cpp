@@ -33,30 +33,32 @@ LocalMap::key(const MapPoint& p) const
 }
 
 void
-LocalMap::insert(const MapPoint& p)
+LocalMap::insert(const MapPoint& p, std::uint32_t scan)
 {
   const Key k = key(p);
   auto [it, created] = voxels_.try_emplace(k);
   if (created)
     order_.push_back(&*it);
-  if (it->second.size() < max_points_) {
-    it->second.push_back(p);
+  if (it->second.points.size() < max_points_) {
+    it->second.points.push_back(p);
+    it->second.scans.push_back(scan);
     ++added_;
   }
 }
 
 void
-LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin)
+LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin, std::uint32_t scan)
 {
   for (const auto& p : points)
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
         p.getVector3fMap().cwiseAbs().maxCoeff() < 2e9 * voxel_size_) // int32 voxel keys
-      insert(p);
+      insert(p, scan);
   // Crop: a voxel goes when its first point is out of reach (KISS-ICP's rule).
   const double max2 = max_distance_ * max_distance_;
   std::size_t kept = 0;
   for (auto* voxel : order_) {
-    if ((voxel->second.front().getVector3fMap().cast<double>() - origin).squaredNorm() > max2)
+    if ((voxel->second.points.front().getVector3fMap().cast<double>() - origin).squaredNorm() >
+        max2)
       voxels_.erase(Key(voxel->first)); // a copy: the key dies with the element
     else
       order_[kept++] = voxel;
@@ -72,16 +74,19 @@ LocalMap::transform(const Pose& correction)
   const Eigen::Matrix3f r = correction.topLeftCorner<3, 3>().cast<float>();
   const Eigen::Vector3f t = correction.topRightCorner<3, 1>().cast<float>();
   std::vector<MapPoint> points;
+  std::vector<std::uint32_t> scans;
   for (const auto* voxel : order_)
-    for (const auto& p : voxel->second) {
+    for (std::size_t i = 0; i < voxel->second.points.size(); ++i) {
+      const MapPoint& p = voxel->second.points[i];
       MapPoint q = p;
       q.getVector3fMap() = r * p.getVector3fMap() + t;
       q.getNormalVector3fMap() = r * p.getNormalVector3fMap();
       points.push_back(q);
+      scans.push_back(voxel->second.scans[i]);
     }
   clear();
-  for (const auto& p : points)
-    insert(p);
+  for (std::size_t i = 0; i < points.size(); ++i)
+    insert(points[i], scans[i]);
   refresh();
 }
 
@@ -91,6 +96,7 @@ LocalMap::clear()
   voxels_.clear();
   order_.clear();
   cloud_.reset();
+  cloud_scans_.clear();
   added_ = 0;
 }
 
@@ -99,12 +105,16 @@ LocalMap::refresh()
 {
   std::size_t n = 0;
   for (const auto* voxel : order_)
-    n += voxel->second.size();
+    n += voxel->second.points.size();
   cloud_.reset(new MapCloud);
   cloud_->reserve(n);
-  for (const auto* voxel : order_)
-    for (const auto& p : voxel->second)
+  cloud_scans_.clear();
+  cloud_scans_.reserve(n);
+  for (const auto* voxel : order_) {
+    for (const auto& p : voxel->second.points)
       cloud_->push_back(p);
+    cloud_scans_.insert(cloud_scans_.end(), voxel->second.scans.begin(), voxel->second.scans.end());
+  }
   added_ = 0;
 }
 

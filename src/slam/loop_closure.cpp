@@ -73,6 +73,7 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
                     std::vector<Eigen::Vector3f> normals,
                     const Information& information,
                     double information_pairs,
+                    double information_scans,
                     std::size_t num_points,
                     std::shared_ptr<const KdTreeIndex> tree)
 {
@@ -100,7 +101,9 @@ LoopCloser::addScan(const Cloud::ConstPtr& scan,
     share(j - 1, owner(j)); // a link is measured where its source is kept
     borrow(j - 1, owner(j));
     if (params_.sequence_constraints && information_pairs > 0.0 && !information.isZero()) {
-      const double pairs = 2.0 * static_cast<double>(params_.lum_queries_per_scan);
+      // As many pLUM links as the map held scans (docs/design.md, "Sequence constraints").
+      const double pairs = 2.0 * static_cast<double>(params_.lum_queries_per_scan) *
+                           std::max(1.0, information_scans);
       impl_->lum.addPoseConstraint(j,
                                    j - 1,
                                    poses_[j - 1].inverse() * pose,

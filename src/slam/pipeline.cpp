@@ -267,6 +267,7 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
                   std::move(fe.scan.normals),
                   fe.information,
                   fe.information_pairs,
+                  fe.map_scans,
                   report.reduced_points,
                   std::move(fe.scan.tree));
   if (params_.close_loops) {

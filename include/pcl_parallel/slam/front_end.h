@@ -138,6 +138,11 @@ struct FrontEndResult {
    *  or to the previous scan, is known. Zero when pICP did not run or failed. */
   Information information = Information::Zero();
   double information_pairs = 0.0; ///< ... from this many pairs (sum of robust weights)
+  /** How many scans the match was made against, in effect: (sum n_s)^2 / sum n_s^2 over
+   *  the scans s that hold the nearest map points of the matched source points (1: the
+   *  previous scan, or one scan held them all; K: K scans in equal shares). 1 for a match
+   *  to the previous scan. docs/design.md, "Sequence constraints". */
+  double map_scans = 1.0;
   /** With deskewing, on the second scan: the first scan deskewed again, now that the
    *  first step is known (it came before any motion was), to replace the one kept. */
   std::optional<ReducedScan> first_scan;

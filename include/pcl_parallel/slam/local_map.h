@@ -41,10 +41,10 @@ public:
   LocalMap&
   operator=(const LocalMap&) = delete;
 
-  /** Adds points (world frame), then drops the voxels farther than max_distance from
-   *  `origin` (the scanner's position). */
+  /** Adds points (world frame) of scan number `scan`, then drops the voxels farther than
+   *  max_distance from `origin` (the scanner's position). */
   void
-  update(const MapCloud& points, const Eigen::Vector3d& origin);
+  update(const MapCloud& points, const Eigen::Vector3d& origin, std::uint32_t scan = 0);
 
   /** Moves every point by a rigid correction (after loop closing moved the scans). */
   void
@@ -63,6 +63,13 @@ public:
   MapCloud::ConstPtr
   cloud() const;
 
+  /** Per point of cloud(): the scan it came from (update's `scan`). */
+  const std::vector<std::uint32_t>&
+  scans() const
+  {
+    return cloud_scans_;
+  }
+
 private:
   using Key = std::array<std::int32_t, 3>;
   struct KeyHash {
@@ -78,7 +85,7 @@ private:
   Key
   key(const MapPoint& p) const;
   void
-  insert(const MapPoint& p);
+  insert(const MapPoint& p, std::uint32_t scan);
   void
   refresh();
 
@@ -87,13 +94,18 @@ private:
   std::size_t max_points_;
   double refresh_fraction_;
   std::size_t added_ = 0; ///< points added since cloud_ was built
-  using Voxels = std::unordered_map<Key, std::vector<MapPoint>, KeyHash>;
+  struct Voxel {
+    std::vector<MapPoint> points;
+    std::vector<std::uint32_t> scans; ///< per point: the scan it came from
+  };
+  using Voxels = std::unordered_map<Key, Voxel, KeyHash>;
   Voxels voxels_;
   /** Voxels in creation order, so cloud() is independent of hashing; pointers to the
    *  elements (a rehash keeps them valid), so the per-scan crop and refresh walk the
    *  voxels without a hash lookup each. */
   std::vector<Voxels::value_type*> order_;
   MapCloud::Ptr cloud_;
+  std::vector<std::uint32_t> cloud_scans_; ///< per point of cloud_
 };
 
 } // namespace slam

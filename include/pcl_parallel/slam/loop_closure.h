@@ -49,14 +49,16 @@ struct LoopClosureParameters {
   bool lum_point_to_plane = true;
   std::size_t lum_queries_per_scan = 500; ///< pairs searched per scan and link direction
   /** The front end's matches as pose constraints between consecutive scans, beside their
-   *  scan links (addScan): each weighs as much as a pLUM link (its information scaled to
-   *  2 x lum_queries_per_scan pairs, the shape and residual variance its own), under a
-   *  Cauchy kernel of this chi2 scale, so that a match the scans contradict yields
-   *  (16.8: chi2's 99 % quantile for 6 degrees of freedom), the error measured in the
-   *  information of the pair's pLUM link (lum::constraintBlock). docs/design.md,
-   *  "Sequence constraints". */
+   *  scan links (addScan): each weighs as much as one pLUM link per scan its map held
+   *  (its information scaled to 2 x lum_queries_per_scan pairs per scan, the shape and
+   *  residual variance its own). docs/design.md, "Sequence constraints". */
   bool sequence_constraints = true;
-  double sequence_cauchy_scale = 16.8;
+  /** > 0: a Cauchy kernel of this chi2 scale on each constraint, the error measured in
+   *  the information of the pair's pLUM link (lum::constraintBlock), so that a match the
+   *  scans contradict yields (16.8: chi2's 99 % quantile for 6 degrees of freedom). Off
+   *  by default: pair-counted information is not calibrated, and on sparse scans the
+   *  links' own bias made every constraint yield (docs/design.md). */
+  double sequence_cauchy_scale = 0.0;
   double median_range = 10.0; ///< of the scans: converts a rotation error to a displacement
   unsigned num_threads = 0;
 };
@@ -132,7 +134,8 @@ public:
   /** Adds the next scan (reduced, scanner frame) at its front-end pose, with its points'
    *  normals if the front end has them (ReducedScan::normals; pLUM estimates them
    *  otherwise, from the reduced points), and the information of its match from that
-   *  many pairs (FrontEndResult::information, information_pairs; zero: none), which
+   *  many pairs (FrontEndResult::information, information_pairs; zero: none) against a
+   *  map of `information_scans` scans in effect (FrontEndResult::map_scans), which
    *  with sequence_constraints holds its pose relative to the previous scan, and its
    *  k-d tree if the front end built it (ReducedScan::tree; pLUM builds it otherwise).
    *  With an exchange, a scan another process owns comes as null with its `num_points`.
@@ -143,6 +146,7 @@ public:
           std::vector<Eigen::Vector3f> normals = {},
           const Information& information = Information::Zero(),
           double information_pairs = 0.0,
+          double information_scans = 1.0,
           std::size_t num_points = 0,
           std::shared_ptr<const KdTreeIndex> tree = nullptr);
 
