@@ -29,6 +29,7 @@
 #include <fstream>
 #include <gtest/gtest.h>
 #include <iterator>
+#include <set>
 #include <stdexcept>
 #include <unistd.h>
 
@@ -527,6 +528,37 @@ TEST(Presets, StrideKeepsEveryKthScan)
     ASSERT_EQ((*ks.scans[1])[j].getVector3fMap(), (*as.scans[5])[j].getVector3fMap()) << j;
   keyframes.stride = 0;
   EXPECT_THROW(simulatePreset("kitti", keyframes), std::invalid_argument);
+}
+
+// `beams` re-samples the preset's field of view with that many rows: the kitti preset's
+// sweep with 16 beams has 16 elevations (a VLP-16-like sensor), spanning the 64 beams'
+// field of view, and the same drive; 1 beam or a negative count is an error.
+TEST(Presets, BeamsResampleTheFieldOfView)
+{
+  PresetOptions o;
+  o.max_scans = 1;
+  o.beams = 16;
+  const auto sparse = simulatePreset("kitti", o);
+  o.beams = 0;
+  const auto full = simulatePreset("kitti", o);
+  EXPECT_EQ(sparse.scanner.elevation_steps, 16);
+  EXPECT_EQ(full.scanner.elevation_steps, 64);
+  EXPECT_EQ(sparse.truth[0], full.truth[0]);
+  std::set<long> rows; // elevations at 0.01 deg (a point's is exact in its sensor frame)
+  double lowest = 90.0, highest = -90.0;
+  for (const auto& p : *sparse.scans[0]) {
+    const double elevation = std::atan2(p.z, std::hypot(p.x, p.y)) * 180.0 / M_PI;
+    rows.insert(std::lround(elevation * 100.0));
+    lowest = std::min(lowest, elevation), highest = std::max(highest, elevation);
+  }
+  EXPECT_EQ(rows.size(), 16u);
+  EXPECT_NEAR(lowest, full.scanner.min_elevation * 180.0 / M_PI, 0.01);
+  EXPECT_NEAR(highest, full.scanner.max_elevation * 180.0 / M_PI, 0.01);
+  EXPECT_LT(sparse.scans[0]->size(), full.scans[0]->size() / 3);
+  for (int bad : {1, -1}) {
+    o.beams = bad;
+    EXPECT_THROW(simulatePreset("kitti", o), std::invalid_argument) << bad;
+  }
 }
 
 // Scans per preset (poses only) and points per scan (one scan of each, with its model).

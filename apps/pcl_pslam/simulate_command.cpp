@@ -25,6 +25,7 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
   std::string preset, dir, format = "auto";
   std::uint32_t seed = 1;
   unsigned threads = 0;
+  int beams = 0;
   po::options_description visible("simulate options");
   visible.add_options()("preset,p",
                         po::value(&preset)->value_name("NAME"),
@@ -35,6 +36,10 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
       "auto (uos for stop-and-go presets, kitti for kitti), uos, kitti (NNNNNN.bin), or pcd "
       "(NNNNNN.pcd with each point's time in a uint32 field t, ns from the sweep's start, as "
       "Ouster's driver writes it)")(
+      "beams",
+      po::value(&beams)->default_value(0),
+      "beams (rows) of the scanner over the preset's field of view, e.g. 16 with kitti for a "
+      "VLP-16-like sparse lidar; 0 = the preset's")(
       "threads,t", po::value(&threads)->default_value(0), "threads, 0 = all cores")(
       "list", "the presets, one line each")("help,h", "this text");
   po::options_description all;
@@ -42,7 +47,7 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
   po::positional_options_description positional;
   positional.add("dir", 1);
   const std::string usage =
-      "usage: pcl_pslam simulate --preset NAME [--seed N] [--format F] OUT_DIR\n";
+      "usage: pcl_pslam simulate --preset NAME [--seed N] [--format F] [--beams N] OUT_DIR\n";
   po::variables_map vm;
   try {
     po::store(po::command_line_parser(args).options(all).positional(positional).run(), vm);
@@ -86,11 +91,17 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
     err << "pcl_pslam simulate: unknown --format '" << format << "' (auto, uos, kitti, pcd)\n";
     return 2;
   }
+  if (beams < 0 || beams == 1) {
+    err << "pcl_pslam simulate: --beams must be 0 (the preset's) or at least 2, got " << beams
+        << '\n';
+    return 2;
+  }
   try {
     const auto start = std::chrono::steady_clock::now();
     pcl_parallel::sim::PresetOptions options;
     options.seed = seed;
     options.num_threads = threads;
+    options.beams = beams;
     const auto set = pcl_parallel::sim::simulatePreset(preset, options);
     pcl_parallel::sim::writeScanSet(set, dir, chosen->second);
     std::size_t points = 0;

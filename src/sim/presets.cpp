@@ -696,6 +696,12 @@ simulatePreset(const std::string& name, const PresetOptions& o)
     spec.heading_noise = o.odometry_heading_noise;
   if (!std::isfinite(spec.translation_noise) || !std::isfinite(spec.heading_noise))
     throw std::invalid_argument("[pcl_parallel::sim] odometry noise must be finite");
+  if (o.beams < 0 || o.beams == 1)
+    throw std::invalid_argument("[pcl_parallel::sim] beams must be 0 (the preset's) or > 1, "
+                                "got " +
+                                std::to_string(o.beams));
+  if (o.beams > 0)
+    spec.scanner.elevation_steps = o.beams;
   validate(spec.scanner);
   const Route route(spec.waypoints, spec.smoothing, spec.ground, spec.sensor_height);
   // Stop-and-go: scans spread over the laps of the waypoint polyline (so that a side
