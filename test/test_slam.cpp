@@ -795,17 +795,17 @@ TEST(Pipeline, SparseScannerLoopClosingKeepsTheFrontEndsSteps)
   for (std::size_t i = 1; i < pipeline.reports().size(); ++i)
     map_scans.push_back(pipeline.reports()[i].map_scans);
   const double median_map_scans = slam::median(map_scans);
-  std::printf("16 beams: ATE front end %.4f m %.3f deg, loop closed %.4f m %.3f deg; %zu loop "
-              "links; the map held %.1f scans in effect (median)\n",
-              ate(fe).translation.rmse,
-              ate(fe).rotation_deg.rmse,
-              ate(lc).translation.rmse,
-              ate(lc).rotation_deg.rmse,
-              static_cast<std::size_t>(std::count_if(
-                  pipeline.links().begin(), pipeline.links().end(), [](const slam::Link& l) {
-                    return l.loop;
-                  })),
-              median_map_scans);
+  std::printf(
+      "16 beams: ATE front end %.4f m %.3f deg, loop closed %.4f m %.3f deg; %zu loop "
+      "links; the map held %.1f scans in effect (median)\n",
+      ate(fe).translation.rmse,
+      ate(fe).rotation_deg.rmse,
+      ate(lc).translation.rmse,
+      ate(lc).rotation_deg.rmse,
+      static_cast<std::size_t>(std::count_if(pipeline.links().begin(),
+                                             pipeline.links().end(),
+                                             [](const slam::Link& l) { return l.loop; })),
+      median_map_scans);
   EXPECT_GT(median_map_scans, 8.0);
   ASSERT_TRUE(std::any_of(pipeline.links().begin(),
                           pipeline.links().end(),

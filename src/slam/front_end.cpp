@@ -202,7 +202,8 @@ effectiveScans(const Cloud& source,
   std::vector<float> sqr(1);
   MapPoint q;
   for (const auto& p : source) {
-    q.getVector3fMap() = t.topLeftCorner<3, 3>() * p.getVector3fMap() + t.topRightCorner<3, 1>();
+    q.getVector3fMap() =
+        t.topLeftCorner<3, 3>() * p.getVector3fMap() + t.topRightCorner<3, 1>();
     if (map_tree.nearestKSearch(q, 1, index, sqr) == 1 && sqr[0] <= max_sqr &&
         static_cast<std::size_t>(index[0]) < map_scans.size())
       hits.push_back(map_scans[static_cast<std::size_t>(index[0])]);

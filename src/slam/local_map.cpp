@@ -113,7 +113,8 @@ LocalMap::refresh()
   for (const auto* voxel : order_) {
     for (const auto& p : voxel->second.points)
       cloud_->push_back(p);
-    cloud_scans_.insert(cloud_scans_.end(), voxel->second.scans.begin(), voxel->second.scans.end());
+    cloud_scans_.insert(
+        cloud_scans_.end(), voxel->second.scans.begin(), voxel->second.scans.end());
   }
   added_ = 0;
 }

@@ -95,10 +95,10 @@ struct ScanReport {
   double start_turn = 0.0;    ///< FrontEndResult::start_turn
   bool pose_searched = false; ///< FrontEndResult::pose_searched
   double start_heading = std::numeric_limits<double>::quiet_NaN(); ///< ... ::start_heading
-  double map_scans = 1.0; ///< FrontEndResult::map_scans
-  double seconds = 0.0;                                            ///< all stages for this scan
-  std::vector<LoopCandidate> loops;                                ///< loop pairs tried
-  int lum_iterations = 0; ///< pLUM run after this scan (0: none)
+  double map_scans = 1.0;           ///< FrontEndResult::map_scans
+  double seconds = 0.0;             ///< all stages for this scan
+  std::vector<LoopCandidate> loops; ///< loop pairs tried
+  int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
   /** After finish(): LoopCloser::sequenceChi2() of this scan (-1: no constraint). */
   double sequence_chi2 = -1.0;
 
