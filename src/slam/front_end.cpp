@@ -190,24 +190,34 @@ align(Icp& icp,
 double
 effectiveScans(const Cloud& source,
                const Pose& pose,
-               const pcl::search::KdTree<MapPoint>& map_tree,
+               const KdTreeIndex& map_index,
                const std::vector<std::uint32_t>& map_scans,
-               double gate)
+               double gate,
+               unsigned num_threads)
 {
-  std::vector<std::uint32_t> hits;
-  hits.reserve(source.size());
   const Eigen::Matrix4f t = pose.cast<float>();
-  const float max_sqr = static_cast<float>(gate * gate);
-  pcl::Indices index(1);
-  std::vector<float> sqr(1);
-  MapPoint q;
+  std::vector<float> queries;
+  queries.reserve(3 * source.size());
   for (const auto& p : source) {
-    q.getVector3fMap() =
+    const Eigen::Vector3f q =
         t.topLeftCorner<3, 3>() * p.getVector3fMap() + t.topRightCorner<3, 1>();
-    if (map_tree.nearestKSearch(q, 1, index, sqr) == 1 && sqr[0] <= max_sqr &&
-        static_cast<std::size_t>(index[0]) < map_scans.size())
-      hits.push_back(map_scans[static_cast<std::size_t>(index[0])]);
+    queries.insert(queries.end(), {q.x(), q.y(), q.z()});
   }
+  const std::size_t n = source.size();
+  std::vector<std::uint32_t> pos(n);
+  std::vector<float> sqr(n);
+  map_index.nearestBatch(queries.data(),
+                         n,
+                         3,
+                         static_cast<float>(gate * gate),
+                         pos.data(),
+                         sqr.data(),
+                         num_threads);
+  std::vector<std::uint32_t> hits;
+  hits.reserve(n);
+  for (const std::uint32_t p : pos)
+    if (p != KdTreeIndex::kInvalid && map_index.id(p) < map_scans.size())
+      hits.push_back(map_scans[map_index.id(p)]);
   if (hits.empty())
     return 1.0;
   std::sort(hits.begin(), hits.end());
@@ -219,8 +229,8 @@ effectiveScans(const Cloud& source,
     sum_sqr += static_cast<double>(j - i) * static_cast<double>(j - i);
     i = j;
   }
-  const double n = static_cast<double>(hits.size());
-  return n * n / sum_sqr;
+  const double count = static_cast<double>(hits.size());
+  return count * count / sum_sqr;
 }
 
 /** pICP's body-frame Hessian (rotation first) over the residual variance, in the pose
@@ -357,12 +367,16 @@ FrontEnd::track(const Cloud& scan,
       r.information =
           information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
       r.information_pairs = icp.getFinalWeight();
-      if (to_map && icp.getInputTarget() == map_.cloud()) // the tree of map_.scans()' points
+      // The map's tree, built over map_.cloud(), whose points' scans map_.scans() holds.
+      const auto* tree =
+          dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
+      if (to_map && tree && icp.getInputTarget() == map_.cloud())
         r.map_scans = effectiveScans(*source,
                                      r.pose,
-                                     *icp.getSearchMethodTarget(),
+                                     tree->index(),
                                      map_.scans(),
-                                     params_.final_correspondence_distance);
+                                     params_.final_correspondence_distance,
+                                     params_.num_threads);
       if (icp_->threshold) // how far the match moved the scan from the prior
         icp_->threshold->updateModelDeviation(r.prediction.inverse() * r.pose);
     }
