@@ -173,9 +173,7 @@ Pipeline::track(const Cloud& scan,
                                              params_.max_range,
                                              sweepFractions(point_times),
                                              sweep_times);
-  if (cropped->empty())
-    throw std::invalid_argument("scan " + std::to_string(index) +
-                                " has no finite points in range (away from the origin)");
+  requirePointsInRange(*cropped, index);
   requireScannerFrame(*cropped, "scan " + std::to_string(index));
   if (!front_end_) // lengths from the first scan
     this->start(medianRange(*cropped));

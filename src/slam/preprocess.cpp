@@ -76,6 +76,14 @@ requireOnePerPoint(const Cloud& scan, std::size_t times, const std::string& cont
 }
 
 void
+requirePointsInRange(const Cloud& cropped, std::size_t index)
+{
+  if (cropped.empty())
+    throw std::invalid_argument("scan " + std::to_string(index) +
+                                " has no finite points in range (away from the origin)");
+}
+
+void
 requireScannerFrame(const Cloud& scan, const std::string& context)
 {
   // A scanner sits inside what it sees, or a few spreads from it (fastlio's forward-looking

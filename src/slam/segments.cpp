@@ -35,8 +35,7 @@ double
 sequenceMedianRange(const Cloud& first_scan, const Parameters& params)
 {
   const Cloud::Ptr cropped = cropRange(first_scan, params.min_range, params.max_range);
-  if (cropped->empty())
-    throw std::invalid_argument("scan 0 has no finite points in range (away from the origin)");
+  requirePointsInRange(*cropped, 0);
   return medianRange(*cropped);
 }
 

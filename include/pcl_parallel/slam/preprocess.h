@@ -43,6 +43,11 @@ medianRange(const Cloud& scan);
 void
 requireOnePerPoint(const Cloud& scan, std::size_t times, const std::string& context);
 
+/** Throws std::invalid_argument naming scan `index` when its cropped points are none
+ *  (cropRange left no finite point in range, away from the origin). */
+void
+requirePointsInRange(const Cloud& cropped, std::size_t index);
+
 /** Throws std::invalid_argument naming `context` unless `scan` (finite points) can be in
  *  its scanner's own frame: the pipeline takes the origin as the scanner (ranges,
  *  deskewing, the lengths it derives from the median range). A scan whose centroid lies
