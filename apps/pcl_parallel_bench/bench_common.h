@@ -21,6 +21,7 @@ struct Options {
   std::string data_dir;          ///< reference data (3dtk_dat, stanford_bunny, ...)
   int repeats = 5;               ///< timed repeats per cell; the median is reported
   std::vector<unsigned> threads; ///< thread counts to compare (default 1 and all cores)
+  bool reference = true;         ///< time PCL (and Open3D) beside ours; off: scaling only
 };
 
 /** Median and best wall time in seconds of `repeats` runs of fn, after one untimed

@@ -60,6 +60,25 @@ struct IcpCase {
 
 using test::Peek;
 
+/** " (vs PCL: D deg, T)": how far our result lies from PCL's, in rotation and translation. */
+std::string
+versus(const Eigen::Matrix4f& pcl_result, const Eigen::Matrix4f& ours)
+{
+  const Eigen::Matrix4f d = pcl_result.inverse() * ours;
+  const Eigen::Vector3f w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
+  const double deg =
+      std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0)) * 180.0 / M_PI;
+  return fmt(
+      " (vs PCL: %.4f deg, %.2g)", deg, static_cast<double>(d.topRightCorner<3, 1>().norm()));
+}
+
+/** The "speed-up vs PCL" cell: "-" where PCL was not timed (--no-reference). */
+std::string
+speedup(double t_pcl, double t)
+{
+  return t_pcl > 0.0 ? fmt("%.2f", t_pcl / t) : "-";
+}
+
 template <typename Reg>
 void
 configure(Reg& reg, const IcpCase& c)
@@ -198,20 +217,24 @@ runIcpPointToPlane(const Options& opt, const std::vector<IcpCase>& cases)
       reg.setInputTarget(tgt);
     };
     NCloud out;
-    pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal> ref;
-    setUp(ref);
-    const Timing tm_pcl = timeRuns(opt.repeats, [&] { ref.align(out, c.guess); });
-    const int it_pcl = Peek<decltype(ref)>::iterations(ref);
-    table.addRow({c.name,
-                  "pcl::IterativeClosestPointWithNormals",
-                  "1",
-                  fmt("%.3f", tm_pcl.median),
-                  fmt("%d", it_pcl),
-                  fmt("%.1f", 1e3 * tm_pcl.median / std::max(1, it_pcl)),
-                  fmt("%.3f", tm_pcl.best),
-                  "1.00",
-                  "-"});
-    const Eigen::Matrix4f pcl_result = ref.getFinalTransformation();
+    Timing tm_pcl{0.0, 0.0};
+    Eigen::Matrix4f pcl_result = Eigen::Matrix4f::Identity();
+    if (opt.reference) {
+      pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal> ref;
+      setUp(ref);
+      tm_pcl = timeRuns(opt.repeats, [&] { ref.align(out, c.guess); });
+      const int it_pcl = Peek<decltype(ref)>::iterations(ref);
+      table.addRow({c.name,
+                    "pcl::IterativeClosestPointWithNormals",
+                    "1",
+                    fmt("%.3f", tm_pcl.median),
+                    fmt("%d", it_pcl),
+                    fmt("%.1f", 1e3 * tm_pcl.median / std::max(1, it_pcl)),
+                    fmt("%.3f", tm_pcl.best),
+                    "1.00",
+                    "-"});
+      pcl_result = ref.getFinalTransformation();
+    }
     for (const bool estimate : {false, true}) {
       double t_one = 0.0;
       for (const unsigned threads : opt.threads) {
@@ -229,23 +252,18 @@ runIcpPointToPlane(const Options& opt, const std::vector<IcpCase>& cases)
         const int it = Peek<decltype(icp)>::iterations(icp);
         if (t_one == 0.0)
           t_one = tm.median;
-        const Eigen::Matrix4f d = pcl_result.inverse() * icp.getFinalTransformation();
-        const Eigen::Vector3f w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
-        const double deg =
-            std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0)) * 180.0 /
-            M_PI;
-        table.addRow({c.name,
-                      fmt("pICP point-to-plane, %s normals (vs PCL: %.4f deg, %.2g)",
-                          estimate ? "estimated" : "field",
-                          deg,
-                          static_cast<double>(d.topRightCorner<3, 1>().norm())),
-                      fmt("%u", resolveNumberOfThreads(threads)),
-                      fmt("%.3f", tm.median),
-                      fmt("%d", it),
-                      fmt("%.1f", 1e3 * tm.median / std::max(1, it)),
-                      fmt("%.3f", tm.best),
-                      fmt("%.2f", tm_pcl.median / tm.median),
-                      fmt("%.2f", t_one / tm.median)});
+        table.addRow(
+            {c.name,
+             fmt("pICP point-to-plane, %s normals%s",
+                 estimate ? "estimated" : "field",
+                 opt.reference ? versus(pcl_result, icp.getFinalTransformation()).c_str() : ""),
+             fmt("%u", resolveNumberOfThreads(threads)),
+             fmt("%.3f", tm.median),
+             fmt("%d", it),
+             fmt("%.1f", 1e3 * tm.median / std::max(1, it)),
+             fmt("%.3f", tm.best),
+             speedup(tm_pcl.median, tm.median),
+             fmt("%.2f", t_one / tm.median)});
       }
     }
   }
@@ -277,22 +295,26 @@ runIcp(const Options& opt)
     const std::string pts = fmt("%zu / %zu", c.source->size(), c.target->size());
     Cloud out;
 
-    pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> ref;
-    configure(ref, c);
-    const Timing tm_pcl = timeRuns(opt.repeats, [&] { ref.align(out, c.guess); });
-    const double t_pcl = tm_pcl.median;
-    const int it_pcl = Peek<decltype(ref)>::iterations(ref);
-    const Eigen::Matrix4f pcl_result = ref.getFinalTransformation();
-    table.addRow({c.name,
-                  pts,
-                  "pcl::IterativeClosestPoint",
-                  "1",
-                  fmt("%.3f", t_pcl),
-                  fmt("%d", it_pcl),
-                  fmt("%.1f", 1e3 * t_pcl / std::max(1, it_pcl)),
-                  fmt("%.3f", tm_pcl.best),
-                  "1.00",
-                  "-"});
+    double t_pcl = 0.0;
+    Eigen::Matrix4f pcl_result = Eigen::Matrix4f::Identity();
+    if (opt.reference) {
+      pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> ref;
+      configure(ref, c);
+      const Timing tm_pcl = timeRuns(opt.repeats, [&] { ref.align(out, c.guess); });
+      t_pcl = tm_pcl.median;
+      const int it_pcl = Peek<decltype(ref)>::iterations(ref);
+      pcl_result = ref.getFinalTransformation();
+      table.addRow({c.name,
+                    pts,
+                    "pcl::IterativeClosestPoint",
+                    "1",
+                    fmt("%.3f", t_pcl),
+                    fmt("%d", it_pcl),
+                    fmt("%.1f", 1e3 * t_pcl / std::max(1, it_pcl)),
+                    fmt("%.3f", tm_pcl.best),
+                    "1.00",
+                    "-"});
+    }
 
     double t_one = 0.0;
     for (const unsigned threads : opt.threads) {
@@ -304,27 +326,22 @@ runIcp(const Options& opt)
       const int it = Peek<decltype(icp)>::iterations(icp);
       if (threads == 1 || t_one == 0.0)
         t_one = t;
-      const Eigen::Matrix4f d = pcl_result.inverse() * icp.getFinalTransformation();
-      const Eigen::Vector3f w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
-      const double deg =
-          std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0)) * 180.0 /
-          M_PI;
-      table.addRow({c.name,
-                    pts,
-                    fmt("pcl_parallel pICP (vs PCL: %.4f deg, %.2g)",
-                        deg,
-                        static_cast<double>(d.topRightCorner<3, 1>().norm())),
-                    fmt("%u", resolveNumberOfThreads(threads)),
-                    fmt("%.3f", t),
-                    fmt("%d", it),
-                    fmt("%.1f", 1e3 * t / std::max(1, it)),
-                    fmt("%.3f", tm.best),
-                    fmt("%.2f", t_pcl / t),
-                    fmt("%.2f", t_one / t)});
+      table.addRow(
+          {c.name,
+           pts,
+           fmt("pcl_parallel pICP%s",
+               opt.reference ? versus(pcl_result, icp.getFinalTransformation()).c_str() : ""),
+           fmt("%u", resolveNumberOfThreads(threads)),
+           fmt("%.3f", t),
+           fmt("%d", it),
+           fmt("%.1f", 1e3 * t / std::max(1, it)),
+           fmt("%.3f", tm.best),
+           speedup(t_pcl, t),
+           fmt("%.2f", t_one / t)});
     }
 
 #ifdef PCL_PARALLEL_HAVE_OPEN3D
-    {
+    if (opt.reference) {
       namespace o3r = open3d::pipelines::registration;
       open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
       auto toO3d = [](const Cloud& cloud) {

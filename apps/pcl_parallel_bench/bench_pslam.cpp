@@ -78,6 +78,8 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
   double total_one = 0.0;
   slam::StageTimes one; // the first thread count's, for each stage's speed-up
   double read_one = 0.0;
+  std::vector<Eigen::Matrix4d> poses_one; // the first thread count's final poses
+  std::string differ;                     // thread counts whose poses are not bit-identical
   for (unsigned threads : opt.threads) {
     slam::Parameters p;
     p.num_threads = threads;
@@ -116,6 +118,10 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
     odo_eval = evaluation::evaluateTrajectory(odometry, truth, eo);
     fe_eval = evaluation::evaluateTrajectory(pipeline.frontEndPoses(), truth, eo);
     final_eval = evaluation::evaluateTrajectory(pipeline.poses(), truth, eo);
+    if (poses_one.empty())
+      poses_one = pipeline.poses();
+    else if (pipeline.poses() != poses_one)
+      differ += fmt(" %u", threads);
     if (threads == opt.threads.front())
       std::printf("kept per scan: %zu bytes; %zu links\n\n",
                   pipeline.bytesPerScan(),
@@ -128,6 +134,8 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
               max_threads,
               spinSpeedup(max_threads),
               max_threads);
+  std::printf("Final poses bit-identical for every thread count: %s.\n",
+              differ.empty() ? "yes" : ("NO, they differ at" + differ).c_str());
   Table e({"poses",
            "ATE rmse [m]",
            "ATE rot. rmse [deg]",
