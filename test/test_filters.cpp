@@ -96,8 +96,8 @@ TEST(VoxelCentroid, CentroidOfEachVoxel)
 // 2e7 at 1 mm) must give exactly these, in this order.
 TEST(VoxelCentroid, KeyOrderAndCentroidsMatchBruteForce)
 {
-  // Small and large clouds (the large ones take the parallel blocks of the key packing and
-  // the radix passes), with non-finite points between the blocks; extent 1e4 at 1 mm needs
+  // Small and large clouds (the large ones take the parallel blocks of the key packing, the
+  // radix passes and the runs), with non-finite points between the blocks; extent 1e4 at 1 mm needs
   // more than 64 key bits (two sorts).
   for (const auto& [size, extent] :
        {std::pair<int, float>{5000, 5.0f}, {5000, 1e4f}, {120000, 5.0f}, {120000, 1e4f}}) {
@@ -117,14 +117,16 @@ TEST(VoxelCentroid, KeyOrderAndCentroidsMatchBruteForce)
                         static_cast<std::int64_t>(std::floor(p.z / voxel))}];
       v[0] += p.x, v[1] += p.y, v[2] += p.z, v[3] += 1.0;
     }
-    const auto out = pcl_parallel::filters::voxelCentroid(cloud, voxel, 2);
-    ASSERT_EQ(out->size(), voxels.size());
-    std::size_t i = 0;
-    for (const auto& [key, v] : voxels) {
-      EXPECT_EQ((*out)[i].x, static_cast<float>(v[0] / v[3])) << i;
-      EXPECT_EQ((*out)[i].y, static_cast<float>(v[1] / v[3])) << i;
-      EXPECT_EQ((*out)[i].z, static_cast<float>(v[2] / v[3])) << i;
-      ++i;
+    for (const unsigned threads : {1u, 3u}) { // serial, and uneven parallel blocks
+      const auto out = pcl_parallel::filters::voxelCentroid(cloud, voxel, threads);
+      ASSERT_EQ(out->size(), voxels.size()) << threads << " threads";
+      std::size_t i = 0;
+      for (const auto& [key, v] : voxels) {
+        EXPECT_EQ((*out)[i].x, static_cast<float>(v[0] / v[3])) << i;
+        EXPECT_EQ((*out)[i].y, static_cast<float>(v[1] / v[3])) << i;
+        EXPECT_EQ((*out)[i].z, static_cast<float>(v[2] / v[3])) << i;
+        ++i;
+      }
     }
   }
 }
@@ -166,7 +168,7 @@ TEST(VoxelCentroid, SameForAnyThreadCount)
 {
   const Cloud cloud = randomCloud(100000, 20.0f, 5);
   const auto one = pcl_parallel::filters::voxelCentroid(cloud, 0.2, 1);
-  for (unsigned t : {2u, 3u, 4u}) {
+  for (unsigned t : {2u, 3u, 4u, 16u}) { // 16: more blocks than this machine has cores
     const auto many = pcl_parallel::filters::voxelCentroid(cloud, 0.2, t);
     ASSERT_EQ(one->size(), many->size());
     for (std::size_t i = 0; i < one->size(); ++i) {

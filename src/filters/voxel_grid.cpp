@@ -8,11 +8,13 @@
 #include <pcl/common/transforms.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace pcl_parallel {
@@ -42,22 +44,94 @@ struct Keyed {
   std::uint32_t index;
 };
 
+/** Points below this go through the grouping on one thread: the parallel passes' set-up
+ *  costs more than they save on a small cloud. */
+constexpr std::int64_t kParallelPoints = 20000;
+
+/** Contiguous blocks of [0, n), one per thread: each parallel pass below handles its
+ *  block's items in order, so the passes are stable and their output is the same for any
+ *  block count. */
+struct Blocks {
+  std::int64_t n;
+  int count;
+  std::int64_t
+  begin(int b) const
+  {
+    return n * b / count;
+  }
+};
+
 /** Stable LSD radix sort by key, 8 bits a pass over the `bits` low bits: O(n), and equal
- *  keys keep their input (index) order, which fixes each centroid's summation order. */
+ *  keys keep their input (index) order, which fixes each centroid's summation order. Each
+ *  pass counts digits per block, places every (digit, block) run after all smaller digits
+ *  and the earlier blocks' same digit, and scatters the blocks in parallel: a stable sort's
+ *  output is unique, so it is the same for any thread count. */
 void
-radixSort(std::vector<Keyed>& a, int bits)
+radixSort(std::vector<Keyed>& a, int bits, unsigned threads)
 {
+  const Blocks blocks{
+      static_cast<std::int64_t>(a.size()),
+      static_cast<std::int64_t>(a.size()) >= kParallelPoints ? static_cast<int>(threads) : 1};
   std::vector<Keyed> b(a.size());
+  std::vector<std::array<std::size_t, 256>> count(static_cast<std::size_t>(blocks.count));
   for (int shift = 0; shift < bits; shift += 8) {
-    std::size_t count[257] = {0};
-    for (const Keyed& k : a)
-      ++count[((k.key >> shift) & 0xff) + 1];
-    for (int d = 0; d < 256; ++d)
-      count[d + 1] += count[d];
-    for (const Keyed& k : a)
-      b[count[(k.key >> shift) & 0xff]++] = k;
+#pragma omp parallel num_threads(blocks.count) if (blocks.count > 1)
+    {
+#pragma omp for schedule(static, 1)
+      for (int t = 0; t < blocks.count; ++t) {
+        auto& c = count[t];
+        c.fill(0);
+        for (std::int64_t i = blocks.begin(t); i < blocks.begin(t + 1); ++i)
+          ++c[(a[i].key >> shift) & 0xff];
+      }
+#pragma omp single
+      {
+        std::size_t at = 0; // exclusive prefix, digit-major then block
+        for (int d = 0; d < 256; ++d)
+          for (int t = 0; t < blocks.count; ++t)
+            at += std::exchange(count[t][d], at);
+      }
+#pragma omp for schedule(static, 1)
+      for (int t = 0; t < blocks.count; ++t) {
+        auto& c = count[t];
+        for (std::int64_t i = blocks.begin(t); i < blocks.begin(t + 1); ++i)
+          b[c[(a[i].key >> shift) & 0xff]++] = a[i];
+      }
+    }
     a.swap(b);
   }
+}
+
+/** The indices i in [0, n) with keep(i), in increasing order, gathered block by block in
+ *  parallel. */
+template <typename Keep>
+std::vector<std::uint32_t>
+keptIndices(std::int64_t n, unsigned threads, Keep keep)
+{
+  const Blocks blocks{n, n >= kParallelPoints ? static_cast<int>(threads) : 1};
+  std::vector<std::size_t> at(static_cast<std::size_t>(blocks.count) + 1, 0);
+  std::vector<std::uint32_t> out;
+#pragma omp parallel num_threads(blocks.count) if (blocks.count > 1)
+  {
+#pragma omp for schedule(static, 1)
+    for (int t = 0; t < blocks.count; ++t)
+      for (std::int64_t i = blocks.begin(t); i < blocks.begin(t + 1); ++i)
+        at[t + 1] += keep(i) ? 1 : 0;
+#pragma omp single
+    {
+      for (int t = 0; t < blocks.count; ++t)
+        at[t + 1] += at[t];
+      out.resize(at.back());
+    }
+#pragma omp for schedule(static, 1)
+    for (int t = 0; t < blocks.count; ++t) {
+      std::size_t k = at[t];
+      for (std::int64_t i = blocks.begin(t); i < blocks.begin(t + 1); ++i)
+        if (keep(i))
+          out[k++] = static_cast<std::uint32_t>(i);
+    }
+  }
+  return out;
 }
 
 int
@@ -71,7 +145,8 @@ bitWidth(std::uint64_t v)
 
 /** The finite points of a cloud grouped by voxel: `order` lists point indices by voxel key
  *  (x, then y, then z) and, within a voxel, in input order; voxel v holds
- *  order[runs[v] .. runs[v + 1]) and has key keys[order[runs[v]]]. */
+ *  order[runs[v] .. runs[v + 1]) and has key keys[order[runs[v]]]. Every pass runs in
+ *  parallel on a large cloud; the grouping is the same for any thread count. */
 struct VoxelRuns {
   std::vector<VoxelKey> keys; ///< per point
   std::vector<std::uint32_t> order;
@@ -91,9 +166,15 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   std::vector<char> valid(cloud.size(), 0);
   bool too_far = false;
   const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static)                                 \
+  const bool parallel = threads > 1 && n >= kParallelPoints;
+  // Exact integer minima and maxima: the same for any order of reduction.
+  std::int64_t lo0 = std::numeric_limits<std::int64_t>::max(), lo1 = lo0, lo2 = lo0;
+  std::int64_t hi0 = std::numeric_limits<std::int64_t>::min(), hi1 = hi0, hi2 = hi0;
+#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)                   \
     reduction(||                                                                               \
-              : too_far) if (threads > 1 && n > 10000)
+              : too_far) reduction(min                                                         \
+                                   : lo0, lo1, lo2) reduction(max                              \
+                                                              : hi0, hi1, hi2)
   for (std::int64_t i = 0; i < n; ++i) {
     const auto& p = cloud[i];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
@@ -103,23 +184,19 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
       too_far = true;
       continue;
     }
-    g.keys[i] = {static_cast<std::int32_t>(c[0]),
-                 static_cast<std::int32_t>(c[1]),
-                 static_cast<std::int32_t>(c[2])};
+    const VoxelKey k = {static_cast<std::int32_t>(c[0]),
+                        static_cast<std::int32_t>(c[1]),
+                        static_cast<std::int32_t>(c[2])};
+    g.keys[i] = k;
     valid[i] = 1;
+    lo0 = std::min<std::int64_t>(lo0, k[0]), hi0 = std::max<std::int64_t>(hi0, k[0]);
+    lo1 = std::min<std::int64_t>(lo1, k[1]), hi1 = std::max<std::int64_t>(hi1, k[1]);
+    lo2 = std::min<std::int64_t>(lo2, k[2]), hi2 = std::max<std::int64_t>(hi2, k[2]);
   }
   if (too_far)
     throw std::invalid_argument(std::string(who) + ": a point lies more than 2^31 voxels of " +
                                 std::to_string(voxel_size) + " from the origin");
-  std::int64_t lo[3], hi[3];
-  std::fill(lo, lo + 3, std::numeric_limits<std::int64_t>::max());
-  std::fill(hi, hi + 3, std::numeric_limits<std::int64_t>::min());
-  for (std::int64_t i = 0; i < n; ++i)
-    if (valid[i])
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min<std::int64_t>(lo[a], g.keys[i][a]);
-        hi[a] = std::max<std::int64_t>(hi[a], g.keys[i][a]);
-      }
+  const std::int64_t lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
   auto offset = [&](std::uint32_t i, int a) {
     return static_cast<std::uint64_t>(g.keys[i][a] - lo[a]);
   };
@@ -129,30 +206,33 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   for (int a = 0; a < 3; ++a)
     width[a] = hi[a] >= lo[a] ? bitWidth(static_cast<std::uint64_t>(hi[a] - lo[a])) : 0;
   const int bits = width[0] + width[1] + width[2];
-  std::vector<Keyed> keyed;
-  keyed.reserve(cloud.size());
-  for (std::int64_t i = 0; i < n; ++i)
-    if (valid[i]) {
-      const auto k = static_cast<std::uint32_t>(i);
-      // (A shift by 64 would be undefined; x's width is 0 then, so x adds nothing.)
-      const int shift_x = width[1] + width[2];
-      const std::uint64_t x = shift_x < 64 ? offset(k, 0) << shift_x : 0;
-      keyed.push_back(
-          {bits <= 64 ? x | (offset(k, 1) << width[2]) | offset(k, 2) : offset(k, 2), k});
-    }
-  radixSort(keyed, bits <= 64 ? bits : width[2]);
+  const std::vector<std::uint32_t> finite =
+      keptIndices(n, threads, [&](std::int64_t i) { return valid[i] != 0; });
+  const std::int64_t m = static_cast<std::int64_t>(finite.size());
+  std::vector<Keyed> keyed(finite.size());
+  // (A shift by 64 would be undefined; x's width is 0 then, so x adds nothing.)
+  const int shift_x = width[1] + width[2];
+#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)
+  for (std::int64_t j = 0; j < m; ++j) {
+    const std::uint32_t k = finite[j];
+    const std::uint64_t x = shift_x < 64 ? offset(k, 0) << shift_x : 0;
+    keyed[j] = {bits <= 64 ? x | (offset(k, 1) << width[2]) | offset(k, 2) : offset(k, 2), k};
+  }
+  radixSort(keyed, bits <= 64 ? bits : width[2], parallel ? threads : 1);
   if (bits > 64) {
-    for (Keyed& k : keyed)
-      k.key = (offset(k.index, 0) << 32) | offset(k.index, 1);
-    radixSort(keyed, 64);
+#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)
+    for (std::int64_t j = 0; j < m; ++j)
+      keyed[j].key = (offset(keyed[j].index, 0) << 32) | offset(keyed[j].index, 1);
+    radixSort(keyed, 64, parallel ? threads : 1);
   }
-  g.order.reserve(keyed.size());
-  for (std::size_t k = 0; k < keyed.size(); ++k) {
-    if (k == 0 || keyed[k].key != keyed[k - 1].key ||
-        (bits > 64 && g.keys[keyed[k].index][2] != g.keys[keyed[k - 1].index][2]))
-      g.runs.push_back(static_cast<std::uint32_t>(k));
-    g.order.push_back(keyed[k].index);
-  }
+  g.order.resize(keyed.size());
+#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)
+  for (std::int64_t j = 0; j < m; ++j)
+    g.order[j] = keyed[j].index;
+  g.runs = keptIndices(m, parallel ? threads : 1, [&](std::int64_t j) {
+    return j == 0 || keyed[j].key != keyed[j - 1].key ||
+           (bits > 64 && g.keys[keyed[j].index][2] != g.keys[keyed[j - 1].index][2]);
+  });
   g.runs.push_back(static_cast<std::uint32_t>(keyed.size()));
   return g;
 }
@@ -171,17 +251,20 @@ voxelCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
   }
   const VoxelRuns g = groupByVoxel(cloud, voxel_size, num_threads, "voxelCentroid");
   // One centroid per voxel, summed in double in input order.
-  out->reserve(g.runs.size() - 1);
-  for (std::size_t v = 0; v + 1 < g.runs.size(); ++v) {
+  const std::int64_t voxels = static_cast<std::int64_t>(g.runs.size()) - 1;
+  out->resize(static_cast<std::size_t>(voxels));
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && voxels > 5000)
+  for (std::int64_t v = 0; v < voxels; ++v) {
     double sx = 0.0, sy = 0.0, sz = 0.0;
     for (std::uint32_t k = g.runs[v]; k < g.runs[v + 1]; ++k) {
       const auto& p = cloud[g.order[k]];
       sx += p.x, sy += p.y, sz += p.z;
     }
     const double count = static_cast<double>(g.runs[v + 1] - g.runs[v]);
-    out->push_back(pcl::PointXYZ(static_cast<float>(sx / count),
-                                 static_cast<float>(sy / count),
-                                 static_cast<float>(sz / count)));
+    (*out)[v] = pcl::PointXYZ(static_cast<float>(sx / count),
+                              static_cast<float>(sy / count),
+                              static_cast<float>(sz / count));
   }
   return out;
 }
