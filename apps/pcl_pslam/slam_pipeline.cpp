@@ -92,7 +92,11 @@ run(const ScanReader& read,
     }
   }
   slam::Pipeline& pipeline = *owned;
+  if (progress) // the last relaxation has its own line, not the next stage's time
+    progress("pLUM", 0, 1);
   pipeline.finish();
+  if (progress)
+    progress("pLUM", 1, 1);
   result.icp = pipeline.frontEndPoses();
   result.final = pipeline.poses();
   for (const auto& l : pipeline.links())
