@@ -61,6 +61,20 @@ struct Blocks {
   }
 };
 
+/** fn(t) for each block t, one thread a block; on the calling thread for one block. */
+template <typename Fn>
+void
+forEachBlock(int count, const Fn& fn)
+{
+  if (count == 1) {
+    fn(0);
+    return;
+  }
+#pragma omp parallel for num_threads(count) schedule(static, 1)
+  for (int t = 0; t < count; ++t)
+    fn(t);
+}
+
 /** Stable LSD radix sort by key, 8 bits a pass over the `bits` low bits: O(n), and equal
  *  keys keep their input (index) order, which fixes each centroid's summation order. Each
  *  pass counts digits per block, places every (digit, block) run after all smaller digits
@@ -75,63 +89,25 @@ radixSort(std::vector<Keyed>& a, int bits, unsigned threads)
   std::vector<Keyed> b(a.size());
   std::vector<std::array<std::size_t, 256>> count(static_cast<std::size_t>(blocks.count));
   for (int shift = 0; shift < bits; shift += 8) {
-#pragma omp parallel num_threads(blocks.count) if (blocks.count > 1)
-    {
-#pragma omp for schedule(static, 1)
-      for (int t = 0; t < blocks.count; ++t) {
-        auto& c = count[t];
-        c.fill(0);
-        for (std::int64_t i = blocks.begin(t); i < blocks.begin(t + 1); ++i)
-          ++c[(a[i].key >> shift) & 0xff];
-      }
-#pragma omp single
-      {
-        std::size_t at = 0; // exclusive prefix, digit-major then block
-        for (int d = 0; d < 256; ++d)
-          for (int t = 0; t < blocks.count; ++t)
-            at += std::exchange(count[t][d], at);
-      }
-#pragma omp for schedule(static, 1)
-      for (int t = 0; t < blocks.count; ++t) {
-        auto& c = count[t];
-        for (std::int64_t i = blocks.begin(t); i < blocks.begin(t + 1); ++i)
-          b[c[(a[i].key >> shift) & 0xff]++] = a[i];
-      }
-    }
+    const auto histogram = [&](int t) {
+      auto& c = count[t];
+      c.fill(0);
+      for (std::int64_t i = blocks.begin(t), end = blocks.begin(t + 1); i < end; ++i)
+        ++c[(a[i].key >> shift) & 0xff];
+    };
+    const auto scatter = [&](int t) {
+      auto& c = count[t];
+      for (std::int64_t i = blocks.begin(t), end = blocks.begin(t + 1); i < end; ++i)
+        b[c[(a[i].key >> shift) & 0xff]++] = a[i];
+    };
+    forEachBlock(blocks.count, histogram);
+    std::size_t at = 0; // exclusive prefix, digit-major then block
+    for (int d = 0; d < 256; ++d)
+      for (int t = 0; t < blocks.count; ++t)
+        at += std::exchange(count[t][d], at);
+    forEachBlock(blocks.count, scatter);
     a.swap(b);
   }
-}
-
-/** The indices i in [0, n) with keep(i), in increasing order, gathered block by block in
- *  parallel. */
-template <typename Keep>
-std::vector<std::uint32_t>
-keptIndices(std::int64_t n, unsigned threads, Keep keep)
-{
-  const Blocks blocks{n, n >= kParallelPoints ? static_cast<int>(threads) : 1};
-  std::vector<std::size_t> at(static_cast<std::size_t>(blocks.count) + 1, 0);
-  std::vector<std::uint32_t> out;
-#pragma omp parallel num_threads(blocks.count) if (blocks.count > 1)
-  {
-#pragma omp for schedule(static, 1)
-    for (int t = 0; t < blocks.count; ++t)
-      for (std::int64_t i = blocks.begin(t); i < blocks.begin(t + 1); ++i)
-        at[t + 1] += keep(i) ? 1 : 0;
-#pragma omp single
-    {
-      for (int t = 0; t < blocks.count; ++t)
-        at[t + 1] += at[t];
-      out.resize(at.back());
-    }
-#pragma omp for schedule(static, 1)
-    for (int t = 0; t < blocks.count; ++t) {
-      std::size_t k = at[t];
-      for (std::int64_t i = blocks.begin(t); i < blocks.begin(t + 1); ++i)
-        if (keep(i))
-          out[k++] = static_cast<std::uint32_t>(i);
-    }
-  }
-  return out;
 }
 
 int
@@ -159,44 +135,57 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   if (cloud.size() >= std::numeric_limits<std::uint32_t>::max())
     throw std::invalid_argument(std::string(who) + ": 2^32 points or more");
   const std::int64_t n = static_cast<std::int64_t>(cloud.size());
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+  const Blocks blocks{n, threads > 1 && n >= kParallelPoints ? static_cast<int>(threads) : 1};
   const double inv = 1.0 / voxel_size;
   constexpr double limit = 2147483647.0;
   VoxelRuns g;
   g.keys.resize(cloud.size());
   std::vector<char> valid(cloud.size(), 0);
-  bool too_far = false;
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-  const bool parallel = threads > 1 && n >= kParallelPoints;
-  // Exact integer minima and maxima: the same for any order of reduction.
-  std::int64_t lo0 = std::numeric_limits<std::int64_t>::max(), lo1 = lo0, lo2 = lo0;
-  std::int64_t hi0 = std::numeric_limits<std::int64_t>::min(), hi1 = hi0, hi2 = hi0;
-#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)                   \
-    reduction(||                                                                               \
-              : too_far) reduction(min                                                         \
-                                   : lo0, lo1, lo2) reduction(max                              \
-                                                              : hi0, hi1, hi2)
-  for (std::int64_t i = 0; i < n; ++i) {
-    const auto& p = cloud[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      continue;
-    const double c[3] = {std::floor(p.x * inv), std::floor(p.y * inv), std::floor(p.z * inv)};
-    if (std::abs(c[0]) >= limit || std::abs(c[1]) >= limit || std::abs(c[2]) >= limit) {
-      too_far = true;
-      continue;
+  // Per block: its keys, their exact integer bounds and its count of finite points.
+  struct Bounds {
+    std::int64_t lo[3], hi[3];
+    std::size_t finite = 0;
+    bool too_far = false;
+  };
+  std::vector<Bounds> bounds(static_cast<std::size_t>(blocks.count));
+  forEachBlock(blocks.count, [&](int t) {
+    Bounds b; // in registers: the char stores to `valid` may alias anything in memory
+    std::fill(b.lo, b.lo + 3, std::numeric_limits<std::int64_t>::max());
+    std::fill(b.hi, b.hi + 3, std::numeric_limits<std::int64_t>::min());
+    for (std::int64_t i = blocks.begin(t), end = blocks.begin(t + 1); i < end; ++i) {
+      const auto& p = cloud[i];
+      if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+        continue;
+      const double c[3] = {std::floor(p.x * inv), std::floor(p.y * inv), std::floor(p.z * inv)};
+      if (std::abs(c[0]) >= limit || std::abs(c[1]) >= limit || std::abs(c[2]) >= limit) {
+        b.too_far = true;
+        continue;
+      }
+      for (int a = 0; a < 3; ++a) {
+        const auto k = static_cast<std::int32_t>(c[a]);
+        g.keys[i][a] = k;
+        b.lo[a] = std::min<std::int64_t>(b.lo[a], k);
+        b.hi[a] = std::max<std::int64_t>(b.hi[a], k);
+      }
+      valid[i] = 1;
+      ++b.finite;
     }
-    const VoxelKey k = {static_cast<std::int32_t>(c[0]),
-                        static_cast<std::int32_t>(c[1]),
-                        static_cast<std::int32_t>(c[2])};
-    g.keys[i] = k;
-    valid[i] = 1;
-    lo0 = std::min<std::int64_t>(lo0, k[0]), hi0 = std::max<std::int64_t>(hi0, k[0]);
-    lo1 = std::min<std::int64_t>(lo1, k[1]), hi1 = std::max<std::int64_t>(hi1, k[1]);
-    lo2 = std::min<std::int64_t>(lo2, k[2]), hi2 = std::max<std::int64_t>(hi2, k[2]);
+    bounds[t] = b;
+  });
+  std::int64_t lo[3], hi[3];
+  std::fill(lo, lo + 3, std::numeric_limits<std::int64_t>::max());
+  std::fill(hi, hi + 3, std::numeric_limits<std::int64_t>::min());
+  std::vector<std::size_t> first(bounds.size() + 1, 0); // each block's first keyed slot
+  for (std::size_t t = 0; t < bounds.size(); ++t) {
+    if (bounds[t].too_far)
+      throw std::invalid_argument(std::string(who) +
+                                  ": a point lies more than 2^31 voxels of " +
+                                  std::to_string(voxel_size) + " from the origin");
+    for (int a = 0; a < 3; ++a)
+      lo[a] = std::min(lo[a], bounds[t].lo[a]), hi[a] = std::max(hi[a], bounds[t].hi[a]);
+    first[t + 1] = first[t] + bounds[t].finite;
   }
-  if (too_far)
-    throw std::invalid_argument(std::string(who) + ": a point lies more than 2^31 voxels of " +
-                                std::to_string(voxel_size) + " from the origin");
-  const std::int64_t lo[3] = {lo0, lo1, lo2}, hi[3] = {hi0, hi1, hi2};
   auto offset = [&](std::uint32_t i, int a) {
     return static_cast<std::uint64_t>(g.keys[i][a] - lo[a]);
   };
@@ -206,33 +195,47 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   for (int a = 0; a < 3; ++a)
     width[a] = hi[a] >= lo[a] ? bitWidth(static_cast<std::uint64_t>(hi[a] - lo[a])) : 0;
   const int bits = width[0] + width[1] + width[2];
-  const std::vector<std::uint32_t> finite =
-      keptIndices(n, threads, [&](std::int64_t i) { return valid[i] != 0; });
-  const std::int64_t m = static_cast<std::int64_t>(finite.size());
-  std::vector<Keyed> keyed(finite.size());
   // (A shift by 64 would be undefined; x's width is 0 then, so x adds nothing.)
   const int shift_x = width[1] + width[2];
-#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)
-  for (std::int64_t j = 0; j < m; ++j) {
-    const std::uint32_t k = finite[j];
-    const std::uint64_t x = shift_x < 64 ? offset(k, 0) << shift_x : 0;
-    keyed[j] = {bits <= 64 ? x | (offset(k, 1) << width[2]) | offset(k, 2) : offset(k, 2), k};
-  }
-  radixSort(keyed, bits <= 64 ? bits : width[2], parallel ? threads : 1);
+  std::vector<Keyed> keyed(first.back());
+  forEachBlock(blocks.count, [&](int t) {
+    std::size_t j = first[t];
+    for (std::int64_t i = blocks.begin(t), end = blocks.begin(t + 1); i < end; ++i)
+      if (valid[i]) {
+        const auto k = static_cast<std::uint32_t>(i);
+        const std::uint64_t x = shift_x < 64 ? offset(k, 0) << shift_x : 0;
+        keyed[j++] = {bits <= 64 ? x | (offset(k, 1) << width[2]) | offset(k, 2) : offset(k, 2),
+                      k};
+      }
+  });
+  radixSort(keyed, bits <= 64 ? bits : width[2], static_cast<unsigned>(blocks.count));
+  const std::int64_t m = static_cast<std::int64_t>(keyed.size());
   if (bits > 64) {
-#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)
+#pragma omp parallel for num_threads(blocks.count) schedule(static) if (blocks.count > 1)
     for (std::int64_t j = 0; j < m; ++j)
       keyed[j].key = (offset(keyed[j].index, 0) << 32) | offset(keyed[j].index, 1);
-    radixSort(keyed, 64, parallel ? threads : 1);
+    radixSort(keyed, 64, static_cast<unsigned>(blocks.count));
   }
-  g.order.resize(keyed.size());
-#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)
-  for (std::int64_t j = 0; j < m; ++j)
-    g.order[j] = keyed[j].index;
-  g.runs = keptIndices(m, parallel ? threads : 1, [&](std::int64_t j) {
+  // A voxel starts where the key changes; block by block, then gathered in order.
+  const auto starts = [&](std::int64_t j) {
     return j == 0 || keyed[j].key != keyed[j - 1].key ||
            (bits > 64 && g.keys[keyed[j].index][2] != g.keys[keyed[j - 1].index][2]);
+  };
+  const Blocks sorted{m, blocks.count};
+  std::vector<std::vector<std::uint32_t>> runs(static_cast<std::size_t>(sorted.count));
+  g.order.resize(keyed.size());
+  forEachBlock(sorted.count, [&](int t) {
+    for (std::int64_t j = sorted.begin(t), end = sorted.begin(t + 1); j < end; ++j) {
+      if (starts(j))
+        runs[t].push_back(static_cast<std::uint32_t>(j));
+      g.order[j] = keyed[j].index;
+    }
   });
+  if (sorted.count == 1)
+    g.runs.swap(runs[0]);
+  else
+    for (const auto& r : runs)
+      g.runs.insert(g.runs.end(), r.begin(), r.end());
   g.runs.push_back(static_cast<std::uint32_t>(keyed.size()));
   return g;
 }
