@@ -28,11 +28,16 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <gtest/gtest.h>
 #include <limits>
+#include <map>
+#include <memory>
 #include <numeric>
 #include <random>
+#include <set>
+#include <tuple>
 
 namespace {
 
@@ -1149,6 +1154,60 @@ TEST(LocalMap, VoxelCapCropAndCorrection)
   EXPECT_NEAR((*map.cloud())[0].x, 0.5f, 1e-6); // (0, .5) turned by 90 deg, moved by 1
   EXPECT_NEAR((*map.cloud())[0].normal_z, 1.0f, 1e-6);
   EXPECT_NEAR((*map.cloud())[3].y, 5.5f, 1e-6); // (5.5, .5) turned to (-.5, 5.5), moved
+}
+
+// A map of more than 10k voxels (the crop and refresh then run in parallel) moving along a
+// line: the same points, order and scans for 1 and 3 threads, and exactly the voxels within
+// reach of the last origin whose first point is (brute force).
+TEST(LocalMap, ParallelCropAndRefreshSameAsSerial)
+{
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-20.0f, 20.0f);
+  std::vector<slam::MapCloud> scans(12);
+  for (std::size_t k = 0; k < scans.size(); ++k)
+    for (int i = 0; i < 30000; ++i) {
+      slam::MapPoint p;
+      p.x = u(rng) + 2.0f * k, p.y = u(rng), p.z = 0.2f * u(rng);
+      p.normal_x = 0, p.normal_y = 0, p.normal_z = 1;
+      scans[k].push_back(p);
+    }
+  std::vector<std::unique_ptr<slam::LocalMap>> maps;
+  for (const unsigned threads : {1u, 3u}) {
+    maps.emplace_back(new slam::LocalMap(0.5, 15.0, 2, 0.0, threads)); // refreshed each time
+    for (std::size_t k = 0; k < scans.size(); ++k)
+      maps.back()->update(
+          scans[k], Eigen::Vector3d(2.0 * k, 0, 0), static_cast<std::uint32_t>(k));
+  }
+  const auto& one = *maps[0]->cloud();
+  const auto& three = *maps[1]->cloud();
+  ASSERT_GT(one.size(), 20000u);
+  ASSERT_EQ(one.size(), three.size());
+  for (std::size_t i = 0; i < one.size(); ++i)
+    ASSERT_EQ(one[i].getVector3fMap(), three[i].getVector3fMap()) << i;
+  EXPECT_EQ(maps[0]->scans(), maps[1]->scans());
+  // Brute force: each voxel's first two points in input order, kept while its first point
+  // stays within 15 m of every origin that came after it.
+  std::map<std::array<int, 3>, std::vector<std::pair<Eigen::Vector3f, std::uint32_t>>> kept;
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    for (const auto& p : scans[k]) {
+      auto& v = kept[{
+          int(std::floor(p.x / 0.5)), int(std::floor(p.y / 0.5)), int(std::floor(p.z / 0.5))}];
+      if (v.size() < 2)
+        v.emplace_back(p.getVector3fMap(), static_cast<std::uint32_t>(k));
+    }
+    for (auto it = kept.begin(); it != kept.end();)
+      it = (it->second.front().first.cast<double>() - Eigen::Vector3d(2.0 * k, 0, 0)).norm() >
+                   15.0
+               ? kept.erase(it)
+               : std::next(it);
+  }
+  std::multiset<std::tuple<float, float, float, std::uint32_t>> expected, got;
+  for (const auto& [key, points] : kept)
+    for (const auto& [q, scan] : points)
+      expected.emplace(q.x(), q.y(), q.z(), scan);
+  for (std::size_t i = 0; i < one.size(); ++i)
+    got.emplace(one[i].x, one[i].y, one[i].z, maps[0]->scans()[i]);
+  EXPECT_EQ(got, expected);
 }
 
 // A vehicle at constant speed and yaw rate, climbing steadily: a helix about z, in closed

@@ -252,7 +252,11 @@ information(const Eigen::Matrix<double, 6, 6>& hessian, double error, double wei
 FrontEnd::FrontEnd(const FrontEndParameters& params)
     : params_(params)
     , icp_(new Registration)
-    , map_(params.map_voxel_size, params.map_distance, params.map_points_per_voxel)
+    , map_(params.map_voxel_size,
+           params.map_distance,
+           params.map_points_per_voxel,
+           LocalMap::kRefreshFraction,
+           params.num_threads)
     , previous_tree_(new search::KdTree<MapPoint>)
 {
   for (Icp* icp : {&icp_->icp, &icp_->to_previous}) {

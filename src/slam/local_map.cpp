@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/local_map.h>
 
 #include <algorithm>
@@ -14,11 +15,13 @@ namespace slam {
 LocalMap::LocalMap(double voxel_size,
                    double max_distance,
                    int max_points_per_voxel,
-                   double refresh_fraction)
+                   double refresh_fraction,
+                   unsigned num_threads)
     : voxel_size_(voxel_size)
     , max_distance_(max_distance)
     , max_points_(static_cast<std::size_t>(std::max(1, max_points_per_voxel)))
     , refresh_fraction_(std::max(0.0, refresh_fraction))
+    , num_threads_(resolveNumberOfThreads(num_threads))
 {
   if (!(voxel_size > 0.0) || !(max_distance > 0.0))
     throw std::invalid_argument("LocalMap: voxel size and distance must be positive");
@@ -53,15 +56,21 @@ LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin, std::uin
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
         p.getVector3fMap().cwiseAbs().maxCoeff() < 2e9 * voxel_size_) // int32 voxel keys
       insert(p, scan);
-  // Crop: a voxel goes when its first point is out of reach (KISS-ICP's rule).
+  // Crop: a voxel goes when its first point is out of reach (KISS-ICP's rule). The test
+  // touches every voxel, in parallel; the few erasures follow in order.
   const double max2 = max_distance_ * max_distance_;
+  const std::int64_t voxels = static_cast<std::int64_t>(order_.size());
+  std::vector<char> far(order_.size());
+#pragma omp parallel for num_threads(num_threads_) schedule(static) if (parallel(voxels))
+  for (std::int64_t v = 0; v < voxels; ++v)
+    far[v] = (order_[v]->second.points.front().getVector3fMap().cast<double>() - origin)
+                 .squaredNorm() > max2;
   std::size_t kept = 0;
-  for (auto* voxel : order_) {
-    if ((voxel->second.points.front().getVector3fMap().cast<double>() - origin).squaredNorm() >
-        max2)
-      voxels_.erase(Key(voxel->first)); // a copy: the key dies with the element
+  for (std::int64_t v = 0; v < voxels; ++v) {
+    if (far[v])
+      voxels_.erase(Key(order_[v]->first)); // a copy: the key dies with the element
     else
-      order_[kept++] = voxel;
+      order_[kept++] = order_[v];
   }
   order_.resize(kept);
   if (!cloud_ || static_cast<double>(added_) > refresh_fraction_ * cloud_->size())
@@ -100,21 +109,31 @@ LocalMap::clear()
   added_ = 0;
 }
 
+bool
+LocalMap::parallel(std::int64_t voxels) const
+{
+  return num_threads_ > 1 && voxels > 10000;
+}
+
 void
 LocalMap::refresh()
 {
-  std::size_t n = 0;
-  for (const auto* voxel : order_)
-    n += voxel->second.points.size();
+  // Each voxel's points go to their place in voxel order (a prefix sum), in parallel.
+  const std::int64_t voxels = static_cast<std::int64_t>(order_.size());
+  std::vector<std::size_t> first(order_.size() + 1, 0);
+#pragma omp parallel for num_threads(num_threads_) schedule(static) if (parallel(voxels))
+  for (std::int64_t v = 0; v < voxels; ++v)
+    first[v + 1] = order_[v]->second.points.size();
+  for (std::int64_t v = 0; v < voxels; ++v)
+    first[v + 1] += first[v];
   cloud_.reset(new MapCloud);
-  cloud_->reserve(n);
-  cloud_scans_.clear();
-  cloud_scans_.reserve(n);
-  for (const auto* voxel : order_) {
-    for (const auto& p : voxel->second.points)
-      cloud_->push_back(p);
-    cloud_scans_.insert(
-        cloud_scans_.end(), voxel->second.scans.begin(), voxel->second.scans.end());
+  cloud_->resize(first.back());
+  cloud_scans_.resize(first.back());
+#pragma omp parallel for num_threads(num_threads_) schedule(static) if (parallel(voxels))
+  for (std::int64_t v = 0; v < voxels; ++v) {
+    const Voxel& voxel = order_[v]->second;
+    std::copy(voxel.points.begin(), voxel.points.end(), cloud_->begin() + first[v]);
+    std::copy(voxel.scans.begin(), voxel.scans.end(), cloud_scans_.begin() + first[v]);
   }
   added_ = 0;
 }

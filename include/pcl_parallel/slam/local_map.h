@@ -29,10 +29,15 @@ namespace slam {
  */
 class LocalMap {
 public:
+  static constexpr double kRefreshFraction = 0.1;
+
+  /** num_threads: for the per-scan crop and the refresh (0 = all cores); the map is the
+   *  same for any. */
   LocalMap(double voxel_size,
            double max_distance,
            int max_points_per_voxel,
-           double refresh_fraction = 0.1);
+           double refresh_fraction = kRefreshFraction,
+           unsigned num_threads = 0);
   // Moves keep the voxels' nodes, and order_ points into them; a copy would not.
   LocalMap(LocalMap&&) noexcept = default;
   LocalMap&
@@ -88,11 +93,15 @@ private:
   insert(const MapPoint& p, std::uint32_t scan);
   void
   refresh();
+  /** Whether a pass over this many voxels runs in parallel. */
+  bool
+  parallel(std::int64_t voxels) const;
 
   double voxel_size_;
   double max_distance_;
   std::size_t max_points_;
   double refresh_fraction_;
+  unsigned num_threads_;
   std::size_t added_ = 0; ///< points added since cloud_ was built
   struct Voxel {
     std::vector<MapPoint> points;
