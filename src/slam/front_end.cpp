@@ -355,7 +355,7 @@ FrontEnd::track(const Cloud& scan,
     }
     else { // the best guess refined (without odometry; with it, the prediction)
       std::optional<Pose> better;
-      if (!odometry)
+      if (!odometry && (params_.speed_hypotheses || params_.pose_search))
         better = betterGuess(
             source, *reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
       matched = better ? alignToPrevious(source, *better, true, &r.prediction)
@@ -586,6 +586,7 @@ std::optional<Pose>
 FrontEnd::searchPose(const Cloud::ConstPtr& source,
                      const Cloud& reduced,
                      const std::optional<Pose>& own,
+                     double range,
                      FrontEndResult& r)
 {
   if (!params_.pose_search || !hasPrevious() || source->empty())
@@ -610,7 +611,8 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
   icp.setSearchMethodTarget(previous_tree_, true);
   icp.setInputTarget(previous_);
   icp.setInputSource(source);
-  const double range = medianRange(*source);
+  if (!(range > 0.0))
+    range = medianRange(*source);
   double best = kSearchMargin * own_overlap;
   std::optional<Pose> winner;
   for (const Pose& start : correlativeSearch(reduced, *previous_points_, params_.up, search)) {
@@ -670,7 +672,7 @@ FrontEnd::betterGuess(const Cloud::ConstPtr& source,
   const Hypotheses h = hypotheses(*source, prediction);
   if (h.any())
     better = bestHypothesis(source, prediction, own, h, r);
-  if (auto found = searchPose(source, reduced, better ? better : own, r))
+  if (auto found = searchPose(source, reduced, better ? better : own, h.range, r))
     better = found;
   return better;
 }

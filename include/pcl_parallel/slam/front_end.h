@@ -223,11 +223,13 @@ private:
   /** Right after `own`, the prediction's match to the previous scan: where `own` looks
    *  wrong (pose_search), the best of correlativeSearch's candidates matched, if it
    *  overlaps the previous scan more than `own` and ends elsewhere; r.start_heading
-   *  says which. */
+   *  says which. `range`: the source's median range where known (Hypotheses::range),
+   *  else 0. */
   std::optional<Pose>
   searchPose(const Cloud::ConstPtr& source,
              const Cloud& reduced,
              const std::optional<Pose>& own,
+             double range,
              FrontEndResult& r);
   /** Keeps the overlap of the latest match to the previous scan (the last 20). */
   void
