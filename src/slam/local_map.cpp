@@ -56,18 +56,24 @@ LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin, std::uin
     if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
         p.getVector3fMap().cwiseAbs().maxCoeff() < 2e9 * voxel_size_) // int32 voxel keys
       insert(p, scan);
-  // Crop: a voxel goes when its first point is out of reach (KISS-ICP's rule). The test
-  // touches every voxel, in parallel; the few erasures follow in order.
+  // Crop: a voxel goes when its first point is out of reach (KISS-ICP's rule). On a large
+  // map every voxel is tested in parallel first; the few erasures follow in order.
   const double max2 = max_distance_ * max_distance_;
   const std::int64_t voxels = static_cast<std::int64_t>(order_.size());
-  std::vector<char> far(order_.size());
-#pragma omp parallel for num_threads(num_threads_) schedule(static) if (parallel(voxels))
-  for (std::int64_t v = 0; v < voxels; ++v)
-    far[v] = (order_[v]->second.points.front().getVector3fMap().cast<double>() - origin)
-                 .squaredNorm() > max2;
+  const auto out_of_reach = [&](std::int64_t v) {
+    return (order_[v]->second.points.front().getVector3fMap().cast<double>() - origin)
+               .squaredNorm() > max2;
+  };
+  std::vector<char> far;
+  if (parallel(voxels)) {
+    far.resize(order_.size());
+#pragma omp parallel for num_threads(num_threads_) schedule(static)
+    for (std::int64_t v = 0; v < voxels; ++v)
+      far[v] = out_of_reach(v);
+  }
   std::size_t kept = 0;
   for (std::int64_t v = 0; v < voxels; ++v) {
-    if (far[v])
+    if (far.empty() ? out_of_reach(v) : far[v])
       voxels_.erase(Key(order_[v]->first)); // a copy: the key dies with the element
     else
       order_[kept++] = order_[v];
@@ -118,22 +124,30 @@ LocalMap::parallel(std::int64_t voxels) const
 void
 LocalMap::refresh()
 {
-  // Each voxel's points go to their place in voxel order (a prefix sum), in parallel.
   const std::int64_t voxels = static_cast<std::int64_t>(order_.size());
   std::vector<std::size_t> first(order_.size() + 1, 0);
-#pragma omp parallel for num_threads(num_threads_) schedule(static) if (parallel(voxels))
   for (std::int64_t v = 0; v < voxels; ++v)
-    first[v + 1] = order_[v]->second.points.size();
-  for (std::int64_t v = 0; v < voxels; ++v)
-    first[v + 1] += first[v];
+    first[v + 1] = first[v] + order_[v]->second.points.size();
   cloud_.reset(new MapCloud);
-  cloud_->resize(first.back());
-  cloud_scans_.resize(first.back());
-#pragma omp parallel for num_threads(num_threads_) schedule(static) if (parallel(voxels))
-  for (std::int64_t v = 0; v < voxels; ++v) {
-    const Voxel& voxel = order_[v]->second;
-    std::copy(voxel.points.begin(), voxel.points.end(), cloud_->begin() + first[v]);
-    std::copy(voxel.scans.begin(), voxel.scans.end(), cloud_scans_.begin() + first[v]);
+  if (!parallel(voxels)) {
+    cloud_->reserve(first.back());
+    cloud_scans_.clear();
+    cloud_scans_.reserve(first.back());
+    for (const auto* voxel : order_) {
+      cloud_->insert(cloud_->end(), voxel->second.points.begin(), voxel->second.points.end());
+      cloud_scans_.insert(
+          cloud_scans_.end(), voxel->second.scans.begin(), voxel->second.scans.end());
+    }
+  }
+  else { // each voxel's points to their place in voxel order, in parallel
+    cloud_->resize(first.back());
+    cloud_scans_.resize(first.back());
+#pragma omp parallel for num_threads(num_threads_) schedule(static)
+    for (std::int64_t v = 0; v < voxels; ++v) {
+      const Voxel& voxel = order_[v]->second;
+      std::copy(voxel.points.begin(), voxel.points.end(), cloud_->begin() + first[v]);
+      std::copy(voxel.scans.begin(), voxel.scans.end(), cloud_scans_.begin() + first[v]);
+    }
   }
   added_ = 0;
 }
