@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <map>
 #include <stdexcept>
 
 namespace {
@@ -38,14 +39,20 @@ smallSet()
 TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
 {
   const auto& set = smallSet();
-  int last = 0;
-  const pcl_pslam::Result r = pcl_pslam::run(
-      set.scans, set.odometry, pcl_pslam::Parameters(), [&](const std::string&, int done, int) {
-        last = done;
-      });
+  std::map<std::string, int> last; // per stage: the last `done` reported
+  std::string final_stage;
+  const pcl_pslam::Result r = pcl_pslam::run(set.scans,
+                                             set.odometry,
+                                             pcl_pslam::Parameters(),
+                                             [&](const std::string& stage, int done, int) {
+                                               last[stage] = done;
+                                               final_stage = stage;
+                                             });
   ASSERT_EQ(r.final.size(), set.scans.size());
   EXPECT_EQ(r.final[0], set.truth[0]); // the first pose stays fixed
-  EXPECT_EQ(last, static_cast<int>(set.scans.size()));
+  EXPECT_EQ(last["icp"], static_cast<int>(set.scans.size()));
+  EXPECT_EQ(final_stage, "pLUM"); // the last relaxation reports its own stage
+  EXPECT_EQ(last["pLUM"], 1);
   ASSERT_EQ(r.reports.size(), set.scans.size());
   const std::size_t n = set.scans.size();
   bool loop = false;
