@@ -97,8 +97,8 @@ TEST(VoxelCentroid, CentroidOfEachVoxel)
 TEST(VoxelCentroid, KeyOrderAndCentroidsMatchBruteForce)
 {
   // Small and large clouds (the large ones take the parallel blocks of the key packing, the
-  // radix passes and the runs), with non-finite points between the blocks; extent 1e4 at 1 mm needs
-  // more than 64 key bits (two sorts).
+  // radix passes and the runs), with non-finite points between the blocks; extent 1e4 at
+  // 1 mm needs more than 64 key bits (two sorts).
   for (const auto& [size, extent] :
        {std::pair<int, float>{5000, 5.0f}, {5000, 1e4f}, {120000, 5.0f}, {120000, 1e4f}}) {
     SCOPED_TRACE(std::to_string(size) + " points, extent " + std::to_string(extent));
