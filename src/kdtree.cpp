@@ -25,8 +25,8 @@ namespace {
  *  into FMAs and not the other (<= 2 roundings each, 4 ulp in all). */
 constexpr float kBoundSlack = 1.0f - 8.0f * std::numeric_limits<float>::epsilon();
 
-/** Below this many points a subtree is built by the task that reached it. */
-constexpr std::uint32_t kMinTaskPoints = 4096;
+/** A range of at most this many points is built as one subtree by one thread. */
+constexpr std::uint32_t kMinSubtreePoints = 4096;
 
 inline float
 sqrDist(const float* a, const float* b)
@@ -171,20 +171,26 @@ struct BuildPoint {
 
 } // namespace
 
-/** Build state shared by the tasks of one build(): disjoint ranges of pts are
- *  partitioned concurrently; each node's slot is known in advance (slotsFor). */
+/** Build state of one build(): disjoint ranges of pts are partitioned concurrently; each
+ *  node's slot is known in advance (slotsFor), so no two workers write the same node. */
 struct KdTreeIndex::Builder {
+  /** A node still to be built over pts[begin, end). */
+  struct Range {
+    std::uint32_t node, begin, end;
+  };
+
   KdTreeIndex& tree;
   BuildPoint* pts;
-  std::uint32_t task_points;
 
-  void
-  buildNode(std::uint32_t node, std::uint32_t begin, std::uint32_t end)
+  /** Makes `node` a leaf (returns false) or splits its range at the median of its widest
+   *  axis into [begin, mid) at node + 1 and [mid, end) at `right` (returns true). */
+  bool
+  makeNode(const Range& r, std::uint32_t& mid, std::uint32_t& right)
   {
     float lo[3], hi[3];
     for (int a = 0; a < 3; ++a)
-      lo[a] = hi[a] = pts[begin].p[a];
-    for (std::uint32_t i = begin + 1; i < end; ++i)
+      lo[a] = hi[a] = pts[r.begin].p[a];
+    for (std::uint32_t i = r.begin + 1; i < r.end; ++i)
       for (int a = 0; a < 3; ++a) {
         lo[a] = std::min(lo[a], pts[i].p[a]);
         hi[a] = std::max(hi[a], pts[i].p[a]);
@@ -194,38 +200,76 @@ struct KdTreeIndex::Builder {
       if (hi[a] - lo[a] > hi[axis] - lo[axis])
         axis = a;
 
-    Node& nd = tree.nodes_[node];
-    const std::uint32_t n = end - begin;
+    Node& nd = tree.nodes_[r.node];
+    const std::uint32_t n = r.end - r.begin;
     const bool coincident = hi[axis] - lo[axis] == 0.0f;
     if (n <= tree.bucket_size_ || coincident) {
       nd.kind = coincident && n > 1 ? kDuplicateLeaf : kLeaf;
-      nd.leaf = {begin, end};
-      return;
+      nd.leaf = {r.begin, r.end};
+      return false;
     }
 
-    const std::uint32_t mid = begin + n / 2;
+    mid = r.begin + n / 2;
     std::nth_element(
-        pts + begin, pts + mid, pts + end, [axis](const BuildPoint& a, const BuildPoint& b) {
-          return a.p[axis] < b.p[axis];
-        });
-    float left_max = pts[begin].p[axis];
-    for (std::uint32_t i = begin + 1; i < mid; ++i)
+        pts + r.begin,
+        pts + mid,
+        pts + r.end,
+        [axis](const BuildPoint& a, const BuildPoint& b) { return a.p[axis] < b.p[axis]; });
+    float left_max = pts[r.begin].p[axis];
+    for (std::uint32_t i = r.begin + 1; i < mid; ++i)
       left_max = std::max(left_max, pts[i].p[axis]);
 
     nd.kind = axis;
     nd.split = {left_max, pts[mid].p[axis]};
-    nd.right = node + 1 + static_cast<std::uint32_t>(slotsFor(mid - begin, tree.bucket_size_));
-    const std::uint32_t right = nd.right;
+    nd.right =
+        r.node + 1 + static_cast<std::uint32_t>(slotsFor(mid - r.begin, tree.bucket_size_));
+    right = nd.right;
+    return true;
+  }
 
-    // Sec. IV-A.2: the two halves are disjoint, so they are built concurrently.
-    if (n > task_points) {
-#pragma omp task default(shared) firstprivate(node, begin, mid)
-      buildNode(node + 1, begin, mid);
+  void
+  buildSubtree(const Range& r)
+  {
+    std::uint32_t mid, right;
+    if (makeNode(r, mid, right)) {
+      buildSubtree({r.node + 1, r.begin, mid});
+      buildSubtree({right, mid, r.end});
     }
-    else {
-      buildNode(node + 1, begin, mid);
+  }
+
+  /** Sec. IV-A.2: the two halves of a split are disjoint, so they are built concurrently.
+   *  The top levels are split breadth-first, one parallel loop per level, until every range
+   *  has at most task_points points; those subtrees are then built in one dynamic loop.
+   *  (Plain loops rather than OpenMP tasks: their barriers are what ThreadSanitizer's OpenMP
+   *  support sees, and the tree does not depend on the schedule either way.) */
+  void
+  buildParallel(std::uint32_t m, std::uint32_t task_points, unsigned threads)
+  {
+    std::vector<Range> level{{0, 0, m}}, subtrees;
+    while (!level.empty()) {
+      std::vector<Range> children(2 * level.size(), Range{kInvalid, 0, 0});
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+      for (std::int64_t i = 0; i < static_cast<std::int64_t>(level.size()); ++i) {
+        const Range& r = level[i];
+        std::uint32_t mid, right;
+        if (r.end - r.begin > task_points && makeNode(r, mid, right)) {
+          children[2 * i] = {r.node + 1, r.begin, mid};
+          children[2 * i + 1] = {right, mid, r.end};
+        }
+      }
+      std::vector<Range> next;
+      for (std::size_t i = 0; i < level.size(); ++i) {
+        if (level[i].end - level[i].begin <= task_points)
+          subtrees.push_back(level[i]);
+        for (std::size_t c = 2 * i; c < 2 * i + 2; ++c)
+          if (children[c].node != kInvalid)
+            next.push_back(children[c]);
+      }
+      level.swap(next);
     }
-    buildNode(right, mid, end);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+    for (std::int64_t i = 0; i < static_cast<std::int64_t>(subtrees.size()); ++i)
+      buildSubtree(subtrees[i]);
   }
 };
 
@@ -290,18 +334,13 @@ KdTreeIndex::build(const float* xyz,
 
   checkCapacity(m, bucket_size_);
   nodes_.resize(slotsFor(m, bucket_size_));
-  // Spawn tasks down to ~8 subtrees per thread (and never below kMinTaskPoints points):
-  // enough to balance, few enough that task overhead stays negligible.
-  Builder builder{
-      *this, pts.data(), threads > 1 ? std::max(kMinTaskPoints, m / (8 * threads)) : kInvalid};
-  if (threads > 1) {
-#pragma omp parallel num_threads(threads)
-#pragma omp single
-    builder.buildNode(0, 0, m);
-  }
-  else {
-    builder.buildNode(0, 0, m);
-  }
+  // Split down to ~8 subtrees per thread (and never below kMinSubtreePoints points): enough
+  // to balance, few enough that the per-level loops' overhead stays negligible.
+  Builder builder{*this, pts.data()};
+  if (threads > 1)
+    builder.buildParallel(m, std::max(kMinSubtreePoints, m / (8 * threads)), threads);
+  else
+    builder.buildSubtree({0, 0, m});
 
   // Subtrees of coincident points end early and leave unused slots: drop them.
   std::vector<Node> compact;

@@ -126,19 +126,25 @@ TEST(KdTreeIndex, ClusteredCloudMatchesBruteForce)
 TEST(KdTreeIndex, DegenerateClouds)
 {
   const auto queries = uniformCloud(200, 6);
-  pcl::PointCloud<pcl::PointXYZ> same, line, plane, one;
+  pcl::PointCloud<pcl::PointXYZ> same, line, plane, one, half;
   for (int i = 0; i < 20000; ++i)
     same.push_back(pcl::PointXYZ(0.25f, -0.5f, 0.125f));
+  // Half coincident: the first split leaves a 10000-point duplicate leaf beside a range
+  // that the parallel build keeps splitting.
+  for (int i = 0; i < 20000; ++i)
+    half.push_back(i % 2 ? pcl::PointXYZ(-0.5f, 0.0f, 0.0f)
+                         : pcl::PointXYZ(0.0001f * static_cast<float>(i), 0.1f, 0.2f));
   for (int i = 0; i < 3000; ++i) {
     line.push_back(pcl::PointXYZ(0.001f * static_cast<float>(i % 1000), 0.3f, -0.2f));
     plane.push_back(pcl::PointXYZ(
         0.02f * static_cast<float>(i % 50), 0.02f * static_cast<float>(i / 50), 0.5f));
   }
   one.push_back(pcl::PointXYZ(0.1f, 0.2f, 0.3f));
-  for (const auto* cloud : {&same, &line, &plane, &one}) {
+  for (const auto* cloud : {&same, &line, &plane, &one, &half}) {
     for (unsigned threads : {1u, 3u}) {
       const auto tree = buildTree(*cloud, threads);
       EXPECT_EQ(tree.size(), cloud->size());
+      EXPECT_EQ(tree.numNodes(), buildTree(*cloud, 1).numNodes());
       expectMatchesBruteForce(tree, *cloud, queries, std::numeric_limits<float>::infinity());
       expectMatchesBruteForce(tree, *cloud, queries, 0.3f);
       expectKnnMatchesBruteForce(tree, *cloud, queries, 5);
