@@ -685,8 +685,9 @@ printSummary(const Options& o,
   // Where the relaxation and the front end disagree most: the first places to look at in
   // a map. Steps beyond chi2's 99 % quantile for 6 degrees of freedom, or the kernel's
   // scale where one is set.
-  const double notable =
-      r.loop_closure.sequence_cauchy_scale > 0.0 ? r.loop_closure.sequence_cauchy_scale : 16.8;
+  const double notable = r.loop_closure.sequence_cauchy_scale > 0.0
+                             ? r.loop_closure.sequence_cauchy_scale
+                             : pcl_parallel::slam::kChi2Quantile99SixDof;
   std::vector<std::pair<double, std::size_t>> chi2;
   for (std::size_t i = 0; i < r.reports.size(); ++i)
     if (r.reports[i].sequence_chi2 > notable)
