@@ -12,6 +12,8 @@
 
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/uos.h>
+#include <pcl_parallel/sim/scan_set_writer.h>
+#include <pcl_parallel/slam/preprocess.h>
 
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
@@ -307,6 +309,69 @@ TEST(PslamOutputs, MapFilesAsPclWritesAndReadsThem)
   ASSERT_EQ(pcl::io::loadPCDFile(ours, back), 0);
   EXPECT_TRUE(back.empty());
   fs::remove_all(dir);
+}
+
+// With --deskew the map shows each scan deskewed by the motion at its final pose, as the
+// front end matched it. Scans of a screw motion (a constant twist, which deskewing models
+// exactly) with per-point times, written as Ouster-like .pcd files, consecutive sweeps and
+// keyframes 0.5 s apart (--sweep-period): mapped at the true poses, every point lands on
+// the world point it measured. As read, the map is up to half a sweep's motion off.
+TEST(PslamOutputs, MapShowsScansDeskewedAtTheirPoses)
+{
+  namespace sim = pcl_parallel::sim;
+  // 9 m/s turning 25 deg/s and climbing, per 0.1 s sweep.
+  const Eigen::Matrix4d sweep =
+      somePose(2.5 * kDeg, 0.4 * kDeg, -0.3 * kDeg, {0.9, 0.05, 0.02});
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-30.0, 30.0), h(-2.0, 4.0);
+  std::vector<Eigen::Vector3d> world;
+  for (int i = 0; i < 2000; ++i)
+    world.emplace_back(u(rng), u(rng), h(rng));
+  for (const int stride : {1, 5}) {
+    SCOPED_TRACE(stride);
+    sim::SimulatedScanSet set;
+    set.scanner.sweep_period = 0.1;
+    for (int k = 0; k < 5; ++k) {
+      const Eigen::Matrix4d mid = pcl_parallel::slam::interpolateMotion(sweep, stride * k);
+      set.truth.push_back(mid);
+      set.timestamps.push_back(0.1 * stride * k);
+      auto scan = std::make_shared<pcl_pslam::Cloud>();
+      std::vector<float> times;
+      for (std::size_t i = 0; i < world.size(); ++i) {
+        const float t = static_cast<float>(i % 11) / 10.0f; // 0 and 1 among them
+        const Eigen::Matrix4d at = mid * pcl_parallel::slam::interpolateMotion(sweep, t - 0.5);
+        const Eigen::Vector3f p =
+            (at.inverse() * world[i].homogeneous()).head<3>().cast<float>();
+        scan->push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+        times.push_back(t);
+      }
+      set.scans.push_back(scan);
+      set.point_times.push_back(times);
+    }
+    set.odometry = set.truth;
+    const fs::path dir = scratch("deskewed_map");
+    sim::writeScanSet(set, dir.string(), sim::ScanSetFormat::Pcd);
+    auto worst = [&](bool deskew) {
+      std::vector<const char*> args = {"run", dir.c_str()};
+      if (deskew)
+        args.push_back("--deskew");
+      if (deskew && stride > 1)
+        args.insert(args.end(), {"--sweep-period", "0.1"});
+      const pcl_pslam::Options o = parse(args);
+      const pcl_pslam::Input in = pcl_pslam::openDirectory(o);
+      const auto map = pcl_pslam::buildMap(o, in, set.truth, 0.0); // every point, in order
+      EXPECT_EQ(map->size(), 5 * world.size());
+      double error = 0.0;
+      for (std::size_t j = 0; j < map->size(); ++j)
+        error = std::max(
+            error,
+            ((*map)[j].getVector3fMap().cast<double>() - world[j % world.size()]).norm());
+      return error;
+    };
+    EXPECT_LT(worst(true), 1e-4);
+    EXPECT_GT(worst(false), 0.3);
+    fs::remove_all(dir);
+  }
 }
 
 namespace {

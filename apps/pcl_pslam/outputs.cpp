@@ -10,6 +10,7 @@
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/slam/preprocess.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/pcl_config.h>
@@ -215,11 +216,32 @@ writeFrames(const std::string& path,
   });
 }
 
+namespace {
+
+/** Scan k as the map shows it: read again and, with --deskew, deskewed by the motion at
+ *  its final pose (slam::sweepMotionAt), as the front end deskewed it by its prediction. */
 Cloud::Ptr
-buildMap(const Input& in,
+mapScan(const Options& o, const Input& in, const Poses& poses, std::size_t k)
+{
+  namespace slam = pcl_parallel::slam;
+  if (!o.deskew)
+    return readScan(in, k);
+  std::vector<double> point_times;
+  const Cloud::Ptr scan = readScan(in, k, &point_times);
+  const std::vector<float> sweep_times =
+      slam::spansSweep(point_times) ? slam::sweepFractions(point_times) : std::vector<float>();
+  const slam::Pose sweep = slam::sweepMotionAt(
+      poses, in.has_stamps ? in.stamps : std::vector<double>(), k, o.sweep_period);
+  return slam::deskewSweep(*scan, sweep_times, sweep, !o.sweep_ccw, o.threads);
+}
+
+} // namespace
+
+Cloud::Ptr
+buildMap(const Options& o,
+         const Input& in,
          const Poses& poses,
          double voxel_size,
-         unsigned num_threads,
          const std::function<void(int, int)>& step,
          std::size_t begin,
          std::size_t end)
@@ -230,16 +252,16 @@ buildMap(const Input& in,
     Cloud::Ptr map(new Cloud);
     for (int k = 0; k < n; ++k) {
       Cloud moved;
-      pcl::transformPointCloud(*readScan(in, begin + k), moved, poses[begin + k]);
+      pcl::transformPointCloud(*mapScan(o, in, poses, begin + k), moved, poses[begin + k]);
       *map += moved;
       if (step)
         step(k + 1, n);
     }
     return map;
   }
-  pcl_parallel::filters::VoxelCentroidMap map(voxel_size, num_threads);
+  pcl_parallel::filters::VoxelCentroidMap map(voxel_size, o.threads);
   for (int k = 0; k < n; ++k) {
-    map.add(*readScan(in, begin + k), poses[begin + k]);
+    map.add(*mapScan(o, in, poses, begin + k), poses[begin + k]);
     if (step)
       step(k + 1, n);
   }
@@ -256,10 +278,10 @@ void
 writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress)
 {
   const Cloud::Ptr map = buildMap(
+      o,
       in,
       r.final,
       mapVoxel(o, in.scale),
-      o.threads,
       [&](int done, int total) { progress.update("map", done, total); },
       r.own_begin,
       r.own_end);
@@ -370,7 +392,7 @@ writeMap(const Options& o,
     return map;
   }
   progress.update("map", 0, 1);
-  map = buildMap(in, r.final, map_voxel, o.threads, [&](int done, int total) {
+  map = buildMap(o, in, r.final, map_voxel, [&](int done, int total) {
     progress.update("map", done, total);
   });
   progress.update("save", 0, 1);

@@ -58,15 +58,16 @@ writeFrames(const std::string& path,
             bool fixed,
             double scale);
 
-/** The merged map: every scan of `in`, read again one at a time at full resolution and
- *  moved by its pose, one centroid per voxel of voxel_size (filters::VoxelCentroidMap:
- *  memory per voxel, not per point; no int32 voxel-index overflow). voxel_size <= 0 keeps
+/** The merged map: every scan of `in`, read again one at a time at full resolution,
+ *  deskewed with o.deskew by the motion at its pose (slam::sweepMotionAt) and moved by
+ *  it, one centroid per voxel of voxel_size (filters::VoxelCentroidMap: memory per voxel,
+ *  not per point; no int32 voxel-index overflow), on o.threads. voxel_size <= 0 keeps
  *  every point. `step` is called after each scan (done, total). */
 Cloud::Ptr
-buildMap(const Input& in,
+buildMap(const Options& o,
+         const Input& in,
          const Poses& poses,
          double voxel_size,
-         unsigned num_threads,
          const std::function<void(int, int)>& step = {},
          std::size_t begin = 0,
          std::size_t end = std::size_t(-1));

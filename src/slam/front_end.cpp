@@ -417,9 +417,9 @@ FrontEnd::reduce(const Cloud& scan,
                  const Pose& sweep) const
 {
   const Cloud::Ptr frame =
-      !params_.deskew       ? Cloud::Ptr(new Cloud(scan))
-      : sweep_times.empty() ? deskew(scan, sweep, params_.num_threads, params_.sweep_clockwise)
-                            : deskew(scan, sweep_times, sweep, params_.num_threads);
+      params_.deskew
+          ? deskewSweep(scan, sweep_times, sweep, params_.sweep_clockwise, params_.num_threads)
+          : Cloud::Ptr(new Cloud(scan));
   return filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
 }
 

@@ -245,6 +245,25 @@ sweepMotion(const Pose& motion, double span, double sweep_period)
   return interpolateMotion(motion, sweep_period / span);
 }
 
+Pose
+sweepMotionAt(const Poses& poses,
+              const std::vector<double>& stamps,
+              std::size_t k,
+              double sweep_period)
+{
+  const std::size_t n = poses.size();
+  if (k >= n)
+    throw std::out_of_range("sweepMotionAt: scan " + std::to_string(k) + " of " +
+                            std::to_string(n) + " poses");
+  if (n < 2)
+    return Pose::Identity();
+  const std::size_t a = k > 0 ? k - 1 : 0, b = std::min(k + 1, n - 1);
+  const Pose motion = poses[a].inverse() * poses[b];
+  if (sweep_period > 0.0 && stamps.size() == n)
+    return sweepMotion(motion, stamps[b] - stamps[a], sweep_period);
+  return b - a == 2 ? interpolateMotion(motion, 0.5) : motion; // consecutive sweeps
+}
+
 namespace {
 
 /** p' = motion^(t - 1/2) p with t = time(i, p) for each point i. */
@@ -286,6 +305,17 @@ deskew(const Cloud& scan,
   return deskewAt(scan, motion, num_threads, [&](std::int64_t i, const PointT&) {
     return static_cast<double>(sweep_times[static_cast<std::size_t>(i)]);
   });
+}
+
+Cloud::Ptr
+deskewSweep(const Cloud& scan,
+            const std::vector<float>& sweep_times,
+            const Pose& motion,
+            bool clockwise,
+            unsigned num_threads)
+{
+  return sweep_times.empty() ? deskew(scan, motion, num_threads, clockwise)
+                             : deskew(scan, sweep_times, motion, num_threads);
 }
 
 } // namespace slam

@@ -105,6 +105,18 @@ extrapolateMotion(const Pose& step, double span, const Pose& previous, double pr
 Pose
 sweepMotion(const Pose& motion, double span, double sweep_period);
 
+/** The motion during sweep k of a mapped sequence, for deskewing the scan at its pose in
+ *  `poses` (the map pass): the velocity at scan k from both neighbours, (poses[k-1]^-1
+ *  poses[k+1])^(1/2), where the front end, matching as the scans came, had only the steps
+ *  before it; one-sided at the ends. With sweep_period > 0 and `stamps` (one per pose),
+ *  one sweep's share of it (sweepMotion). Identity for fewer than two poses; throws
+ *  std::out_of_range for k past the poses. */
+Pose
+sweepMotionAt(const Poses& poses,
+              const std::vector<double>& stamps,
+              std::size_t k,
+              double sweep_period);
+
 /**
  * \brief Removes the skew of a scan taken while moving (KISS-ICP's deskewing, Vizzo et
  * al. 2023, Sec. III-A): each point, measured in the scanner frame at its sweep time t,
@@ -124,6 +136,15 @@ deskew(const Cloud& scan,
        const std::vector<float>& sweep_times,
        const Pose& motion,
        unsigned num_threads = 0);
+/** deskew by `sweep_times` where given, else (empty) by each point's azimuth, turning
+ *  `clockwise` or not: how the pipeline deskews a scan, with its points' times where they
+ *  span a sweep (spansSweep, sweepFractions). */
+Cloud::Ptr
+deskewSweep(const Cloud& scan,
+            const std::vector<float>& sweep_times,
+            const Pose& motion,
+            bool clockwise,
+            unsigned num_threads = 0);
 
 } // namespace slam
 } // namespace pcl_parallel
