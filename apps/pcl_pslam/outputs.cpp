@@ -10,7 +10,6 @@
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/parallel.h>
-#include <pcl_parallel/slam/preprocess.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/pcl_config.h>
@@ -219,20 +218,20 @@ writeFrames(const std::string& path,
 namespace {
 
 /** Scan k as the map shows it: read again and, with --deskew, deskewed by the motion at
- *  its final pose (slam::sweepMotionAt), as the front end deskewed it by its prediction. */
+ *  its final pose (slam::mapFrame). */
 Cloud::Ptr
 mapScan(const Options& o, const Input& in, const Poses& poses, std::size_t k)
 {
-  namespace slam = pcl_parallel::slam;
   if (!o.deskew)
     return readScan(in, k);
   std::vector<double> point_times;
   const Cloud::Ptr scan = readScan(in, k, &point_times);
-  const std::vector<float> sweep_times =
-      slam::spansSweep(point_times) ? slam::sweepFractions(point_times) : std::vector<float>();
-  const slam::Pose sweep = slam::sweepMotionAt(
-      poses, in.has_stamps ? in.stamps : std::vector<double>(), k, o.sweep_period);
-  return slam::deskewSweep(*scan, sweep_times, sweep, !o.sweep_ccw, o.threads);
+  return pcl_parallel::slam::mapFrame(*scan,
+                                      point_times,
+                                      poses,
+                                      in.has_stamps ? in.stamps : std::vector<double>(),
+                                      k,
+                                      toParameters(o, in.scale));
 }
 
 } // namespace

@@ -215,6 +215,26 @@ odometryDisagreement(const std::vector<ScanReport>& reports, double min_step)
   return median(std::move(corrections)) / step;
 }
 
+Cloud::Ptr
+mapFrame(const Cloud& scan,
+         const std::vector<double>& point_times,
+         const Poses& poses,
+         const std::vector<double>& stamps,
+         std::size_t k,
+         const Parameters& p)
+{
+  if (!p.deskew)
+    return Cloud::Ptr(new Cloud(scan));
+  if (!point_times.empty())
+    requireOnePerPoint(scan, point_times.size(), "scan " + std::to_string(k));
+  return deskewSweep(scan,
+                     spansSweep(point_times) ? sweepFractions(point_times)
+                                             : std::vector<float>(),
+                     sweepMotionAt(poses, stamps, k, p.sweep_period),
+                     p.sweep_clockwise,
+                     p.num_threads);
+}
+
 void
 Pipeline::checkStamp(std::size_t index, const std::optional<double>& stamp) const
 {

@@ -128,6 +128,19 @@ struct ScanReport {
 std::optional<double>
 odometryDisagreement(const std::vector<ScanReport>& reports, double min_step);
 
+/** Scan k (scanner frame, full resolution; point_times as read, or empty) as a map at
+ *  `poses` shows it: with p.deskew deskewed as the front end deskews it (deskewSweep), by
+ *  the motion at its pose there (sweepMotionAt with `stamps`, one per pose or none, and
+ *  p.sweep_period, p.sweep_clockwise); else as given. A second streaming pass over the
+ *  scans with the final poses builds the full-resolution map from these. */
+Cloud::Ptr
+mapFrame(const Cloud& scan,
+         const std::vector<double>& point_times,
+         const Poses& poses,
+         const std::vector<double>& stamps,
+         std::size_t k,
+         const Parameters& p);
+
 /** An odometryDisagreement above this says the odometry is in another frame, or broken.
  *  Measured: odometry in the scans' frame 0.02-0.03 (the presets, fastlio_quick_shack),
  *  mulran's poor odometry 0.14; turned into a camera's frame 0.31 (the corridor test set),
@@ -287,7 +300,8 @@ public:
   Cloud::ConstPtr
   reducedScan(std::size_t i) const;
   /** The map: the kept scans at the current poses, reduced with voxel_size (<= 0: none);
-   *  with an exchange, of this process's own scans. */
+   *  with an exchange, of this process's own scans. Full resolution: a second pass over
+   *  the scans through mapFrame, as pcl_pslam builds map.pcd. */
   Cloud::Ptr
   map(double voxel_size) const;
   /** Bytes this process keeps per scan of the sequence (reduced points, their k-d trees
