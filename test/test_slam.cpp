@@ -1401,6 +1401,41 @@ TEST(Preprocess, SweepMotionAtIsTheVelocityAtTheScan)
   EXPECT_THROW(slam::sweepMotionAt(sweeps, {}, 5, 0.0), std::out_of_range);
 }
 
+// mapFrame deskews as the front end does: by the points' times where they span a sweep,
+// else by azimuth in the head's direction; a scan with another count of times is an error.
+TEST(Preprocess, MapFrameDeskewsByTimesOrAzimuth)
+{
+  slam::Poses poses;
+  for (int k = 0; k < 3; ++k)
+    poses.push_back(helixPose(k));
+  Cloud scan;
+  std::vector<double> ns;
+  for (int i = 0; i < 40; ++i) {
+    const double a = 0.16 * i;
+    scan.push_back(pcl::PointXYZ(10.0f * std::cos(a), 10.0f * std::sin(a), 0.5f));
+    ns.push_back(1e6 * (i % 5)); // 0..4 ms: fractions 0, 1/4, .., 1
+  }
+  slam::Parameters p;
+  p.num_threads = 2;
+  const auto same = [](const Cloud& a, const Cloud& b) {
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (a[i].getVector3fMap() != b[i].getVector3fMap())
+        return false;
+    return a.size() == b.size();
+  };
+  EXPECT_TRUE(same(*slam::mapFrame(scan, ns, poses, {}, 1, p), scan)); // not deskewing
+  p.deskew = true;
+  const Pose motion = helixPose(1.0);
+  EXPECT_TRUE(same(*slam::mapFrame(scan, ns, poses, {}, 1, p),
+                   *slam::deskew(scan, slam::sweepFractions(ns), motion)));
+  EXPECT_TRUE(same(*slam::mapFrame(scan, {}, poses, {}, 1, p), *slam::deskew(scan, motion)));
+  p.sweep_clockwise = false;
+  EXPECT_TRUE(same(*slam::mapFrame(scan, std::vector<double>(40, 7.0), poses, {}, 1, p),
+                   *slam::deskew(scan, motion, 0, false))); // equal times: by azimuth
+  EXPECT_FALSE(same(*slam::mapFrame(scan, {}, poses, {}, 1, p), *slam::deskew(scan, motion)));
+  EXPECT_THROW(slam::mapFrame(scan, {1.0, 2.0}, poses, {}, 1, p), std::invalid_argument);
+}
+
 TEST(Preprocess, CropRangeKeepsFiniteInRange)
 {
   Cloud c;
