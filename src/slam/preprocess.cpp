@@ -181,25 +181,30 @@ public:
     wwv_ = w.cross(wv_);
   }
 
-  /** exp(s ξ) applied to p. */
+  /** exp(s ξ) applied to p: Rodrigues' formula, sharing one sine and cosine with the
+   *  translation (deskewing calls this per point). */
   Eigen::Vector3d
   apply(double s, const Eigen::Vector3d& p) const
   {
-    return Eigen::AngleAxisd(s * theta_, axis_) * p + translation(s);
+    const double x = s * theta_, cos_x = std::cos(x), sin_x = std::sin(x);
+    return cos_x * p + sin_x * axis_.cross(p) + (1.0 - cos_x) * axis_.dot(p) * axis_ +
+           translation(s, cos_x, sin_x);
   }
 
   Pose
   at(double s) const
   {
+    const double x = s * theta_;
     Pose out = Pose::Identity();
-    out.topLeftCorner<3, 3>() = Eigen::AngleAxisd(s * theta_, axis_).toRotationMatrix();
-    out.topRightCorner<3, 1>() = translation(s);
+    out.topLeftCorner<3, 3>() = Eigen::AngleAxisd(x, axis_).toRotationMatrix();
+    out.topRightCorner<3, 1>() = translation(s, std::cos(x), std::sin(x));
     return out;
   }
 
 private:
+  /** The translation of exp(s ξ), given cos and sin of s θ. */
   Eigen::Vector3d
-  translation(double s) const
+  translation(double s, double cos_x, double sin_x) const
   {
     const double x = s * theta_;
     double a, b; // series below x = 1e-4: cancellation, and θ = 0
@@ -208,8 +213,8 @@ private:
       b = s * s * s * (1.0 / 6.0 - x * x / 120.0);
     }
     else {
-      a = (1.0 - std::cos(x)) / (theta_ * theta_);
-      b = (x - std::sin(x)) / (theta_ * theta_ * theta_);
+      a = (1.0 - cos_x) / (theta_ * theta_);
+      b = (x - sin_x) / (theta_ * theta_ * theta_);
     }
     return s * v_ + a * wv_ + b * wwv_;
   }
