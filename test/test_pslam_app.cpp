@@ -325,7 +325,7 @@ TEST(PslamOutputs, MapShowsScansDeskewedAtTheirPoses)
   std::mt19937 rng(8);
   std::uniform_real_distribution<double> u(-30.0, 30.0), h(-2.0, 4.0);
   std::vector<Eigen::Vector3d> world;
-  for (int i = 0; i < 2000; ++i)
+  for (int i = 0; i < 25000; ++i) // above the parallel thresholds of deskew and the map
     world.emplace_back(u(rng), u(rng), h(rng));
   for (const int stride : {1, 5}) {
     SCOPED_TRACE(stride);
@@ -370,6 +370,15 @@ TEST(PslamOutputs, MapShowsScansDeskewedAtTheirPoses)
     };
     EXPECT_LT(worst(true), 1e-4);
     EXPECT_GT(worst(false), 0.3);
+    // The voxel map of the deskewed scans, the same for any thread count.
+    std::vector<pcl_pslam::Cloud::Ptr> maps;
+    for (const char* threads : {"1", "3"}) {
+      const pcl_pslam::Options o = parse({"run", dir.c_str(), "--deskew", "-t", threads});
+      maps.push_back(pcl_pslam::buildMap(o, pcl_pslam::openDirectory(o), set.truth, 0.5));
+    }
+    ASSERT_EQ(maps[0]->size(), maps[1]->size());
+    for (std::size_t j = 0; j < maps[0]->size(); ++j)
+      ASSERT_TRUE((*maps[0])[j].getVector3fMap() == (*maps[1])[j].getVector3fMap()) << j;
     fs::remove_all(dir);
   }
 }
