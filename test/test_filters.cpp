@@ -184,7 +184,7 @@ TEST(VoxelCentroid, SameForAnyThreadCount)
 namespace {
 
 // Scans added one by one give what voxelCentroid gives for them moved and concatenated:
-// the same centroids, order and bits, for any thread count.
+// the same centroids, order and bits, for any thread count, also when grouped ahead.
 TEST(VoxelCentroidMap, EqualsVoxelCentroidOfTheConcatenation)
 {
   std::vector<Cloud> scans;
@@ -206,8 +206,17 @@ TEST(VoxelCentroidMap, EqualsVoxelCentroidOfTheConcatenation)
   ASSERT_GT(expected->size(), 10000u); // centroids() sorts and merges in parallel
   for (unsigned t : {1u, 2u, 3u, 4u}) {
     pcl_parallel::filters::VoxelCentroidMap map(0.25, t);
-    for (std::size_t k = 0; k < scans.size(); ++k)
-      map.add(scans[k], poses[k]);
+    if (t == 3) { // grouped ahead, all at once on one thread each, added in order
+      std::vector<pcl_parallel::filters::VoxelCentroidMap::Grouped> grouped(scans.size());
+#pragma omp parallel for num_threads(4)
+      for (std::int64_t k = 0; k < static_cast<std::int64_t>(scans.size()); ++k)
+        grouped[k] = map.group(scans[k], poses[k], 1);
+      for (auto& g : grouped)
+        map.add(std::move(g));
+    }
+    else
+      for (std::size_t k = 0; k < scans.size(); ++k)
+        map.add(scans[k], poses[k]);
     EXPECT_EQ(map.size(), expected->size());
     const auto got = map.centroids();
     ASSERT_EQ(got->size(), expected->size()) << t;

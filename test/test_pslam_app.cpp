@@ -379,6 +379,19 @@ TEST(PslamOutputs, MapShowsScansDeskewedAtTheirPoses)
     ASSERT_EQ(maps[0]->size(), maps[1]->size());
     for (std::size_t j = 0; j < maps[0]->size(); ++j)
       ASSERT_TRUE((*maps[0])[j].getVector3fMap() == (*maps[1])[j].getVector3fMap()) << j;
+    // Scans broken after the first pass (2 and 3, prepared in one batch with 1): the map
+    // pass, which prepares several at once, names the first, as a scan-by-scan pass would.
+    const pcl_pslam::Options o = parse({"run", dir.c_str(), "--deskew", "-t", "3"});
+    const pcl_pslam::Input in = pcl_pslam::openDirectory(o);
+    for (const char* name : {"000002.pcd", "000003.pcd"})
+      std::ofstream(dir / name) << "not a point cloud\n";
+    try {
+      pcl_pslam::buildMap(o, in, set.truth, 0.5);
+      ADD_FAILURE() << "no error";
+    }
+    catch (const pcl_pslam::DataError& e) {
+      EXPECT_NE(std::string(e.what()).find("000002.pcd"), std::string::npos) << e.what();
+    }
     fs::remove_all(dir);
   }
 }

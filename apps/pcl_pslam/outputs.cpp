@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -220,19 +221,23 @@ namespace {
 /** Scan k as the map shows it: read again and, with --deskew, deskewed by the motion at
  *  its final pose (slam::mapFrame). */
 Cloud::Ptr
-mapScan(const Options& o, const Input& in, const Poses& poses, std::size_t k)
+mapScan(const Options& o, const Input& in, const Poses& poses, std::size_t k, unsigned threads)
 {
   if (!o.deskew)
     return readScan(in, k);
   std::vector<double> point_times;
   const Cloud::Ptr scan = readScan(in, k, &point_times);
-  return pcl_parallel::slam::mapFrame(*scan,
-                                      point_times,
-                                      poses,
-                                      in.has_stamps ? in.stamps : std::vector<double>(),
-                                      k,
-                                      toParameters(o, in.scale));
+  pcl_pslam::Parameters p = toParameters(o, in.scale);
+  p.num_threads = threads;
+  return pcl_parallel::slam::mapFrame(
+      *scan, point_times, poses, in.has_stamps ? in.stamps : std::vector<double>(), k, p);
 }
+
+/** The map pass prepares at most this many scans at once, and at most about this many
+ *  points (~80 bytes each while grouped): a terrestrial scanner's scans of tens of millions
+ *  of points go one at a time, each on every thread. */
+constexpr unsigned kMapBatch = 16;
+constexpr std::size_t kMapPointsInFlight = 4000000;
 
 } // namespace
 
@@ -251,18 +256,57 @@ buildMap(const Options& o,
     Cloud::Ptr map(new Cloud);
     for (int k = 0; k < n; ++k) {
       Cloud moved;
-      pcl::transformPointCloud(*mapScan(o, in, poses, begin + k), moved, poses[begin + k]);
+      pcl::transformPointCloud(
+          *mapScan(o, in, poses, begin + k, o.threads), moved, poses[begin + k]);
       *map += moved;
       if (step)
         step(k + 1, n);
     }
     return map;
   }
+  // Reading, deskewing and grouping a scan is most of the work and needs no map, and the
+  // file reading is serial: a batch of scans is prepared at once, one per thread, then
+  // added in order, so every voxel's sum runs as in a scan-by-scan pass. The batch is
+  // sized by the largest scan read so far; the first scan goes alone.
   pcl_parallel::filters::VoxelCentroidMap map(voxel_size, o.threads);
-  for (int k = 0; k < n; ++k) {
-    map.add(*mapScan(o, in, poses, begin + k), poses[begin + k]);
-    if (step)
-      step(k + 1, n);
+  const unsigned threads = pcl_parallel::resolveNumberOfThreads(o.threads);
+  std::size_t largest = 0;
+  for (int first = 0; first < n;) {
+    const std::size_t fit = largest > 0 ? kMapPointsInFlight / largest : 1;
+    const int count =
+        static_cast<int>(std::min<std::size_t>({std::max<std::size_t>(fit, 1),
+                                                std::min(threads, kMapBatch),
+                                                static_cast<std::size_t>(n - first)}));
+    std::vector<pcl_parallel::filters::VoxelCentroidMap::Grouped> grouped(count);
+    std::vector<std::size_t> points(count, 0);
+    std::vector<std::exception_ptr> errors(count);
+    const auto prepare = [&](int i, unsigned inner) {
+      const std::size_t k = begin + static_cast<std::size_t>(first + i);
+      const Cloud::Ptr scan = mapScan(o, in, poses, k, inner);
+      points[i] = scan->size();
+      grouped[i] = map.group(*scan, poses[k], inner);
+    };
+    if (count == 1)
+      prepare(0, threads);
+    else {
+#pragma omp parallel for num_threads(count) schedule(dynamic, 1)
+      for (int i = 0; i < count; ++i)
+        try {
+          prepare(i, 1);
+        }
+        catch (...) { // rethrown below, the first scan's first: as a serial pass would
+          errors[i] = std::current_exception();
+        }
+    }
+    for (int i = 0; i < count; ++i) {
+      if (errors[i])
+        std::rethrow_exception(errors[i]);
+      map.add(std::move(grouped[i]));
+      largest = std::max(largest, points[i]);
+      if (step)
+        step(first + i + 1, n);
+    }
+    first += count;
   }
   return map.centroids();
 }

@@ -346,34 +346,71 @@ VoxelCentroidMap::VoxelCentroidMap(VoxelCentroidMap&&) noexcept = default;
 VoxelCentroidMap&
 VoxelCentroidMap::operator=(VoxelCentroidMap&&) noexcept = default;
 
+/** A moved scan's voxels and, per shard, the voxels that fall into it (by_shard, from
+ *  begin[s] to begin[s + 1]). */
+struct VoxelCentroidMap::Grouped::Impl {
+  Cloud moved;
+  VoxelRuns voxels;
+  std::vector<std::uint32_t> begin, by_shard;
+};
+
+VoxelCentroidMap::Grouped::Grouped() = default;
+VoxelCentroidMap::Grouped::~Grouped() = default;
+VoxelCentroidMap::Grouped::Grouped(Grouped&&) noexcept = default;
+VoxelCentroidMap::Grouped&
+VoxelCentroidMap::Grouped::operator=(Grouped&&) noexcept = default;
+
+VoxelCentroidMap::Grouped
+VoxelCentroidMap::group(const Cloud& cloud,
+                        const Eigen::Matrix4d& pose,
+                        unsigned num_threads) const
+{
+  Grouped out;
+  out.impl_ = std::make_unique<Grouped::Impl>();
+  Grouped::Impl& s = *out.impl_;
+  pcl::transformPointCloud(cloud, s.moved, pose);
+  s.voxels = groupByVoxel(s.moved, voxel_size_, num_threads, "VoxelCentroidMap");
+  // The scan's voxels by shard; each shard adds its voxels' points in input order, so
+  // every sum runs as it would over the concatenated scans, on any thread.
+  const VoxelRuns& g = s.voxels;
+  const std::size_t voxels = g.runs.size() - 1;
+  std::vector<std::uint8_t> shard(voxels);
+  s.begin.assign(kShards + 2, 0);
+  s.by_shard.resize(voxels);
+  for (std::size_t v = 0; v < voxels; ++v) {
+    shard[v] = static_cast<std::uint8_t>(hashKey(g.keys[g.order[g.runs[v]]]) % kShards);
+    ++s.begin[shard[v] + 2];
+  }
+  for (std::size_t k = 0; k <= kShards; ++k)
+    s.begin[k + 1] += s.begin[k];
+  for (std::size_t v = 0; v < voxels; ++v)
+    s.by_shard[s.begin[shard[v] + 1]++] = static_cast<std::uint32_t>(v);
+  return out;
+}
+
 void
 VoxelCentroidMap::add(const Cloud& cloud, const Eigen::Matrix4d& pose)
 {
-  Cloud moved;
-  pcl::transformPointCloud(cloud, moved, pose);
-  const VoxelRuns g = groupByVoxel(moved, voxel_size_, num_threads_, "VoxelCentroidMap");
-  // The scan's voxels by shard; each shard adds its voxels' points in input order, so
-  // every sum runs as it would over the concatenated scans, on any thread.
+  add(group(cloud, pose, num_threads_));
+}
+
+void
+VoxelCentroidMap::add(Grouped&& scan)
+{
+  if (!scan.impl_)
+    return;
+  const std::unique_ptr<Grouped::Impl> s = std::move(scan.impl_);
+  const VoxelRuns& g = s->voxels;
   const std::size_t voxels = g.runs.size() - 1;
-  std::vector<std::uint8_t> shard(voxels);
-  std::vector<std::uint32_t> begin(kShards + 2, 0), by_shard(voxels);
-  for (std::size_t v = 0; v < voxels; ++v) {
-    shard[v] = static_cast<std::uint8_t>(hashKey(g.keys[g.order[g.runs[v]]]) % kShards);
-    ++begin[shard[v] + 2];
-  }
-  for (std::size_t s = 0; s <= kShards; ++s)
-    begin[s + 1] += begin[s];
-  for (std::size_t v = 0; v < voxels; ++v)
-    by_shard[begin[shard[v] + 1]++] = static_cast<std::uint32_t>(v);
   const unsigned threads = resolveNumberOfThreads(num_threads_);
 #pragma omp parallel for num_threads(threads)                                                  \
     schedule(dynamic) if (threads > 1 && voxels > 5000)
-  for (std::int64_t s = 0; s < static_cast<std::int64_t>(kShards); ++s)
-    for (std::uint32_t b = begin[s]; b < begin[s + 1]; ++b) {
-      const std::uint32_t v = by_shard[b];
-      auto& slot = shards_[s].find(g.keys[g.order[g.runs[v]]]);
-      for (std::uint32_t k = g.runs[v]; k < g.runs[v + 1]; ++k) {
-        const auto& p = moved[g.order[k]];
+  for (std::int64_t k = 0; k < static_cast<std::int64_t>(kShards); ++k)
+    for (std::uint32_t b = s->begin[k]; b < s->begin[k + 1]; ++b) {
+      const std::uint32_t v = s->by_shard[b];
+      auto& slot = shards_[k].find(g.keys[g.order[g.runs[v]]]);
+      for (std::uint32_t i = g.runs[v]; i < g.runs[v + 1]; ++i) {
+        const auto& p = s->moved[g.order[i]];
         slot.x += p.x, slot.y += p.y, slot.z += p.z;
       }
       slot.count += g.runs[v + 1] - g.runs[v];

@@ -54,11 +54,39 @@ public:
   VoxelCentroidMap&
   operator=(VoxelCentroidMap&&) noexcept;
 
+  /** A scan moved by its pose and grouped by voxel (group()), ready to be added. */
+  class Grouped {
+  public:
+    Grouped();
+    ~Grouped();
+    Grouped(Grouped&&) noexcept;
+    Grouped&
+    operator=(Grouped&&) noexcept;
+
+  private:
+    friend class VoxelCentroidMap;
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+  };
+
   /** Adds `cloud` moved by `pose` (p_world = pose * p). Non-finite points are skipped;
    *  throws std::invalid_argument for a point too far from the origin for the voxel. */
   void
   add(const pcl::PointCloud<pcl::PointXYZ>& cloud,
       const Eigen::Matrix4d& pose = Eigen::Matrix4d::Identity());
+
+  /** The costly half of add(cloud, pose), on num_threads threads (0: all): moves the
+   *  cloud and groups its points by voxel. It reads nothing of the map, so several scans
+   *  can be grouped at once (one thread each) and then added in their order, with the
+   *  same result as adding each as it comes. Throws as add() does. */
+  Grouped
+  group(const pcl::PointCloud<pcl::PointXYZ>& cloud,
+        const Eigen::Matrix4d& pose,
+        unsigned num_threads) const;
+  /** Adds a grouped scan (the map's voxel size must be the one it was grouped for: a scan
+   *  grouped by this map). Leaves `scan` empty. */
+  void
+  add(Grouped&& scan);
 
   /** Occupied voxels. */
   std::size_t
