@@ -58,7 +58,7 @@ writeFrames(const std::string& path,
             bool fixed,
             double scale);
 
-/** The merged map: every scan of `in`, read again one at a time at full resolution,
+/** The merged map: every scan of `in`, read again at full resolution (a few at once),
  *  deskewed with o.deskew by the motion at its pose (slam::sweepMotionAt) and moved by
  *  it, one centroid per voxel of voxel_size (filters::VoxelCentroidMap: memory per voxel,
  *  not per point; no int32 voxel-index overflow), on o.threads. voxel_size <= 0 keeps
