@@ -239,11 +239,11 @@ struct KdTreeIndex::Builder {
 
   /** Sec. IV-A.2: the two halves of a split are disjoint, so they are built concurrently.
    *  The top levels are split breadth-first, one parallel loop per level, until every range
-   *  has at most task_points points; those subtrees are then built in one dynamic loop.
+   *  has at most subtree_points points; those subtrees are then built in one dynamic loop.
    *  (Plain loops rather than OpenMP tasks: their barriers are what ThreadSanitizer's OpenMP
    *  support sees, and the tree does not depend on the schedule either way.) */
   void
-  buildParallel(std::uint32_t m, std::uint32_t task_points, unsigned threads)
+  buildParallel(std::uint32_t m, std::uint32_t subtree_points, unsigned threads)
   {
     std::vector<Range> level{{0, 0, m}}, subtrees;
     while (!level.empty()) {
@@ -252,14 +252,14 @@ struct KdTreeIndex::Builder {
       for (std::int64_t i = 0; i < static_cast<std::int64_t>(level.size()); ++i) {
         const Range& r = level[i];
         std::uint32_t mid, right;
-        if (r.end - r.begin > task_points && makeNode(r, mid, right)) {
+        if (r.end - r.begin > subtree_points && makeNode(r, mid, right)) {
           children[2 * i] = {r.node + 1, r.begin, mid};
           children[2 * i + 1] = {right, mid, r.end};
         }
       }
       std::vector<Range> next;
       for (std::size_t i = 0; i < level.size(); ++i) {
-        if (level[i].end - level[i].begin <= task_points)
+        if (level[i].end - level[i].begin <= subtree_points)
           subtrees.push_back(level[i]);
         for (std::size_t c = 2 * i; c < 2 * i + 2; ++c)
           if (children[c].node != kInvalid)

@@ -225,6 +225,9 @@ TEST(VoxelCentroidMap, EqualsVoxelCentroidOfTheConcatenation)
   }
   EXPECT_THROW(pcl_parallel::filters::VoxelCentroidMap(0.0), std::invalid_argument);
   pcl_parallel::filters::VoxelCentroidMap tiny(1e-3);
+  EXPECT_THROW(
+      tiny.add(pcl_parallel::filters::VoxelCentroidMap(0.25).group(scans[0], poses[0], 1)),
+      std::invalid_argument);
   Cloud far;
   far.push_back(pcl::PointXYZ(1e9f, 0, 0));
   EXPECT_THROW(tiny.add(far), std::invalid_argument);

@@ -349,6 +349,7 @@ VoxelCentroidMap::operator=(VoxelCentroidMap&&) noexcept = default;
 /** A moved scan's voxels and, per shard, the voxels that fall into it (by_shard, from
  *  begin[s] to begin[s + 1]). */
 struct VoxelCentroidMap::Grouped::Impl {
+  double voxel_size;
   Cloud moved;
   VoxelRuns voxels;
   std::vector<std::uint32_t> begin, by_shard;
@@ -368,6 +369,7 @@ VoxelCentroidMap::group(const Cloud& cloud,
   Grouped out;
   out.impl_ = std::make_unique<Grouped::Impl>();
   Grouped::Impl& s = *out.impl_;
+  s.voxel_size = voxel_size_;
   pcl::transformPointCloud(cloud, s.moved, pose);
   s.voxels = groupByVoxel(s.moved, voxel_size_, num_threads, "VoxelCentroidMap");
   // The scan's voxels by shard; each shard adds its voxels' points in input order, so
@@ -399,6 +401,8 @@ VoxelCentroidMap::add(Grouped&& scan)
 {
   if (!scan.impl_)
     return;
+  if (scan.impl_->voxel_size != voxel_size_)
+    throw std::invalid_argument("VoxelCentroidMap::add: a scan grouped for another voxel size");
   const std::unique_ptr<Grouped::Impl> s = std::move(scan.impl_);
   const VoxelRuns& g = s->voxels;
   const std::size_t voxels = g.runs.size() - 1;

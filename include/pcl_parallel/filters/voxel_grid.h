@@ -83,8 +83,8 @@ public:
   group(const pcl::PointCloud<pcl::PointXYZ>& cloud,
         const Eigen::Matrix4d& pose,
         unsigned num_threads) const;
-  /** Adds a grouped scan (the map's voxel size must be the one it was grouped for: a scan
-   *  grouped by this map). Leaves `scan` empty. */
+  /** Adds a grouped scan and leaves `scan` empty; an empty one adds nothing. Throws
+   *  std::invalid_argument for a scan grouped by a map of another voxel size. */
   void
   add(Grouped&& scan);
 

@@ -15,11 +15,11 @@ class ParallelLUM;
 
 namespace slam {
 
-/** Loop detection and closing; lengths in the scans' units (metres for the defaults). */
 /** chi2's 99 % quantile for 6 degrees of freedom: the gate for a pose error measured in
  *  its information (16.8119). */
 constexpr double kChi2Quantile99SixDof = 16.812;
 
+/** Loop detection and closing; lengths in the scans' units (metres for the defaults). */
 struct LoopClosureParameters {
   double distance = 5.0;     ///< cldist: scans whose positions are closer may be linked
   int min_separation = 5;    ///< loopsize: ... if at least this many scans apart
@@ -59,9 +59,9 @@ struct LoopClosureParameters {
   bool sequence_constraints = true;
   /** > 0: a Cauchy kernel of this chi2 scale on each constraint, the error measured in
    *  the information of the pair's pLUM link (lum::constraintBlock), so that a match the
-   *  scans contradict yields (e.g. kChi2Quantile99SixDof). Off
-   *  by default: pair-counted information is not calibrated, and on sparse scans the
-   *  links' own bias made every constraint yield (docs/design.md). */
+   *  scans contradict yields (e.g. kChi2Quantile99SixDof). Off by default: pair-counted
+   *  information is not calibrated, and on sparse scans the links' own bias made every
+   *  constraint yield (docs/design.md). */
   double sequence_cauchy_scale = 0.0;
   double median_range = 10.0; ///< of the scans: converts a rotation error to a displacement
   unsigned num_threads = 0;
