@@ -770,13 +770,14 @@ printSummary(const Options& o,
   if (!o.quiet) {
     const auto& t = r.times;
     std::printf("%s: front end %.2f s, loop detection %.2f s, loop closing %.2f s "
-                "(%d pLUM runs); %.1f ms per scan; %zu bytes kept per scan\n",
+                "(%d pLUM run%s); %.1f ms per scan; %zu bytes kept per scan\n",
                 r.ranks > 1 ? "rank 0's stage times (its segments, then the whole sequence)"
                             : "stage times",
                 t.preprocess + t.front_end,
                 t.loop_detection,
                 t.loop_closing,
                 r.relaxations,
+                r.relaxations == 1 ? "" : "s",
                 1e3 * t.total() / static_cast<double>(in.size()),
                 r.bytes_per_scan);
   }
