@@ -68,7 +68,9 @@ private:
   static std::int64_t
   pack(std::int64_t x, std::int64_t y)
   {
-    return (x << 32) ^ (y & 0xffffffff);
+    // Shifted unsigned: a negative cell index shifted left is undefined before C++20.
+    return static_cast<std::int64_t>((static_cast<std::uint64_t>(x) << 32) ^
+                                     (static_cast<std::uint64_t>(y) & 0xffffffffu));
   }
   static std::int64_t
   key(const Eigen::Vector2d& p, double cell)
