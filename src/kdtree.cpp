@@ -337,8 +337,9 @@ KdTreeIndex::build(const float* xyz,
   // Split down to ~8 subtrees per thread (and never below kMinSubtreePoints points): enough
   // to balance, few enough that the per-level loops' overhead stays negligible.
   Builder builder{*this, pts.data()};
-  if (threads > 1)
-    builder.buildParallel(m, std::max(kMinSubtreePoints, m / (8 * threads)), threads);
+  const std::uint32_t subtree_points = std::max(kMinSubtreePoints, m / (8 * threads));
+  if (threads > 1 && m > subtree_points)
+    builder.buildParallel(m, subtree_points, threads);
   else
     builder.buildSubtree({0, 0, m});
 
