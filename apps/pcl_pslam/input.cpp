@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -336,6 +337,27 @@ deskewNote(const Input& in, bool deskew)
     return "deskewed by azimuth (no per-point times in the scans)";
   return "deskewed by the points' time field in " + std::to_string(in.timed_scans) + " of " +
          std::to_string(in.size()) + " scans, else by azimuth";
+}
+
+std::string
+keyframeWarning(const Input& in, bool deskew, double sweep_period)
+{
+  if (!deskew || sweep_period > 0.0 || !in.has_stamps || in.stamps.size() < 2)
+    return "";
+  std::vector<double> gaps;
+  for (std::size_t k = 1; k < in.stamps.size(); ++k)
+    gaps.push_back(in.stamps[k] - in.stamps[k - 1]);
+  const double gap = pcl_parallel::slam::median(gaps);
+  if (!(gap > kMaxSweepSeconds))
+    return "";
+  char text[320];
+  std::snprintf(text,
+                sizeof text,
+                "the scans are a median %.2f s apart, longer than a LiDAR sweep: if they are "
+                "keyframes, --deskew bends each by its whole step; give the sweep's period "
+                "(--sweep-period 0.1 for a 10 Hz LiDAR)",
+                gap);
+  return text;
 }
 
 std::vector<Cloud::Ptr>

@@ -66,6 +66,14 @@ readScan(const Input& in, std::size_t k, std::vector<double>* point_times = null
 std::string
 deskewNote(const Input& in, bool deskew);
 
+/** Deskewing takes the motion since the previous scan as one sweep's unless told the
+ *  sweep period. A warning (else empty) when `deskew` is on without a sweep_period and
+ *  the scans' time stamps lie a median of more than kMaxSweepSeconds apart, longer than
+ *  any spinning LiDAR's sweep (4 Hz): keyframes, each bent by its whole step. */
+std::string
+keyframeWarning(const Input& in, bool deskew, double sweep_period);
+constexpr double kMaxSweepSeconds = 0.25;
+
 /** Every scan of `in` (small sets and tests; `run` streams them). */
 std::vector<Cloud::Ptr>
 readAllScans(const Input& in);

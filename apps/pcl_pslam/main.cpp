@@ -122,6 +122,9 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
                    : o.no_pose_search ? "; no initial poses: constant-velocity guesses"
                                       : "; no initial poses: constant-velocity guesses, "
                                         "poses searched where a match looks wrong"));
+    if (const std::string w = pcl_pslam::keyframeWarning(in, o.deskew, o.sweep_period);
+        !w.empty() && ranks.rank() == 0)
+      std::fprintf(stderr, "pcl_pslam: warning: %s\n", w.c_str());
     pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);
     params.odometry = in.odometry;
     params.up = Eigen::Vector3d::Unit(in.up);
