@@ -218,20 +218,35 @@ writeFrames(const std::string& path,
 
 namespace {
 
-/** Scan k as the map shows it: read again and, with --deskew, deskewed by the motion at
- *  its final pose (slam::mapFrame). */
-Cloud::Ptr
-mapScan(const Options& o, const Input& in, const Poses& poses, std::size_t k, unsigned threads)
-{
-  if (!o.deskew)
-    return readScan(in, k);
-  std::vector<double> point_times;
-  const Cloud::Ptr scan = readScan(in, k, &point_times);
-  pcl_pslam::Parameters p = toParameters(o, in.scale);
-  p.num_threads = threads;
-  return pcl_parallel::slam::mapFrame(
-      *scan, point_times, poses, in.has_stamps ? in.stamps : std::vector<double>(), k, p);
-}
+/** How the map pass reads scan k of `in`: again, and with --deskew deskewed by the motion
+ *  at its final pose (slam::mapFrame), on `threads` threads. Set up once per map. */
+class MapScans {
+public:
+  MapScans(const Options& o, const Input& in, const Poses& poses)
+      : in_(in)
+      , poses_(poses)
+      , params_(toParameters(o, in.scale))
+      , stamps_(in.has_stamps ? in.stamps : std::vector<double>())
+  {}
+
+  Cloud::Ptr
+  read(std::size_t k, unsigned threads) const
+  {
+    if (!params_.deskew)
+      return readScan(in_, k);
+    std::vector<double> point_times;
+    const Cloud::Ptr scan = readScan(in_, k, &point_times);
+    pcl_parallel::slam::Parameters p = params_;
+    p.num_threads = threads;
+    return pcl_parallel::slam::mapFrame(*scan, point_times, poses_, stamps_, k, p);
+  }
+
+private:
+  const Input& in_;
+  const Poses& poses_;
+  pcl_parallel::slam::Parameters params_;
+  std::vector<double> stamps_; ///< the scans' time stamps, or none
+};
 
 /** The map pass prepares at most this many scans at once, and at most about this many
  *  points (~80 bytes each while grouped): a terrestrial scanner's scans of tens of millions
@@ -252,12 +267,12 @@ buildMap(const Options& o,
 {
   end = std::min(end, in.size());
   const int n = static_cast<int>(end > begin ? end - begin : 0);
+  const MapScans scans(o, in, poses);
   if (!(voxel_size > 0.0)) { // every point, as asked
     Cloud::Ptr map(new Cloud);
     for (int k = 0; k < n; ++k) {
       Cloud moved;
-      pcl::transformPointCloud(
-          *mapScan(o, in, poses, begin + k, o.threads), moved, poses[begin + k]);
+      pcl::transformPointCloud(*scans.read(begin + k, o.threads), moved, poses[begin + k]);
       *map += moved;
       if (step)
         step(k + 1, n);
@@ -282,7 +297,7 @@ buildMap(const Options& o,
     std::vector<std::exception_ptr> errors(count);
     const auto prepare = [&](int i, unsigned inner) {
       const std::size_t k = begin + static_cast<std::size_t>(first + i);
-      const Cloud::Ptr scan = mapScan(o, in, poses, k, inner);
+      const Cloud::Ptr scan = scans.read(k, inner);
       points[i] = scan->size();
       grouped[i] = map.group(*scan, poses[k], inner);
     };

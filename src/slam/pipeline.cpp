@@ -166,13 +166,11 @@ Pipeline::track(const Cloud& scan,
   report.points = scan.size();
   // Sweep times over the whole scan as given, then cropped with their points.
   std::vector<float> sweep_times;
-  const Cloud::Ptr cropped = !spansSweep(point_times)
-                                 ? cropRange(scan, params_.min_range, params_.max_range)
-                                 : cropRange(scan,
-                                             params_.min_range,
-                                             params_.max_range,
-                                             sweepFractions(point_times),
-                                             sweep_times);
+  const std::vector<float> fractions = sweepTimes(point_times);
+  const Cloud::Ptr cropped =
+      fractions.empty()
+          ? cropRange(scan, params_.min_range, params_.max_range)
+          : cropRange(scan, params_.min_range, params_.max_range, fractions, sweep_times);
   requirePointsInRange(*cropped, index);
   requireScannerFrame(*cropped, "scan " + std::to_string(index));
   if (!front_end_) // lengths from the first scan
@@ -228,8 +226,7 @@ mapFrame(const Cloud& scan,
   if (!point_times.empty())
     requireOnePerPoint(scan, point_times.size(), "scan " + std::to_string(k));
   return deskewSweep(scan,
-                     spansSweep(point_times) ? sweepFractions(point_times)
-                                             : std::vector<float>(),
+                     sweepTimes(point_times),
                      sweepMotionAt(poses, stamps, k, p.sweep_period),
                      p.sweep_clockwise,
                      p.num_threads);

@@ -120,6 +120,12 @@ spansSweep(const std::vector<double>& times)
   return std::any_of(times.begin(), times.end(), [&](double t) { return t != times.front(); });
 }
 
+std::vector<float>
+sweepTimes(const std::vector<double>& times)
+{
+  return spansSweep(times) ? sweepFractions(times) : std::vector<float>();
+}
+
 Cloud::Ptr
 cropRange(const Cloud& scan, double min_range, double max_range)
 {

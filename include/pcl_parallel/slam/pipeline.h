@@ -129,10 +129,10 @@ std::optional<double>
 odometryDisagreement(const std::vector<ScanReport>& reports, double min_step);
 
 /** Scan k (scanner frame, full resolution; point_times as read, or empty) as a map at
- *  `poses` shows it: with p.deskew deskewed as the front end deskews it (deskewSweep), by
- *  the motion at its pose there (sweepMotionAt with `stamps`, one per pose or none, and
- *  p.sweep_period, p.sweep_clockwise); else as given. A second streaming pass over the
- *  scans with the final poses builds the full-resolution map from these. */
+ *  `poses` shows it: with p.deskew deskewed as the front end deskews it (deskewSweep by
+ *  sweepTimes), by the motion at its pose there (sweepMotionAt with `stamps`, one per pose
+ *  or none, and p.sweep_period, p.sweep_clockwise); else as given. A second streaming pass
+ *  over the scans with the final poses builds the full-resolution map from these. */
 Cloud::Ptr
 mapFrame(const Cloud& scan,
          const std::vector<double>& point_times,

@@ -71,6 +71,11 @@ sweepFractions(const std::vector<double>& times);
 bool
 spansSweep(const std::vector<double>& times);
 
+/** The sweep fractions deskewing goes by: sweepFractions(times) where they span a sweep
+ *  (spansSweep), else none (by azimuth). */
+std::vector<float>
+sweepTimes(const std::vector<double>& times);
+
 /** Time of a point within its sweep, in [0, 1], for a spinning LiDAR that starts facing
  *  backwards (-x) and turns clockwise seen from +z (KITTI's Velodyne; KISS-ICP derives
  *  KITTI's timestamps the same way): t = (1 - atan2(y, x) / pi) / 2, 0.5 facing forwards;
