@@ -22,6 +22,9 @@
 
 #include <cerrno>
 #include <chrono>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -205,9 +208,24 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
 
 /** Standard output that could not be written (a full disk, /dev/full) is a failure:
  *  `evaluate`'s table or JSON is the product, and a run's summary must not vanish. */
+/** Each scan allocates and frees buffers of a few MB (its points, voxel keys, trees).
+ *  glibc's default returns them to the kernel and faults them in again for the next scan,
+ *  on the thread that first touches them: 1/7 of a KITTI-sized run's CPU time
+ *  (docs/design.md, "Serial work per scan"). Kept below 32 MiB (glibc's own cap for its
+ *  sliding mmap threshold) and up to 128 MiB free at the heap top, they are reused. */
+void
+keepScanBuffers()
+{
+#if defined(__GLIBC__)
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 128 << 20);
+#endif
+}
+
 int
 main(int argc, char** argv)
 {
+  keepScanBuffers();
   const pcl_pslam::Ranks ranks(argc, argv); // MPI, when started by a launcher
   const int status = runCommand(argc, argv, ranks);
   std::cout.flush();

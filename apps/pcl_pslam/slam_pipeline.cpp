@@ -5,6 +5,7 @@
 #include "slam_pipeline.h"
 
 #include <pcl_parallel/slam/pipeline.h>
+#include <pcl_parallel/slam/read_ahead.h>
 #include <pcl_parallel/slam/segments.h>
 #ifdef PCL_PARALLEL_WITH_MPI
 #include <pcl_parallel/mpi/pipeline.h>
@@ -84,8 +85,9 @@ run(const ScanReader& read,
   }
   else { // the online pipeline: loop corrections feed back into the front end
     owned.reset(new slam::Pipeline(params));
+    slam::ReadAhead ahead(source, n); // scan i + 1 read while scan i is matched
     for (std::size_t i = 0; i < n; ++i) {
-      const slam::SourceScan s = source(i);
+      const slam::SourceScan s = ahead(i);
       owned->addScan(*s.cloud, s.odometry, s.stamp, s.point_times);
       if (progress)
         progress("icp", static_cast<int>(i + 1), static_cast<int>(n));

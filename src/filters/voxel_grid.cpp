@@ -2,6 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "../uninitialized.h"
+
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/parallel.h>
 
@@ -81,12 +83,12 @@ forEachBlock(int count, const Fn& fn)
  *  and the earlier blocks' same digit, and scatters the blocks in parallel: a stable sort's
  *  output is unique, so it is the same for any thread count. */
 void
-radixSort(std::vector<Keyed>& a, int bits, unsigned threads)
+radixSort(detail::UninitializedVector<Keyed>& a, int bits, unsigned threads)
 {
   const Blocks blocks{
       static_cast<std::int64_t>(a.size()),
       static_cast<std::int64_t>(a.size()) >= kParallelPoints ? static_cast<int>(threads) : 1};
-  std::vector<Keyed> b(a.size());
+  detail::UninitializedVector<Keyed> b(a.size()); // each pass writes it whole
   std::vector<std::array<std::size_t, 256>> count(static_cast<std::size_t>(blocks.count));
   for (int shift = 0; shift < bits; shift += 8) {
     const auto histogram = [&](int t) {
@@ -124,8 +126,8 @@ bitWidth(std::uint64_t v)
  *  order[runs[v] .. runs[v + 1]) and has key keys[order[runs[v]]]. Every pass runs in
  *  parallel on a large cloud; the grouping is the same for any thread count. */
 struct VoxelRuns {
-  std::vector<VoxelKey> keys; ///< per point
-  std::vector<std::uint32_t> order;
+  detail::UninitializedVector<VoxelKey> keys; ///< per point; unset where not finite
+  detail::UninitializedVector<std::uint32_t> order;
   std::vector<std::uint32_t> runs;
 };
 
@@ -140,8 +142,9 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   const double inv = 1.0 / voxel_size;
   constexpr double limit = 2147483647.0;
   VoxelRuns g;
+  // Per-point buffers are written in the parallel passes, not zeroed here (serially).
   g.keys.resize(cloud.size());
-  std::vector<char> valid(cloud.size(), 0);
+  detail::UninitializedVector<char> valid(cloud.size());
   // Per block: its keys, their exact integer bounds and its count of finite points.
   struct Bounds {
     std::int64_t lo[3], hi[3];
@@ -155,6 +158,7 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
     std::fill(b.hi, b.hi + 3, std::numeric_limits<std::int64_t>::min());
     for (std::int64_t i = blocks.begin(t), end = blocks.begin(t + 1); i < end; ++i) {
       const auto& p = cloud[i];
+      valid[i] = 0;
       if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
         continue;
       const double c[3] = {std::floor(p.x * inv), std::floor(p.y * inv), std::floor(p.z * inv)};
@@ -197,7 +201,7 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   const int bits = width[0] + width[1] + width[2];
   // (A shift by 64 would be undefined; x's width is 0 then, so x adds nothing.)
   const int shift_x = width[1] + width[2];
-  std::vector<Keyed> keyed(first.back());
+  detail::UninitializedVector<Keyed> keyed(first.back());
   forEachBlock(blocks.count, [&](int t) {
     std::size_t j = first[t];
     for (std::int64_t i = blocks.begin(t), end = blocks.begin(t + 1); i < end; ++i)

@@ -1,0 +1,46 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/slam/segments.h>
+
+#include <cstddef>
+#include <future>
+
+namespace pcl_parallel {
+namespace slam {
+
+/**
+ * \brief A ScanSource that reads scan k + 1 on a thread of its own while the caller maps
+ * scan k: reading a file is serial work (3 ms for a 120k-point KITTI `.bin`), which then
+ * overlaps the front end's instead of adding to it (docs/design.md, "Serial work per
+ * scan").
+ *
+ * Scans are asked for in any order; one asked for out of turn is read then, on the
+ * caller's thread. `source` is called for one scan at a time, never concurrently, so it
+ * may keep state; its exceptions reach the caller when that scan is asked for. At most one
+ * scan more than the caller holds is in memory. The destructor waits for a read in flight.
+ */
+class ReadAhead {
+public:
+  ReadAhead(ScanSource source, std::size_t num_scans);
+  ~ReadAhead();
+  ReadAhead(const ReadAhead&) = delete;
+  ReadAhead&
+  operator=(const ReadAhead&) = delete;
+
+  /** Scan k (source(k)); then starts reading k + 1 if k + 1 < num_scans. */
+  SourceScan
+  operator()(std::size_t k);
+
+private:
+  ScanSource source_;
+  std::size_t num_scans_;
+  std::size_t next_ = 0; ///< the scan `pending_` reads, if valid
+  std::future<SourceScan> pending_;
+};
+
+} // namespace slam
+} // namespace pcl_parallel
