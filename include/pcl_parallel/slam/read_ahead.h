@@ -25,6 +25,7 @@ namespace slam {
  */
 class ReadAhead {
 public:
+  /** Reads ahead up to scan num_scans - 1 (0: never, every scan on the caller's thread). */
   ReadAhead(ScanSource source, std::size_t num_scans);
   ~ReadAhead();
   ReadAhead(const ReadAhead&) = delete;
