@@ -1156,10 +1156,11 @@ TEST(LocalMap, VoxelCapCropAndCorrection)
   EXPECT_NEAR((*map.cloud())[3].y, 5.5f, 1e-6); // (5.5, .5) turned to (-.5, 5.5), moved
 }
 
-// A map of more than 10k voxels (the crop and refresh then run in parallel) moving along a
-// line: the same points, order and scans for 1 and 3 threads, and exactly the voxels within
-// reach of the last origin whose first point is (brute force).
-TEST(LocalMap, ParallelCropAndRefreshSameAsSerial)
+// A map of more than 10k voxels (the insert, crop and refresh then run in parallel) moving
+// along a line: the same points, order and scans for 1 and 3 threads, and exactly what one
+// point at a time gives (brute force): the voxels within reach of the last origin whose
+// first point is, in the order they were made, each with its first points in input order.
+TEST(LocalMap, ParallelInsertCropAndRefreshSameAsSerial)
 {
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> u(-20.0f, 20.0f);
@@ -1171,6 +1172,7 @@ TEST(LocalMap, ParallelCropAndRefreshSameAsSerial)
       p.normal_x = 0, p.normal_y = 0, p.normal_z = 1;
       scans[k].push_back(p);
     }
+  scans[3][17].x = std::numeric_limits<float>::quiet_NaN(); // skipped, not a voxel
   std::vector<std::unique_ptr<slam::LocalMap>> maps;
   for (const unsigned threads : {1u, 3u}) {
     maps.emplace_back(new slam::LocalMap(0.5, 15.0, 2, 0.0, threads)); // refreshed each time
@@ -1186,28 +1188,53 @@ TEST(LocalMap, ParallelCropAndRefreshSameAsSerial)
     ASSERT_EQ(one[i].getVector3fMap(), three[i].getVector3fMap()) << i;
   EXPECT_EQ(maps[0]->scans(), maps[1]->scans());
   // Brute force: each voxel's first two points in input order, kept while its first point
-  // stays within 15 m of every origin that came after it.
-  std::map<std::array<int, 3>, std::vector<std::pair<Eigen::Vector3f, std::uint32_t>>> kept;
+  // stays within 15 m of every origin that came after it; voxels in the order made.
+  using Key = std::array<int, 3>;
+  using Kept = std::vector<std::pair<Eigen::Vector3f, std::uint32_t>>;
+  std::vector<std::pair<Key, Kept>> voxels;
   for (std::size_t k = 0; k < scans.size(); ++k) {
+    std::map<Key, std::size_t> at;
+    for (std::size_t v = 0; v < voxels.size(); ++v)
+      at[voxels[v].first] = v;
     for (const auto& p : scans[k]) {
-      auto& v = kept[{
-          int(std::floor(p.x / 0.5)), int(std::floor(p.y / 0.5)), int(std::floor(p.z / 0.5))}];
+      if (!std::isfinite(p.x))
+        continue;
+      const Key key{
+          int(std::floor(p.x / 0.5)), int(std::floor(p.y / 0.5)), int(std::floor(p.z / 0.5))};
+      const auto [it, made] = at.try_emplace(key, voxels.size());
+      if (made)
+        voxels.emplace_back(key, Kept{});
+      Kept& v = voxels[it->second].second;
       if (v.size() < 2)
         v.emplace_back(p.getVector3fMap(), static_cast<std::uint32_t>(k));
     }
-    for (auto it = kept.begin(); it != kept.end();)
-      it = (it->second.front().first.cast<double>() - Eigen::Vector3d(2.0 * k, 0, 0)).norm() >
-                   15.0
-               ? kept.erase(it)
-               : std::next(it);
+    const Eigen::Vector3d origin(2.0 * k, 0, 0);
+    voxels.erase(std::remove_if(
+                     voxels.begin(),
+                     voxels.end(),
+                     [&](const auto& v) {
+                       return (v.second.front().first.template cast<double>() - origin).norm() >
+                              15.0;
+                     }),
+                 voxels.end());
   }
-  std::multiset<std::tuple<float, float, float, std::uint32_t>> expected, got;
-  for (const auto& [key, points] : kept)
-    for (const auto& [q, scan] : points)
-      expected.emplace(q.x(), q.y(), q.z(), scan);
-  for (std::size_t i = 0; i < one.size(); ++i)
-    got.emplace(one[i].x, one[i].y, one[i].z, maps[0]->scans()[i]);
-  EXPECT_EQ(got, expected);
+  std::size_t i = 0;
+  for (const auto& [key, points] : voxels)
+    for (const auto& [q, scan] : points) {
+      ASSERT_LT(i, one.size());
+      ASSERT_EQ(one[i].getVector3fMap(), q) << i;
+      ASSERT_EQ(maps[0]->scans()[i], scan) << i;
+      ++i;
+    }
+  EXPECT_EQ(i, one.size());
+  // A correction re-inserts every point (in parallel here): the same on 1 and 3 threads.
+  for (auto& map : maps)
+    map->transform(makePose(30 * kDeg, 1.0, -2.0));
+  ASSERT_EQ(maps[0]->cloud()->size(), maps[1]->cloud()->size());
+  for (std::size_t j = 0; j < maps[0]->cloud()->size(); ++j)
+    ASSERT_EQ((*maps[0]->cloud())[j].getVector3fMap(), (*maps[1]->cloud())[j].getVector3fMap())
+        << j;
+  EXPECT_EQ(maps[0]->scans(), maps[1]->scans());
 }
 
 // A vehicle at constant speed and yaw rate, climbing steadily: a helix about z, in closed

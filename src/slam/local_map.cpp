@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 namespace pcl_parallel {
@@ -35,27 +36,72 @@ LocalMap::key(const MapPoint& p) const
           static_cast<std::int32_t>(std::floor(p.z / voxel_size_))};
 }
 
+namespace {
+
+/** Fixed, so a voxel's shard never depends on the thread count. */
+constexpr std::size_t kShards = 64;
+constexpr std::uint8_t kNoShard = 0xff;
+static_assert(kShards < kNoShard, "a shard index must differ from kNoShard");
+
+} // namespace
+
+template <typename ScanOf>
 void
-LocalMap::insert(const MapPoint& p, std::uint32_t scan)
+LocalMap::insert(const MapCloud& points, const ScanOf& scan_of)
 {
-  const Key k = key(p);
-  auto [it, created] = voxels_.try_emplace(k);
-  if (created)
-    order_.push_back(&*it);
-  if (it->second.points.size() < max_points_) {
-    it->second.points.push_back(p);
-    it->second.scans.push_back(scan);
-    ++added_;
+  if (shards_.empty())
+    shards_.resize(kShards);
+  const std::int64_t n = static_cast<std::int64_t>(points.size());
+  const bool in_parallel = num_threads_ > 1 && n > 5000;
+  // Each point's voxel and shard (none: not finite, or beyond the int32 voxel keys).
+  std::vector<Key> keys(points.size());
+  std::vector<std::uint8_t> shard(points.size());
+#pragma omp parallel for num_threads(num_threads_) schedule(static) if (in_parallel)
+  for (std::int64_t i = 0; i < n; ++i) {
+    const MapPoint& p = points[i];
+    const bool valid = std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
+                       p.getVector3fMap().cwiseAbs().maxCoeff() < 2e9 * voxel_size_;
+    keys[i] = valid ? key(p) : Key{};
+    shard[i] = valid ? static_cast<std::uint8_t>(KeyHash()(keys[i]) % kShards) : kNoShard;
   }
+  // The points by shard, each shard's in input order (a counting sort).
+  std::vector<std::uint32_t> begin(kShards + 2, 0), by_shard(points.size());
+  for (const std::uint8_t s : shard)
+    if (s != kNoShard)
+      ++begin[s + 2];
+  for (std::size_t s = 0; s <= kShards; ++s)
+    begin[s + 1] += begin[s];
+  for (std::int64_t i = 0; i < n; ++i)
+    if (shard[i] != kNoShard)
+      by_shard[begin[shard[i] + 1]++] = static_cast<std::uint32_t>(i);
+  // Each shard fills its voxels as one pass over all points would; a new voxel is noted at
+  // its first point, so that order_ gets the new voxels in input order.
+  std::vector<Voxels::value_type*> created(points.size(), nullptr);
+  std::size_t added = 0;
+#pragma omp parallel for num_threads(num_threads_) schedule(dynamic) reduction(+ : added) if (in_parallel)
+  for (std::int64_t s = 0; s < static_cast<std::int64_t>(kShards); ++s)
+    for (std::uint32_t b = begin[s]; b < begin[s + 1]; ++b) {
+      const std::uint32_t i = by_shard[b];
+      auto [it, is_new] = shards_[s].try_emplace(keys[i]);
+      if (is_new)
+        created[i] = &*it;
+      Voxel& voxel = it->second;
+      if (voxel.points.size() < max_points_) {
+        voxel.points.push_back(points[i]);
+        voxel.scans.push_back(scan_of(i));
+        ++added;
+      }
+    }
+  for (Voxels::value_type* v : created)
+    if (v)
+      order_.push_back(v);
+  added_ += added;
 }
 
 void
 LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin, std::uint32_t scan)
 {
-  for (const auto& p : points)
-    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
-        p.getVector3fMap().cwiseAbs().maxCoeff() < 2e9 * voxel_size_) // int32 voxel keys
-      insert(p, scan);
+  insert(points, [scan](std::size_t) { return scan; });
   // Crop: a voxel goes when its first point is out of reach (KISS-ICP's rule). On a large
   // map every voxel is tested in parallel first; the few erasures follow in order.
   const double max2 = max_distance_ * max_distance_;
@@ -73,8 +119,10 @@ LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin, std::uin
   }
   std::size_t kept = 0;
   for (std::int64_t v = 0; v < voxels; ++v) {
-    if (far.empty() ? out_of_reach(v) : far[v])
-      voxels_.erase(Key(order_[v]->first)); // a copy: the key dies with the element
+    if (far.empty() ? out_of_reach(v) : far[v]) {
+      const Key k = order_[v]->first; // a copy: the key dies with the element
+      shards_[KeyHash()(k) % kShards].erase(k);
+    }
     else
       order_[kept++] = order_[v];
   }
@@ -88,7 +136,7 @@ LocalMap::transform(const Pose& correction)
 {
   const Eigen::Matrix3f r = correction.topLeftCorner<3, 3>().cast<float>();
   const Eigen::Vector3f t = correction.topRightCorner<3, 1>().cast<float>();
-  std::vector<MapPoint> points;
+  MapCloud points;
   std::vector<std::uint32_t> scans;
   for (const auto* voxel : order_)
     for (std::size_t i = 0; i < voxel->second.points.size(); ++i) {
@@ -100,15 +148,14 @@ LocalMap::transform(const Pose& correction)
       scans.push_back(voxel->second.scans[i]);
     }
   clear();
-  for (std::size_t i = 0; i < points.size(); ++i)
-    insert(points[i], scans[i]);
+  insert(points, [&scans](std::size_t i) { return scans[i]; });
   refresh();
 }
 
 void
 LocalMap::clear()
 {
-  voxels_.clear();
+  shards_.clear();
   order_.clear();
   cloud_.reset();
   cloud_scans_.clear();

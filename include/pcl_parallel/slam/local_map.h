@@ -61,7 +61,7 @@ public:
   bool
   empty() const
   {
-    return voxels_.empty();
+    return order_.empty();
   }
 
   /** The map's points as of the last refresh; the same object until the next refresh. */
@@ -89,8 +89,11 @@ private:
   };
   Key
   key(const MapPoint& p) const;
+  /** Adds each point (points[i] of scan scan_of(i)) to its voxel unless that is full; new
+   *  voxels join order_ in the order of their first points, as one by one would. */
+  template <typename ScanOf>
   void
-  insert(const MapPoint& p, std::uint32_t scan);
+  insert(const MapCloud& points, const ScanOf& scan_of);
   void
   refresh();
   /** Whether a pass over this many voxels runs in parallel. */
@@ -108,7 +111,9 @@ private:
     std::vector<std::uint32_t> scans; ///< per point: the scan it came from
   };
   using Voxels = std::unordered_map<Key, Voxel, KeyHash>;
-  Voxels voxels_;
+  /** The voxels by key hash modulo their number, fixed: a scan's points go into all
+   *  shards at once, each shard's in input order (docs/design.md, "Serial work per scan"). */
+  std::vector<Voxels> shards_;
   /** Voxels in creation order, so cloud() is independent of hashing; pointers to the
    *  elements (a rehash keeps them valid), so the per-scan crop and refresh walk the
    *  voxels without a hash lookup each. */
