@@ -2,10 +2,13 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/preprocess.h>
+#include <pcl_parallel/slam/read_ahead.h>
 #include <pcl_parallel/slam/segments.h>
 
 #include <algorithm>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -65,8 +68,11 @@ matchSegment(const Segment& segment,
   Pipeline front_end(params, median_range, segment.first);
   std::vector<MatchedScan> own;
   own.reserve(segment.end - segment.begin);
+  // The segment's next scan read while one is matched; on one thread, none read ahead.
+  const bool one_thread = resolveNumberOfThreads(params.num_threads) == 1;
+  ReadAhead ahead(std::cref(read), one_thread ? 0 : segment.end);
   for (std::size_t i = segment.first; i < segment.end; ++i) {
-    const SourceScan scan = read(i);
+    const SourceScan scan = ahead(i);
     if (!scan.cloud)
       throw std::invalid_argument("scan " + std::to_string(i) + " could not be read");
     // The segment is mapped as the online pipeline maps a sequence: its own loops closed

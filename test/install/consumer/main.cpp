@@ -9,6 +9,7 @@
 #include <pcl_parallel/registration/correspondence_estimation.h>
 #include <pcl_parallel/search/kdtree.h>
 #include <pcl_parallel/slam/pipeline.h>
+#include <pcl_parallel/slam/read_ahead.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/registration/icp.h>
@@ -71,8 +72,16 @@ main()
   Cloud moved;
   pcl::transformPointCloud(room, moved, Eigen::Affine3f(Eigen::Translation3f(-0.2f, 0, 0)));
   pcl_parallel::slam::Pipeline pipeline;
-  pipeline.addScan(room);
-  pipeline.addScan(moved); // no odometry: constant velocity from standing still
+  const Cloud* scans[] = {&room, &moved}; // as if from files: the next read while one matches
+  pcl_parallel::slam::ReadAhead read(
+      [&](std::size_t k) {
+        pcl_parallel::slam::SourceScan s;
+        s.cloud.reset(new Cloud(*scans[k]));
+        return s;
+      },
+      2);
+  for (std::size_t k = 0; k < 2; ++k)
+    pipeline.addScan(*read(k).cloud); // no odometry: constant velocity from standing still
   pipeline.finish();
   const pcl_parallel::slam::Poses& poses = pipeline.poses();
   const double dx = poses[1](0, 3);
