@@ -92,7 +92,6 @@ main()
   // The full-resolution map: a second pass, each scan as the map at these poses shows it
   // (deskewed there with Parameters::deskew), one centroid per 5 cm voxel.
   pcl_parallel::filters::VoxelCentroidMap map(0.05);
-  const Cloud* scans[] = {&room, &moved};
   for (std::size_t k = 0; k < 2; ++k)
     map.add(*pcl_parallel::slam::mapFrame(*scans[k], {}, poses, {}, k, pipeline.parameters()),
             poses[k]);
