@@ -1484,6 +1484,40 @@ TEST(Preprocess, CropRangeKeepsFiniteInRange)
   EXPECT_THROW(slam::cropRange(c, 1.0, 50.0, {0.1f}, kept), std::invalid_argument);
 }
 
+// Above 20k points the crop runs in blocks: the points kept, their order and their times
+// are those of one pass in scan order (brute force) on 1, 2 and 3 threads.
+TEST(Preprocess, ParallelCropKeepsScanOrder)
+{
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> u(-80.0f, 80.0f);
+  Cloud c;
+  std::vector<float> times;
+  for (int i = 0; i < 50001; ++i) {
+    c.push_back(i % 97 == 0   ? pcl::PointXYZ(0, 0, 0) // no-returns
+                : i % 89 == 0 ? pcl::PointXYZ(NAN, 1, 1)
+                              : pcl::PointXYZ(u(rng), u(rng), 0.1f * u(rng)));
+    times.push_back(static_cast<float>(i));
+  }
+  Cloud expected;
+  std::vector<float> expected_times;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    const Eigen::Vector3f p = c[i].getVector3fMap();
+    if (p.allFinite() && p.norm() >= 2.0f && p.norm() <= 60.0f)
+      expected.push_back(c[i]), expected_times.push_back(times[i]);
+  }
+  ASSERT_GT(expected.size(), 20000u);
+  for (const unsigned threads : {1u, 2u, 3u}) {
+    std::vector<float> kept;
+    const auto out = slam::cropRange(c, 2.0, 60.0, times, kept, threads);
+    ASSERT_EQ(out->size(), expected.size()) << threads;
+    for (std::size_t i = 0; i < out->size(); ++i)
+      ASSERT_EQ((*out)[i].getVector3fMap(), expected[i].getVector3fMap())
+          << threads << " " << i;
+    EXPECT_EQ(kept, expected_times) << threads;
+    EXPECT_EQ(slam::cropRange(c, 2.0, 60.0, threads)->size(), expected.size());
+  }
+}
+
 // A scan in its scanner's frame passes, whichever way the scanner looks; the same scan
 // georeferenced (UTM) or far off in a project frame is an error naming it.
 TEST(Preprocess, RequireScannerFrameRejectsScansWrittenElsewhere)
@@ -1504,11 +1538,12 @@ TEST(Preprocess, RequireScannerFrameRejectsScansWrittenElsewhere)
   };
   const Cloud& scan = *corridorSet().scans[0];
   EXPECT_EQ(message(scan, "corridor"), "");
-  // A wall 20 m ahead seen over 60 degrees: its centroid about 2 spreads out.
+  // A wall 20 m ahead seen over 60 degrees: its centroid about 2 spreads out; 22,801
+  // points, so that the sums run in blocks on all cores.
   Cloud wall;
-  for (int i = -50; i <= 50; ++i)
-    for (int j = -50; j <= 50; ++j)
-      wall.push_back(pcl::PointXYZ(20.0f, 0.23f * float(i), 0.23f * float(j)));
+  for (int i = -75; i <= 75; ++i)
+    for (int j = -75; j <= 75; ++j)
+      wall.push_back(pcl::PointXYZ(20.0f, 0.155f * float(i), 0.155f * float(j)));
   EXPECT_EQ(message(wall, "wall"), "");
   double squares = 0.0;
   for (const auto& p : wall)
@@ -1517,6 +1552,11 @@ TEST(Preprocess, RequireScannerFrameRejectsScansWrittenElsewhere)
   // The limit: a centroid 100 spreads from the origin.
   EXPECT_EQ(message(moved(wall, {float(99.0 * spread) - 20.0f, 0, 0}), "wall"), "");
   EXPECT_NE(message(moved(wall, {float(101.0 * spread) - 20.0f, 0, 0}), "wall"), "");
+  for (const unsigned threads : {1u, 3u})
+    EXPECT_THROW(slam::requireScannerFrame(
+                     moved(wall, {float(101.0 * spread) - 20.0f, 0, 0}), "wall", threads),
+                 std::invalid_argument)
+        << threads;
   Cloud point; // points that all coincide are not judged
   point.push_back(pcl::PointXYZ(1e6f, 0, 0));
   point.push_back(pcl::PointXYZ(1e6f, 0, 0));

@@ -312,7 +312,7 @@ readScan(const Input& in, std::size_t k, std::vector<double>* point_times)
                          ? " within the range limits (-M/-m)"
                          : ""));
   try {
-    pcl_parallel::slam::requireScannerFrame(*cloud, file);
+    pcl_parallel::slam::requireScannerFrame(*cloud, file, 1); // on the reading thread
   }
   catch (const std::invalid_argument& e) {
     throw DataError(e.what());

@@ -169,10 +169,15 @@ Pipeline::track(const Cloud& scan,
   const std::vector<float> fractions = sweepTimes(point_times);
   const Cloud::Ptr cropped =
       fractions.empty()
-          ? cropRange(scan, params_.min_range, params_.max_range)
-          : cropRange(scan, params_.min_range, params_.max_range, fractions, sweep_times);
+          ? cropRange(scan, params_.min_range, params_.max_range, params_.num_threads)
+          : cropRange(scan,
+                      params_.min_range,
+                      params_.max_range,
+                      fractions,
+                      sweep_times,
+                      params_.num_threads);
   requirePointsInRange(*cropped, index);
-  requireScannerFrame(*cropped, "scan " + std::to_string(index));
+  requireScannerFrame(*cropped, "scan " + std::to_string(index), params_.num_threads);
   if (!front_end_) // lengths from the first scan
     this->start(medianRange(*cropped));
   times_.preprocess += start.getTimeSeconds();

@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/reduction.h>
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <Eigen/Geometry>
@@ -19,27 +20,57 @@ namespace slam {
 
 namespace {
 
-/** cropRange; with `times`, their kept ones into `kept_times`. */
+/** Passes over a scan of at least this many points run in parallel (below, their start-up
+ *  costs more than they save). */
+constexpr std::size_t kParallelPoints = 20000;
+
+unsigned
+threadsFor(std::size_t points, unsigned num_threads)
+{
+  return points >= kParallelPoints ? resolveNumberOfThreads(num_threads) : 1;
+}
+
+/** cropRange; with `times`, their kept ones into `kept_times`. In parallel: each block of
+ *  points counts what it keeps, then copies it to its place (a prefix sum), so the kept
+ *  points stay in scan order for any thread count. */
 Cloud::Ptr
 crop(const Cloud& scan,
      double min_range,
      double max_range,
      const std::vector<float>* times,
-     std::vector<float>* kept_times)
+     std::vector<float>* kept_times,
+     unsigned num_threads)
 {
-  Cloud::Ptr out(new Cloud);
-  out->reserve(scan.size());
   const double lo = min_range * min_range, hi = max_range * max_range;
-  for (std::size_t i = 0; i < scan.size(); ++i) {
-    const auto& p = scan[i];
+  const auto keep = [&](const PointT& p) {
     if (!(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z)))
-      continue;
+      return false;
     const double r2 = double(p.x) * p.x + double(p.y) * p.y + double(p.z) * p.z;
-    if (r2 > 0.0 && r2 >= lo && r2 <= hi) { // at the origin: a driver's no-return
-      out->push_back(p);
-      if (times)
-        kept_times->push_back((*times)[i]);
-    }
+    return r2 > 0.0 && r2 >= lo && r2 <= hi; // at the origin: a driver's no-return
+  };
+  const std::size_t n = scan.size();
+  const int blocks = static_cast<int>(threadsFor(n, num_threads));
+  const auto begin = [&](int b) { return n * static_cast<std::size_t>(b) / blocks; };
+  std::vector<std::size_t> first(static_cast<std::size_t>(blocks) + 1, 0);
+#pragma omp parallel for num_threads(blocks) schedule(static, 1) if (blocks > 1)
+  for (int b = 0; b < blocks; ++b)
+    first[b + 1] = static_cast<std::size_t>(
+        std::count_if(scan.begin() + begin(b), scan.begin() + begin(b + 1), keep));
+  for (int b = 0; b < blocks; ++b)
+    first[b + 1] += first[b];
+  Cloud::Ptr out(new Cloud);
+  out->resize(first.back());
+  if (times)
+    kept_times->resize(first.back());
+#pragma omp parallel for num_threads(blocks) schedule(static, 1) if (blocks > 1)
+  for (int b = 0; b < blocks; ++b) {
+    std::size_t j = first[b];
+    for (std::size_t i = begin(b); i < begin(b + 1); ++i)
+      if (keep(scan[i])) {
+        if (times)
+          (*kept_times)[j] = (*times)[i];
+        (*out)[j++] = scan[i];
+      }
   }
   return out;
 }
@@ -84,21 +115,43 @@ requirePointsInRange(const Cloud& cropped, std::size_t index)
 }
 
 void
-requireScannerFrame(const Cloud& scan, const std::string& context)
+requireScannerFrame(const Cloud& scan, const std::string& context, unsigned num_threads)
 {
   // A scanner sits inside what it sees, or a few spreads from it (fastlio's forward-looking
   // Livox: 2); 100 spreads is a field of view under 2 degrees.
   constexpr double kMaxSpreads = 100.0;
   if (scan.empty())
     return;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const auto& p : scan)
-    sum += p.getVector3fMap().cast<double>();
-  const Eigen::Vector3d centroid = sum / double(scan.size());
-  double squares = 0.0;
-  for (const auto& p : scan)
-    squares += (p.getVector3fMap().cast<double>() - centroid).squaredNorm();
-  const double spread = std::sqrt(squares / double(scan.size()));
+  // Sums over fixed blocks in a fixed order: the verdict is the same for any thread count.
+  const std::size_t n = scan.size();
+  const unsigned threads = threadsFor(n, num_threads);
+  constexpr std::size_t kBlock = 4096;
+  const Eigen::Vector3d sum = deterministicReduce(
+      n,
+      threads,
+      Eigen::Vector3d(Eigen::Vector3d::Zero()),
+      [&](std::size_t b, std::size_t e) {
+        Eigen::Vector3d s = Eigen::Vector3d::Zero();
+        for (std::size_t i = b; i < e; ++i)
+          s += scan[i].getVector3fMap().cast<double>();
+        return s;
+      },
+      [](Eigen::Vector3d& total, const Eigen::Vector3d& s) { total += s; },
+      kBlock);
+  const Eigen::Vector3d centroid = sum / double(n);
+  const double squares = deterministicReduce(
+      n,
+      threads,
+      0.0,
+      [&](std::size_t b, std::size_t e) {
+        double s = 0.0;
+        for (std::size_t i = b; i < e; ++i)
+          s += (scan[i].getVector3fMap().cast<double>() - centroid).squaredNorm();
+        return s;
+      },
+      [](double& total, double s) { total += s; },
+      kBlock);
+  const double spread = std::sqrt(squares / double(n));
   if (spread > 0.0 && centroid.norm() > kMaxSpreads * spread) {
     char numbers[160];
     std::snprintf(numbers,
@@ -127,9 +180,9 @@ sweepTimes(const std::vector<double>& times)
 }
 
 Cloud::Ptr
-cropRange(const Cloud& scan, double min_range, double max_range)
+cropRange(const Cloud& scan, double min_range, double max_range, unsigned num_threads)
 {
-  return crop(scan, min_range, max_range, nullptr, nullptr);
+  return crop(scan, min_range, max_range, nullptr, nullptr, num_threads);
 }
 
 Cloud::Ptr
@@ -137,11 +190,12 @@ cropRange(const Cloud& scan,
           double min_range,
           double max_range,
           const std::vector<float>& times,
-          std::vector<float>& kept_times)
+          std::vector<float>& kept_times,
+          unsigned num_threads)
 {
   requireOnePerPoint(scan, times.size(), "cropRange");
   kept_times.clear();
-  return crop(scan, min_range, max_range, &times, &kept_times);
+  return crop(scan, min_range, max_range, &times, &kept_times, num_threads);
 }
 
 std::vector<float>

@@ -20,14 +20,15 @@ namespace slam {
  *  (Ouster's organised clouds: often more than half the points, which would make the
  *  median range, and every length derived from it, zero). */
 Cloud::Ptr
-cropRange(const Cloud& scan, double min_range, double max_range);
+cropRange(const Cloud& scan, double min_range, double max_range, unsigned num_threads = 0);
 /** ... and the times of the points kept (`times`: one per point of `scan`). */
 Cloud::Ptr
 cropRange(const Cloud& scan,
           double min_range,
           double max_range,
           const std::vector<float>& times,
-          std::vector<float>& kept_times);
+          std::vector<float>& kept_times,
+          unsigned num_threads = 0);
 
 /** The median of `values` (the upper one of an even count: the size/2-th smallest);
  *  `values` must not be empty. */
@@ -55,7 +56,7 @@ requirePointsInRange(const Cloud& cropped, std::size_t index);
  *  georeferenced or pre-registered scan; at UTM coordinates float keeps decimetres).
  *  Scans whose points all coincide are not judged. */
 void
-requireScannerFrame(const Cloud& scan, const std::string& context);
+requireScannerFrame(const Cloud& scan, const std::string& context, unsigned num_threads = 0);
 
 /** Per-point times in any unit and origin (a driver's time field: ns, s, absolute s) as
  *  fractions of the sweep, 0 at the earliest and 1 at the latest point (as KISS-ICP
