@@ -243,11 +243,15 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::updateTargetNor
   normals_valid_ = true;
   if constexpr (pcl::traits::has_normal_v<PointTarget>) {
     if (use_normal_fields_) {
-      // The target's own normals, copied into tree order (contiguous per leaf).
+      // The target's own normals, copied into tree order (contiguous per leaf): a gather
+      // over a whole local map (300k points) each time it changes, so in parallel.
       const PointCloudTarget& tgt = *target_;
       target_normals_.resize(3 * target.size());
-      for (std::uint32_t pos = 0; pos < target.size(); ++pos) {
-        const auto& p = tgt[target.id(pos)];
+      const std::int64_t n = static_cast<std::int64_t>(target.size());
+      const unsigned threads = resolveNumberOfThreads(num_threads_);
+#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 20000)
+      for (std::int64_t pos = 0; pos < n; ++pos) {
+        const auto& p = tgt[target.id(static_cast<std::uint32_t>(pos))];
         target_normals_[3 * pos] = p.normal_x;
         target_normals_[3 * pos + 1] = p.normal_y;
         target_normals_[3 * pos + 2] = p.normal_z;
