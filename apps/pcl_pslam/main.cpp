@@ -22,9 +22,6 @@
 
 #include <cerrno>
 #include <chrono>
-#if defined(__GLIBC__)
-#include <malloc.h>
-#endif
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -32,6 +29,9 @@
 #include <unistd.h>
 #include <utility>
 #include <vector>
+#if defined(__GLIBC__)
+#include <malloc.h> // mallopt
+#endif
 
 namespace {
 
@@ -206,11 +206,9 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
   return 0;
 }
 
-/** Standard output that could not be written (a full disk, /dev/full) is a failure:
- *  `evaluate`'s table or JSON is the product, and a run's summary must not vanish. */
 /** Each scan allocates and frees buffers of a few MB (its points, voxel keys, trees).
  *  glibc's default returns them to the kernel and faults them in again for the next scan,
- *  on the thread that first touches them: 1/7 of a KITTI-sized run's CPU time
+ *  on the thread that first touches them: about a tenth of a KITTI-sized run's CPU time
  *  (docs/design.md, "Serial work per scan"). Kept below 32 MiB (glibc's own cap for its
  *  sliding mmap threshold) and up to 128 MiB free at the heap top, they are reused. */
 void
@@ -222,6 +220,8 @@ keepScanBuffers()
 #endif
 }
 
+/** Standard output that could not be written (a full disk, /dev/full) is a failure:
+ *  `evaluate`'s table or JSON is the product, and a run's summary must not vanish. */
 int
 main(int argc, char** argv)
 {
