@@ -4,7 +4,7 @@
  */
 // slam::ReadAhead: the scans it hands out are the source's, in any order; the source is
 // never called twice at once, never for a scan past the end, at most one scan ahead; a
-// read's exception reaches the caller with that scan.
+// read's exception reaches the caller with that scan; on one thread nothing is read ahead.
 #include <pcl_parallel/slam/read_ahead.h>
 
 #include <atomic>
@@ -61,7 +61,7 @@ TEST(ReadAhead, HandsOutEachScanInTurnReadingOneAhead)
   RecordingSource source;
   const std::size_t n = 6;
   {
-    ReadAhead read([&](std::size_t k) { return source(k); }, n);
+    ReadAhead read([&](std::size_t k) { return source(k); }, n, 2);
     for (std::size_t k = 0; k < n; ++k) {
       const SourceScan s = read(k);
       EXPECT_EQ(scanId(s), static_cast<float>(k));
@@ -78,7 +78,7 @@ TEST(ReadAhead, HandsOutEachScanInTurnReadingOneAhead)
 TEST(ReadAhead, ScansAskedOutOfTurnAreReadThen)
 {
   RecordingSource source;
-  ReadAhead read([&](std::size_t k) { return source(k); }, 10);
+  ReadAhead read([&](std::size_t k) { return source(k); }, 10, 2);
   for (const std::size_t k : {3u, 4u, 0u, 9u, 9u, 5u})
     EXPECT_EQ(scanId(read(k)), static_cast<float>(k));
   EXPECT_EQ(source.most_running, 1);
@@ -88,7 +88,7 @@ TEST(ReadAhead, AReadsErrorReachesTheCallerWithThatScan)
 {
   RecordingSource source;
   source.throw_at = 2;
-  ReadAhead read([&](std::size_t k) { return source(k); }, 5);
+  ReadAhead read([&](std::size_t k) { return source(k); }, 5, 2);
   EXPECT_EQ(scanId(read(0)), 0.0f);
   EXPECT_EQ(scanId(read(1)), 1.0f); // scan 2 fails in the background: not yet an error
   try {
@@ -105,9 +105,28 @@ TEST(ReadAhead, DestroyedWithAReadInFlightWaitsForIt)
 {
   RecordingSource source;
   {
-    ReadAhead read([&](std::size_t k) { return source(k); }, 3);
+    ReadAhead read([&](std::size_t k) { return source(k); }, 3, 2);
     read(0); // starts reading scan 1, then goes out of scope
   }
   EXPECT_EQ(source.running, 0);
   EXPECT_EQ(source.asked, (std::vector<std::size_t>{0, 1}));
+}
+
+TEST(ReadAhead, OnOneThreadEveryScanIsReadOnTheCallersThread)
+{
+  RecordingSource source;
+  const std::thread::id caller = std::this_thread::get_id();
+  std::vector<std::thread::id> readers;
+  ReadAhead read(
+      [&](std::size_t k) {
+        readers.push_back(std::this_thread::get_id());
+        return source(k);
+      },
+      4,
+      1);
+  for (std::size_t k = 0; k < 4; ++k) {
+    EXPECT_EQ(scanId(read(k)), static_cast<float>(k));
+    EXPECT_EQ(source.calls, k + 1) << "read ahead on one thread";
+  }
+  EXPECT_EQ(readers, std::vector<std::thread::id>(4, caller));
 }

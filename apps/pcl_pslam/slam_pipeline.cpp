@@ -4,7 +4,6 @@
  */
 #include "slam_pipeline.h"
 
-#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/pipeline.h>
 #include <pcl_parallel/slam/read_ahead.h>
 #include <pcl_parallel/slam/segments.h>
@@ -86,9 +85,7 @@ run(const ScanReader& read,
   }
   else { // the online pipeline: loop corrections feed back into the front end
     owned.reset(new slam::Pipeline(params));
-    // Scan i + 1 read while scan i is matched; with one thread asked for, on it alone.
-    const bool one_thread = pcl_parallel::resolveNumberOfThreads(params.num_threads) == 1;
-    slam::ReadAhead ahead(source, one_thread ? 0 : n);
+    slam::ReadAhead ahead(source, n, params.num_threads); // scan i + 1 read as i is matched
     for (std::size_t i = 0; i < n; ++i) {
       const slam::SourceScan s = ahead(i);
       owned->addScan(*s.cloud, s.odometry, s.stamp, s.point_times);

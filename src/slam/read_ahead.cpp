@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/read_ahead.h>
 
 #include <optional>
@@ -10,9 +11,9 @@
 namespace pcl_parallel {
 namespace slam {
 
-ReadAhead::ReadAhead(ScanSource source, std::size_t num_scans)
+ReadAhead::ReadAhead(ScanSource source, std::size_t num_scans, unsigned num_threads)
     : source_(std::move(source))
-    , num_scans_(num_scans)
+    , num_scans_(resolveNumberOfThreads(num_threads) > 1 ? num_scans : 0)
 {}
 
 ReadAhead::~ReadAhead()

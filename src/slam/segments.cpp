@@ -2,7 +2,6 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/preprocess.h>
 #include <pcl_parallel/slam/read_ahead.h>
 #include <pcl_parallel/slam/segments.h>
@@ -69,9 +68,8 @@ matchSegment(const Segment& segment,
   Pipeline front_end(params, median_range, segment.first);
   std::vector<MatchedScan> own;
   own.reserve(segment.end - segment.begin);
-  // The segment's next scan read while one is matched; on one thread, none read ahead.
-  const bool one_thread = resolveNumberOfThreads(params.num_threads) == 1;
-  ReadAhead ahead(std::cref(read), one_thread ? 0 : segment.end);
+  // The segment's next scan read while one is matched.
+  ReadAhead ahead(std::cref(read), segment.end, params.num_threads);
   for (std::size_t i = segment.first; i < segment.end; ++i) {
     const SourceScan scan = ahead(i);
     if (!scan.cloud)

@@ -25,21 +25,23 @@ namespace slam {
  */
 class ReadAhead {
 public:
-  /** Reads ahead up to scan num_scans - 1 (0: never, every scan on the caller's thread). */
-  ReadAhead(ScanSource source, std::size_t num_scans);
+  /** Reads ahead up to scan num_scans - 1. With one thread (num_threads, 0 = all cores)
+   *  it never does: every scan is read on the caller's thread, which is then the only one. */
+  ReadAhead(ScanSource source, std::size_t num_scans, unsigned num_threads = 0);
   ~ReadAhead();
   ReadAhead(const ReadAhead&) = delete;
   ReadAhead&
   operator=(const ReadAhead&) = delete;
 
-  /** Scan k (source(k)); then starts reading k + 1 if k + 1 < num_scans. */
+  /** Scan k (source(k)); then starts reading k + 1 if k + 1 < num_scans (and more than
+   *  one thread). */
   SourceScan
   operator()(std::size_t k);
 
 private:
   ScanSource source_;
-  std::size_t num_scans_;
-  std::size_t next_ = 0; ///< the scan `pending_` reads, if valid
+  std::size_t num_scans_; ///< 0 with one thread: nothing read ahead
+  std::size_t next_ = 0;  ///< the scan `pending_` reads, if valid
   std::future<SourceScan> pending_;
 };
 
