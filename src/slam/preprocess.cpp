@@ -339,8 +339,8 @@ deskewAt(const Cloud& scan, const Pose& motion, unsigned num_threads, Time time)
   Cloud::Ptr out(new Cloud(scan));
   const ScrewMotion screw(motion);
   const std::int64_t n = static_cast<std::int64_t>(scan.size());
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 20000)
+  const unsigned threads = threadsFor(scan.size(), num_threads);
+#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1)
   for (std::int64_t i = 0; i < n; ++i) {
     const PointT& p = scan[i];
     const double s = time(i, p) - 0.5; // motion^s, s in [-1/2, 1/2]
