@@ -179,6 +179,96 @@ TEST(VoxelCentroid, SameForAnyThreadCount)
   }
 }
 
+// Brute force: per voxel, in key order, the input point nearest the voxel's centroid
+// (summed in double in input order), the first of equally near ones; for the serial path
+// and the parallel blocks, with non-finite points and many points per voxel.
+TEST(VoxelNearestToCentroid, MatchesBruteForce)
+{
+  for (const int size : {5000, 120000}) {
+    SCOPED_TRACE(std::to_string(size) + " points");
+    Cloud cloud = randomCloud(size, 5.0f, 7);
+    for (int i = 0; i < 2000; ++i) // duplicates: ties go to the first
+      cloud.push_back(cloud[i % 50]);
+    for (std::size_t i = 7; i < cloud.size(); i += cloud.size() / 5)
+      cloud[i].z = std::numeric_limits<float>::quiet_NaN();
+    const double voxel = 0.5;
+    std::map<std::array<std::int64_t, 3>, std::vector<std::size_t>> voxels;
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (std::isfinite(cloud[i].z))
+        voxels[{static_cast<std::int64_t>(std::floor(cloud[i].x / voxel)),
+                static_cast<std::int64_t>(std::floor(cloud[i].y / voxel)),
+                static_cast<std::int64_t>(std::floor(cloud[i].z / voxel))}]
+            .push_back(i);
+    std::vector<std::size_t> expected;
+    for (const auto& [key, members] : voxels) {
+      Eigen::Vector3d c = Eigen::Vector3d::Zero();
+      for (const std::size_t i : members)
+        c += cloud[i].getVector3fMap().cast<double>();
+      c /= static_cast<double>(members.size());
+      std::size_t best = members.front();
+      for (const std::size_t i : members)
+        if ((cloud[i].getVector3fMap().cast<double>() - c).squaredNorm() <
+            (cloud[best].getVector3fMap().cast<double>() - c).squaredNorm())
+          best = i;
+      expected.push_back(best);
+    }
+    for (const unsigned threads : {1u, 3u}) {
+      const auto out = pcl_parallel::filters::voxelNearestToCentroid(cloud, voxel, threads);
+      ASSERT_EQ(out->size(), expected.size()) << threads << " threads";
+      for (std::size_t v = 0; v < expected.size(); ++v) {
+        EXPECT_EQ((*out)[v].x, cloud[expected[v]].x) << v;
+        EXPECT_EQ((*out)[v].y, cloud[expected[v]].y) << v;
+        EXPECT_EQ((*out)[v].z, cloud[expected[v]].z) << v;
+      }
+    }
+  }
+}
+
+// What it is for: on a pole and a wall corner seen from one side, every sampled point lies
+// on the surface, where the voxels' centroids sit up to 1.5 cm inside the pole or off the
+// corner's faces (a sample of centroids fails the first check).
+TEST(VoxelNearestToCentroid, KeepsPointsOnCurvedSurfacesAndCorners)
+{
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  Cloud cloud;
+  const float radius = 0.15f; // a pole at (3, 0), the half facing the scanner at the origin
+  for (int i = 0; i < 20000; ++i) {
+    const float a = static_cast<float>(M_PI) * (0.5f + u(rng)), z = 2.0f * u(rng);
+    cloud.push_back(pcl::PointXYZ(3.0f + radius * std::cos(a), radius * std::sin(a), z));
+  }
+  for (int i = 0; i < 20000; ++i) { // a corner: faces x = 5 (1 < y < 3) and y = 3 (x < 5)
+    const float s = 2.0f * u(rng), z = 2.0f * u(rng);
+    cloud.push_back(i % 2 ? pcl::PointXYZ(5.0f, 3.0f - s, z) : pcl::PointXYZ(5.0f - s, 3.0f, z));
+  }
+  const auto off_surface = [&](const pcl::PointXYZ& p) {
+    if (p.y < 0.5f)
+      return std::abs(std::hypot(p.x - 3.0f, p.y) - radius);
+    return std::min(std::abs(p.x - 5.0f), std::abs(p.y - 3.0f));
+  };
+  float worst_sample = 0.0f, worst_centroid = 0.0f;
+  for (const auto& p : *pcl_parallel::filters::voxelNearestToCentroid(cloud, 0.25))
+    worst_sample = std::max(worst_sample, off_surface(p));
+  for (const auto& p : *pcl_parallel::filters::voxelCentroid(cloud, 0.25))
+    worst_centroid = std::max(worst_centroid, off_surface(p));
+  EXPECT_LT(worst_sample, 1e-5f);
+  EXPECT_GT(worst_centroid, 0.01f); // the geometry does tell the two apart
+}
+
+TEST(VoxelNearestToCentroid, DropsNonFiniteAndKeepsAllWithoutAVoxel)
+{
+  Cloud cloud = randomCloud(100, 1.0f, 9);
+  cloud.push_back(pcl::PointXYZ(std::numeric_limits<float>::quiet_NaN(), 0, 0));
+  EXPECT_EQ(pcl_parallel::filters::voxelNearestToCentroid(cloud, 0.0)->size(), 100u);
+  const auto out = pcl_parallel::filters::voxelNearestToCentroid(cloud, 0.3);
+  EXPECT_EQ(out->size(), pcl_parallel::filters::voxelCentroid(cloud, 0.3)->size());
+  EXPECT_TRUE(out->is_dense);
+  EXPECT_TRUE(pcl_parallel::filters::voxelNearestToCentroid(Cloud(), 0.1)->empty());
+  Cloud far;
+  far.push_back(pcl::PointXYZ(1e9f, 0, 0));
+  EXPECT_THROW(pcl_parallel::filters::voxelNearestToCentroid(far, 1e-3), std::invalid_argument);
+}
+
 } // namespace
 
 namespace {

@@ -244,10 +244,16 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   return g;
 }
 
-} // namespace
-
+/** One point per voxel, pick(first, last) of the voxel's points listed in order[first,
+ *  last) (input order), for every voxel in parallel: in key order and the same for any
+ *  thread count. voxel_size <= 0 (or NaN): the finite points unchanged. */
+template <typename Pick>
 Cloud::Ptr
-voxelCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
+reduceByVoxel(const Cloud& cloud,
+              double voxel_size,
+              unsigned num_threads,
+              const char* who,
+              const Pick& pick)
 {
   Cloud::Ptr out(new Cloud);
   if (!(voxel_size > 0.0)) {
@@ -256,24 +262,54 @@ voxelCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
         out->push_back(p);
     return out;
   }
-  const VoxelRuns g = groupByVoxel(cloud, voxel_size, num_threads, "voxelCentroid");
-  // One centroid per voxel, summed in double in input order.
+  const VoxelRuns g = groupByVoxel(cloud, voxel_size, num_threads, who);
   const std::int64_t voxels = static_cast<std::int64_t>(g.runs.size()) - 1;
   out->resize(static_cast<std::size_t>(voxels));
   const unsigned threads = resolveNumberOfThreads(num_threads);
 #pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && voxels > 5000)
-  for (std::int64_t v = 0; v < voxels; ++v) {
-    double sx = 0.0, sy = 0.0, sz = 0.0;
-    for (std::uint32_t k = g.runs[v]; k < g.runs[v + 1]; ++k) {
-      const auto& p = cloud[g.order[k]];
-      sx += p.x, sy += p.y, sz += p.z;
-    }
-    const double count = static_cast<double>(g.runs[v + 1] - g.runs[v]);
-    (*out)[v] = pcl::PointXYZ(static_cast<float>(sx / count),
-                              static_cast<float>(sy / count),
-                              static_cast<float>(sz / count));
-  }
+  for (std::int64_t v = 0; v < voxels; ++v)
+    (*out)[v] = pick(g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
   return out;
+}
+
+/** The mean of the points cloud[*first] .. cloud[*(last - 1)], summed in double in order. */
+Eigen::Vector3d
+meanOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* last)
+{
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const std::uint32_t* i = first; i != last; ++i)
+    sum += cloud[*i].getVector3fMap().cast<double>();
+  return sum / static_cast<double>(last - first);
+}
+
+} // namespace
+
+Cloud::Ptr
+voxelCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
+{
+  return reduceByVoxel(cloud, voxel_size, num_threads, "voxelCentroid",
+                       [&](const std::uint32_t* first, const std::uint32_t* last) {
+                         const Eigen::Vector3f c = meanOf(cloud, first, last).cast<float>();
+                         return pcl::PointXYZ(c.x(), c.y(), c.z());
+                       });
+}
+
+Cloud::Ptr
+voxelNearestToCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
+{
+  return reduceByVoxel(cloud, voxel_size, num_threads, "voxelNearestToCentroid",
+                       [&](const std::uint32_t* first, const std::uint32_t* last) {
+                         const Eigen::Vector3d c = meanOf(cloud, first, last);
+                         const std::uint32_t* best = first; // ties: the first in input order
+                         double best_d = std::numeric_limits<double>::infinity();
+                         for (const std::uint32_t* i = first; i != last; ++i) {
+                           const double d =
+                               (cloud[*i].getVector3fMap().cast<double>() - c).squaredNorm();
+                           if (d < best_d)
+                             best_d = d, best = i;
+                         }
+                         return cloud[*best];
+                       });
 }
 
 // ---------------------------------------------------------------------------------------

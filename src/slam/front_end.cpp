@@ -331,7 +331,7 @@ FrontEnd::track(const Cloud& scan,
     r.first_scan = deskewFirstAgain(motion.sweep);
   Cloud::Ptr reduced = reduce(scan, sweep_times, motion.sweep);
   const auto source =
-      filters::voxelCentroid(*reduced, params_.source_voxel_size, params_.num_threads);
+      filters::voxelNearestToCentroid(*reduced, params_.source_voxel_size, params_.num_threads);
   r.source_points = source->size();
 
   r.pose = r.prediction;

@@ -37,6 +37,22 @@ voxelCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
               unsigned num_threads = 0);
 
 /**
+ * \brief Voxel-grid sampling that keeps measured points: per occupied voxel, the input
+ * point nearest the centroid of its points (ties: the first in input order).
+ *
+ * A centroid averages noise but leaves the surface wherever a voxel holds an edge, a
+ * corner or a curved patch, by an amount that changes with where the scanner stood;
+ * a point that was measured lies on the surface. The front end samples the points it
+ * registers this way (docs/design.md, "Sampling the registered points"). Grouping, key
+ * order, non-finite points, voxel_size <= 0 and the errors are as in voxelCentroid; the
+ * output is the same for any thread count.
+ */
+pcl::PointCloud<pcl::PointXYZ>::Ptr
+voxelNearestToCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
+                       double voxel_size,
+                       unsigned num_threads = 0);
+
+/**
  * \brief voxelCentroid over a map that arrives scan by scan: memory grows with the
  * occupied voxels, not with the points (a 4,500-scan drive need not be held at once).
  *

@@ -30,7 +30,9 @@ enum class MatchTarget { kPreviousScan, kLocalMap };
 struct FrontEndParameters {
   MatchTarget target = MatchTarget::kLocalMap;
   double voxel_size = 0.1;        ///< scan reduction kept in the map and for loop closing
-  double source_voxel_size = 0.3; ///< coarser reduction of the registered points
+  /** Coarser sample of the registered points: per voxel the measured point nearest its
+   *  centroid (filters::voxelNearestToCentroid), so they lie on the surfaces. */
+  double source_voxel_size = 0.3;
   double map_distance = 30.0;     ///< local map: voxels within this of the scanner
   double map_voxel_size = 0.3;    ///< local map voxel
   int map_points_per_voxel = 20;  ///< local map density
