@@ -246,10 +246,12 @@ TEST(VoxelNearestToCentroid, KeepsPointsOnCurvedSurfacesAndCorners)
       return std::abs(std::hypot(p.x - 3.0f, p.y) - radius);
     return std::min(std::abs(p.x - 5.0f), std::abs(p.y - 3.0f));
   };
+  const auto samples = pcl_parallel::filters::voxelNearestToCentroid(cloud, 0.25);
+  const auto centroids = pcl_parallel::filters::voxelCentroid(cloud, 0.25);
   float worst_sample = 0.0f, worst_centroid = 0.0f;
-  for (const auto& p : *pcl_parallel::filters::voxelNearestToCentroid(cloud, 0.25))
+  for (const auto& p : *samples)
     worst_sample = std::max(worst_sample, off_surface(p));
-  for (const auto& p : *pcl_parallel::filters::voxelCentroid(cloud, 0.25))
+  for (const auto& p : *centroids)
     worst_centroid = std::max(worst_centroid, off_surface(p));
   EXPECT_LT(worst_sample, 1e-5f);
   EXPECT_GT(worst_centroid, 0.01f); // the geometry does tell the two apart
