@@ -206,7 +206,7 @@ std::optional<double>
 odometryDisagreement(const std::vector<ScanReport>& reports, double min_step)
 {
   std::vector<double> corrections, steps;
-  for (std::size_t i = 1; i < reports.size(); ++i) {
+  for (std::size_t i = 1; i < std::min(reports.size(), 1 + kOdometryDisagreementSteps); ++i) {
     corrections.push_back(reports[i].correction);
     steps.push_back(reports[i].predicted_step);
   }

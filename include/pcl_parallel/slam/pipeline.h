@@ -120,11 +120,13 @@ struct ScanReport {
 };
 
 /** How far pICP moved the scans from their odometry's steps, over how long the steps are:
- *  the median ScanReport::correction over the median ScanReport::predicted_step. Odometry
- *  in the scans' frame leaves hundredths to tenths; odometry in another frame (KITTI's
- *  poses.txt: the left camera's) more than 1 (docs/design.md, "Odometry in another
- *  frame"). None for fewer than 5 steps, or where the median step is under `min_step` (a
- *  scanner standing still). The first scan (no step) is left out. */
+ *  the median ScanReport::correction over the median ScanReport::predicted_step, over the
+ *  first kOdometryDisagreementSteps steps (later, a wrong odometry has bent the map the
+ *  scans are matched to, and the matches follow it). Odometry in the scans' frame leaves
+ *  hundredths to tenths; odometry in another frame (KITTI's poses.txt: the left camera's)
+ *  about 1 (docs/design.md, "Odometry in another frame"). None for fewer than 5 steps, or
+ *  where the median step is under `min_step` (a scanner standing still). The first scan
+ *  (no step) is left out. */
 std::optional<double>
 odometryDisagreement(const std::vector<ScanReport>& reports, double min_step);
 
@@ -146,6 +148,9 @@ mapFrame(const Cloud& scan,
  *  mulran's poor odometry 0.14; turned into a camera's frame 0.31 (the corridor test set),
  *  1.04 (fastlio), 1.41 (kitti). */
 constexpr double kOdometryDisagreementLimit = 0.25;
+
+/** odometryDisagreement looks at this many steps from the first. */
+constexpr std::size_t kOdometryDisagreementSteps = 20;
 
 /** A scan after the front end (Pipeline::track), as the loop-closing half takes it
  *  (Pipeline::addMatched). */
