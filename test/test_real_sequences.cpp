@@ -102,10 +102,12 @@ expectStepErrorsBelow(const evaluation::FrameRelativeError& e,
 // Handheld Livox Avia swung ~10 degrees between keyframes, FAST-LIO2's (IMU-aided)
 // odometry given: the front end must keep what the odometry got right. Its steps against
 // the optimised poses (FAST-LIO2 + Scan-Context/iSAM2; step by step the same as the
-// odometry's to 0.03 degrees mean): rotation 0.148 degrees mean, 0.58 worst; translation
-// 1.7 cm mean, 8.5 cm worst (before the front end's coarse-to-fine refinement 0.118, 0.76,
-// 1.6 cm, 14 cm: refined, the steps follow the sparse scans more and FAST-LIO2's IMU-aided
-// ones less on average; docs/design.md, "Coarse to fine"). With the prior's spread taken from
+// odometry's to 0.03 degrees mean): rotation 0.159 degrees mean, 0.85 worst; translation
+// 1.7 cm mean, 9.8 cm worst (registering voxel centroids instead of measured points 0.148,
+// 0.58, 1.7 cm, 8.5 cm: docs/design.md, "Sampling the registered points"; before the
+// front end's coarse-to-fine refinement 0.118, 0.76, 1.6 cm, 14 cm: refined, the steps
+// follow the sparse scans more and FAST-LIO2's IMU-aided ones less on average;
+// docs/design.md, "Coarse to fine"). With the prior's spread taken from
 // the combined model error (rotation weighed at max range) the matches drifted through the
 // close, nearly planar views of scans 112-137: 0.26 degrees, 1.09 worst; 2.8 cm, 29 cm worst.
 TEST(RealSequences, HandheldFrontEndKeepsTheOdometrysSteps)
@@ -114,15 +116,16 @@ TEST(RealSequences, HandheldFrontEndKeepsTheOdometrysSteps)
   const auto e = handheldStepErrors(odometry_file, kSanitized ? 30 : 241, false);
   if (kSanitized)
     return; // the run above is what the sanitizers look at
-  expectStepErrorsBelow(e, 0.15, 1.0, 0.025);
+  expectStepErrorsBelow(e, 0.17, 1.0, 0.025);
   EXPECT_LT(e.translation.max, 0.2);
 }
 
 // The same with loop closing (pLUM over 50-60 loop links): the relaxation must not bend
 // the steps the front end got right. Where the swung scanner sees only a close, nearly
 // planar patch (scans 112-137) pLUM's links of two reduced scans leave directions open;
-// the front end's steps, as sequence constraints, must hold them. Measured: 0.163 degrees
-// mean, 0.61 worst (0.142, 1.47 before the front end's coarse-to-fine refinement). With the
+// the front end's steps, as sequence constraints, must hold them. Measured: 0.147 degrees
+// mean, 0.75 worst (0.175, 0.87 registering voxel centroids; 0.142, 1.47 before the front
+// end's coarse-to-fine refinement). With the
 // constraints' Cauchy kernel judged by their own information (chi2 in the thousands there) they
 // yielded to whatever the loops pulled: 0.232, 3.29.
 TEST(RealSequences, HandheldLoopClosingKeepsTheSteps)
@@ -138,9 +141,9 @@ TEST(RealSequences, HandheldLoopClosingKeepsTheSteps)
 // so the local-map match starts from a match to the previous scan
 // (FrontEndParameters::guess_from_previous_scan), the best of it and of the predicted turn
 // stopped and doubled (the turn-rate hypotheses; docs/design.md, "Speed hypotheses").
-// Measured: per-step rotation error 0.61 degrees mean, 8.6 worst; without the turn-rate
-// hypotheses 1.44 and 17.6 (they lost the fastest swings, scans 114-140); from constant
-// velocity itself 5.0 mean.
+// Measured: per-step rotation error 0.40 degrees mean, 4.9 worst (0.61, 8.6 registering
+// voxel centroids); without the turn-rate hypotheses 1.44 and 17.6 (they lost the fastest
+// swings, scans 114-140); from constant velocity itself 5.0 mean.
 TEST(RealSequences, HandheldFrontEndWithoutOdometry)
 {
   PCL_PARALLEL_REQUIRE_DATA(reference_file, "fastlio_quick_shack/optimized_poses.txt");
@@ -162,8 +165,8 @@ TEST(RealSequences, HandheldFrontEndWithoutOdometry)
   std::printf("handheld without odometry: per-step rotation error %.2f deg mean, %.2f worst\n",
               e.mean,
               e.max);
-  EXPECT_LT(e.mean, 1.0);
-  EXPECT_LT(e.max, 12.0);
+  EXPECT_LT(e.mean, 0.6);
+  EXPECT_LT(e.max, 8.0);
   EXPECT_TRUE(std::any_of(reports.begin(), reports.end(), [](const slam::ScanReport& r) {
     return r.start_turn != 0.0;
   })) << "no turn-rate hypothesis won";
