@@ -757,11 +757,12 @@ printSummary(const Options& o,
       *r.odometry_disagreement > pcl_parallel::slam::kOdometryDisagreementLimit)
     std::fprintf(stderr,
                  "pcl_pslam: warning: pICP moved the scans %.2f times as far from the "
-                 "odometry's steps as the steps are long (median): is the odometry in "
-                 "the scanner's frame? (KITTI's poses.txt is the left camera's: apply "
-                 "calib.txt's Tr.) Without it the front end predicts by constant "
-                 "velocity\n",
-                 *r.odometry_disagreement);
+                 "odometry's steps as the steps are long (median of the first %zu steps): "
+                 "is the odometry in the scanner's frame? (KITTI's poses.txt is the left "
+                 "camera's: apply calib.txt's Tr.) Without it the front end predicts by "
+                 "constant velocity\n",
+                 *r.odometry_disagreement,
+                 pcl_parallel::slam::kOdometryDisagreementSteps);
   // Where the relaxation and the front end disagree most: the first places to look at in
   // a map. Steps beyond chi2's 99 % quantile for 6 degrees of freedom, or the kernel's
   // scale where one is set.

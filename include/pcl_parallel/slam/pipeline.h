@@ -144,9 +144,9 @@ mapFrame(const Cloud& scan,
          const Parameters& p);
 
 /** An odometryDisagreement above this says the odometry is in another frame, or broken.
- *  Measured: odometry in the scans' frame 0.02-0.03 (the presets, fastlio_quick_shack),
- *  mulran's poor odometry 0.14; turned into a camera's frame 0.31 (the corridor test set),
- *  1.04 (fastlio), 1.41 (kitti). */
+ *  Measured (first 20 steps): odometry in the scans' frame 0.017-0.035 (the presets,
+ *  fastlio_quick_shack), mulran's poor odometry 0.37; turned into a camera's frame 0.99
+ *  (the corridor test set), 1.20 (fastlio), 1.39 (kitti). */
 constexpr double kOdometryDisagreementLimit = 0.25;
 
 /** odometryDisagreement looks at this many steps from the first. */
