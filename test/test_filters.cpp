@@ -239,7 +239,8 @@ TEST(VoxelNearestToCentroid, KeepsPointsOnCurvedSurfacesAndCorners)
   }
   for (int i = 0; i < 20000; ++i) { // a corner: faces x = 5 (1 < y < 3) and y = 3 (x < 5)
     const float s = 2.0f * u(rng), z = 2.0f * u(rng);
-    cloud.push_back(i % 2 ? pcl::PointXYZ(5.0f, 3.0f - s, z) : pcl::PointXYZ(5.0f - s, 3.0f, z));
+    cloud.push_back(i % 2 ? pcl::PointXYZ(5.0f, 3.0f - s, z)
+                          : pcl::PointXYZ(5.0f - s, 3.0f, z));
   }
   const auto off_surface = [&](const pcl::PointXYZ& p) {
     if (p.y < 0.5f)

@@ -287,7 +287,10 @@ meanOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* last
 Cloud::Ptr
 voxelCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
 {
-  return reduceByVoxel(cloud, voxel_size, num_threads, "voxelCentroid",
+  return reduceByVoxel(cloud,
+                       voxel_size,
+                       num_threads,
+                       "voxelCentroid",
                        [&](const std::uint32_t* first, const std::uint32_t* last) {
                          const Eigen::Vector3f c = meanOf(cloud, first, last).cast<float>();
                          return pcl::PointXYZ(c.x(), c.y(), c.z());
@@ -297,7 +300,10 @@ voxelCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
 Cloud::Ptr
 voxelNearestToCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
 {
-  return reduceByVoxel(cloud, voxel_size, num_threads, "voxelNearestToCentroid",
+  return reduceByVoxel(cloud,
+                       voxel_size,
+                       num_threads,
+                       "voxelNearestToCentroid",
                        [&](const std::uint32_t* first, const std::uint32_t* last) {
                          const Eigen::Vector3d c = meanOf(cloud, first, last);
                          const std::uint32_t* best = first; // ties: the first in input order

@@ -29,13 +29,13 @@ enum class MatchTarget { kPreviousScan, kLocalMap };
 /** The front end's settings; lengths in the scans' units (metres for the defaults). */
 struct FrontEndParameters {
   MatchTarget target = MatchTarget::kLocalMap;
-  double voxel_size = 0.1;        ///< scan reduction kept in the map and for loop closing
+  double voxel_size = 0.1; ///< scan reduction kept in the map and for loop closing
   /** Coarser sample of the registered points: per voxel the measured point nearest its
    *  centroid (filters::voxelNearestToCentroid), so they lie on the surfaces. */
   double source_voxel_size = 0.3;
-  double map_distance = 30.0;     ///< local map: voxels within this of the scanner
-  double map_voxel_size = 0.3;    ///< local map voxel
-  int map_points_per_voxel = 20;  ///< local map density
+  double map_distance = 30.0;               ///< local map: voxels within this of the scanner
+  double map_voxel_size = 0.3;              ///< local map voxel
+  int map_points_per_voxel = 20;            ///< local map density
   double max_correspondence_distance = 0.5; ///< pICP gate (the first, when adaptive)
   /** A match whose gate is wider than this is refined from its result within this gate
    *  (coarse to fine): the wide gate is the prediction's basin, the narrow one keeps
