@@ -235,7 +235,7 @@ LoopCloser::matchPair(std::uint32_t i)
         scans_[i] ? scans_[i] : Cloud::ConstPtr(impl_->lum.getPointCloud(i));
     auto& icp = impl_->icp;
     icp.setInputSource(params_.icp_source_voxel_size > 0.0
-                           ? filters::voxelNearestToCentroid(
+                           ? filters::voxelCentroid(
                                  *scans_[j], params_.icp_source_voxel_size, params_.num_threads)
                            : scans_[j]);
     icp.setInputTarget(target);

@@ -27,7 +27,8 @@ struct LoopClosureParameters {
   int icp_iterations = 50;
   double icp_epsilon = 1e-8; ///< stop when the transform changes by less (as the front end)
   /** The newer scan of a loop pair is matched as a voxel sample this coarse (0: as kept),
-   *  taken as the front end takes its source (filters::voxelNearestToCentroid): the match
+   *  of centroids (filters::voxelCentroid; measured points, as the front end registers,
+   *  did no better here: docs/design.md, "Sampling the registered points"): the match
    *  only decides whether the link is kept, pLUM then pairs all points. */
   double icp_source_voxel_size = 0.0;
   double overlap_distance = 0.2; ///< a point overlaps if its partner is this close ...
