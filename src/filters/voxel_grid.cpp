@@ -244,16 +244,20 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   return g;
 }
 
-/** One point per voxel, pick(first, last) of the voxel's points listed in order[first,
- *  last) (input order), for every voxel in parallel: in key order and the same for any
- *  thread count. voxel_size <= 0 (or NaN): the finite points unchanged. */
-template <typename Pick>
+/** A voxel's points: cloud[*first] .. cloud[*(last - 1)], in input order. */
+using PickPoint = pcl::PointXYZ (*)(const Cloud& cloud,
+                                    const std::uint32_t* first,
+                                    const std::uint32_t* last);
+
+/** One point per voxel, pick(cloud, first, last) of the voxel's points, for every voxel
+ *  in parallel: in key order and the same for any thread count. voxel_size <= 0 (or
+ *  NaN): the finite points unchanged. */
 Cloud::Ptr
 reduceByVoxel(const Cloud& cloud,
               double voxel_size,
               unsigned num_threads,
               const char* who,
-              const Pick& pick)
+              PickPoint pick)
 {
   Cloud::Ptr out(new Cloud);
   if (!(voxel_size > 0.0)) {
@@ -268,11 +272,11 @@ reduceByVoxel(const Cloud& cloud,
   const unsigned threads = resolveNumberOfThreads(num_threads);
 #pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && voxels > 5000)
   for (std::int64_t v = 0; v < voxels; ++v)
-    (*out)[v] = pick(g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
+    (*out)[v] = pick(cloud, g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
   return out;
 }
 
-/** The mean of the points cloud[*first] .. cloud[*(last - 1)], summed in double in order. */
+/** The mean of a voxel's points, summed in double in input order. */
 Eigen::Vector3d
 meanOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* last)
 {
@@ -282,40 +286,41 @@ meanOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* last
   return sum / static_cast<double>(last - first);
 }
 
+pcl::PointXYZ
+centroidOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* last)
+{
+  const Eigen::Vector3f c = meanOf(cloud, first, last).cast<float>();
+  return pcl::PointXYZ(c.x(), c.y(), c.z());
+}
+
+/** The voxel's point nearest its centroid; ties: the first in input order. */
+pcl::PointXYZ
+nearestToCentroidOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* last)
+{
+  const Eigen::Vector3d c = meanOf(cloud, first, last);
+  const std::uint32_t* best = first;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (const std::uint32_t* i = first; i != last; ++i) {
+    const double d = (cloud[*i].getVector3fMap().cast<double>() - c).squaredNorm();
+    if (d < best_d)
+      best_d = d, best = i;
+  }
+  return cloud[*best];
+}
+
 } // namespace
 
 Cloud::Ptr
 voxelCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
 {
-  return reduceByVoxel(cloud,
-                       voxel_size,
-                       num_threads,
-                       "voxelCentroid",
-                       [&](const std::uint32_t* first, const std::uint32_t* last) {
-                         const Eigen::Vector3f c = meanOf(cloud, first, last).cast<float>();
-                         return pcl::PointXYZ(c.x(), c.y(), c.z());
-                       });
+  return reduceByVoxel(cloud, voxel_size, num_threads, "voxelCentroid", centroidOf);
 }
 
 Cloud::Ptr
 voxelNearestToCentroid(const Cloud& cloud, double voxel_size, unsigned num_threads)
 {
-  return reduceByVoxel(cloud,
-                       voxel_size,
-                       num_threads,
-                       "voxelNearestToCentroid",
-                       [&](const std::uint32_t* first, const std::uint32_t* last) {
-                         const Eigen::Vector3d c = meanOf(cloud, first, last);
-                         const std::uint32_t* best = first; // ties: the first in input order
-                         double best_d = std::numeric_limits<double>::infinity();
-                         for (const std::uint32_t* i = first; i != last; ++i) {
-                           const double d =
-                               (cloud[*i].getVector3fMap().cast<double>() - c).squaredNorm();
-                           if (d < best_d)
-                             best_d = d, best = i;
-                         }
-                         return cloud[*best];
-                       });
+  return reduceByVoxel(
+      cloud, voxel_size, num_threads, "voxelNearestToCentroid", nearestToCentroidOf);
 }
 
 // ---------------------------------------------------------------------------------------
