@@ -131,5 +131,9 @@ runSimPreset(const Options& opt, const std::string& name);
 int
 runMemory(const Options& opt);
 
+/** voxelCentroid vs pcl::VoxelGrid, voxelNearestToCentroid vs pcl::UniformSampling. */
+int
+runFilters(const Options& opt);
+
 } // namespace bench
 } // namespace pcl_parallel

@@ -60,7 +60,7 @@ usage()
   std::printf(
       "usage: pcl_parallel_bench <what> [--data DIR] [--repeats N] [--threads 1,2,...] "
       "[--no-reference]\n"
-      "  what: kdtree | icp | lum (= lum-bunny + lum-scaling) | all\n        pslam (every "
+      "  what: kdtree | filters | icp | lum (= lum-bunny + lum-scaling) | all\n        pslam (every "
       "preset, minutes) | pslam-office | pslam-hannover | pslam-riegl | pslam-kitti | "
       "pslam-kitti-cv\n"
       "        sim (every preset, minutes) | sim-office | sim-hannover | sim-riegl | "
@@ -121,6 +121,7 @@ main(int argc, char** argv)
 
   const std::map<std::string, int (*)(const Options&)> benches = {
       {"kdtree", runKdTree},
+      {"filters", runFilters},
       {"lum", runLum},
       {"lum-bunny", runLumBunny},
       {"lum-scaling", runLumScaling},
