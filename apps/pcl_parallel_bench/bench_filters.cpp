@@ -29,7 +29,8 @@ runFilters(const Options& opt)
   std::printf("## Voxel sampling: one kitti preset sweep (%zu points, m), median of %d\n\n",
               sweep->size(),
               opt.repeats);
-  Table table({"voxel [m]", "sampling", "points", "PCL [ms]", "threads", "ours [ms]", "vs PCL"});
+  Table table(
+      {"voxel [m]", "sampling", "points", "PCL [ms]", "threads", "ours [ms]", "vs PCL"});
   // 0.1: the map file's voxel; 0.37: the automatic reduction voxel for this sweep (median
   // range / 20); 1.1: the front end's registered sample (3 voxels).
   for (const double voxel : {0.1, 0.37, 1.1}) {
@@ -45,8 +46,8 @@ runFilters(const Options& opt)
     const double t_uniform = medianSeconds(opt.repeats, [&] { uniform.filter(out); });
     for (const unsigned t : opt.threads) {
       Cloud::Ptr ours;
-      const double t_centroid = medianSeconds(
-          opt.repeats, [&] { ours = filters::voxelCentroid(*sweep, voxel, t); });
+      const double t_centroid =
+          medianSeconds(opt.repeats, [&] { ours = filters::voxelCentroid(*sweep, voxel, t); });
       table.addRow({fmt("%.2f", voxel),
                     "centroid / `VoxelGrid`",
                     std::to_string(ours->size()),
