@@ -44,26 +44,24 @@ runFilters(const Options& opt)
     uniform.setInputCloud(sweep);
     uniform.setRadiusSearch(voxel);
     const double t_uniform = medianSeconds(opt.repeats, [&] { uniform.filter(out); });
+    using Sampling = Cloud::Ptr (*)(const Cloud&, double, unsigned);
+    const auto row = [&](const char* name, double t_pcl, Sampling ours, unsigned t) {
+      Cloud::Ptr out;
+      const double t_ours = medianSeconds(opt.repeats, [&] { out = ours(*sweep, voxel, t); });
+      table.addRow({fmt("%.2f", voxel),
+                    name,
+                    std::to_string(out->size()),
+                    fmt("%.2f", 1e3 * t_pcl),
+                    std::to_string(t),
+                    fmt("%.2f", 1e3 * t_ours),
+                    fmt("%.2fx", t_pcl / t_ours)});
+    };
     for (const unsigned t : opt.threads) {
-      Cloud::Ptr ours;
-      const double t_centroid =
-          medianSeconds(opt.repeats, [&] { ours = filters::voxelCentroid(*sweep, voxel, t); });
-      table.addRow({fmt("%.2f", voxel),
-                    "centroid / `VoxelGrid`",
-                    std::to_string(ours->size()),
-                    fmt("%.2f", 1e3 * t_grid),
-                    std::to_string(t),
-                    fmt("%.2f", 1e3 * t_centroid),
-                    fmt("%.2fx", t_grid / t_centroid)});
-      const double t_nearest = medianSeconds(
-          opt.repeats, [&] { ours = filters::voxelNearestToCentroid(*sweep, voxel, t); });
-      table.addRow({fmt("%.2f", voxel),
-                    "nearest to centroid / `UniformSampling`",
-                    std::to_string(ours->size()),
-                    fmt("%.2f", 1e3 * t_uniform),
-                    std::to_string(t),
-                    fmt("%.2f", 1e3 * t_nearest),
-                    fmt("%.2fx", t_uniform / t_nearest)});
+      row("centroid / `VoxelGrid`", t_grid, filters::voxelCentroid, t);
+      row("nearest to centroid / `UniformSampling`",
+          t_uniform,
+          filters::voxelNearestToCentroid,
+          t);
     }
   }
   table.print();
