@@ -46,11 +46,12 @@ runFilters(const Options& opt)
     const double t_uniform = medianSeconds(opt.repeats, [&] { uniform.filter(out); });
     using Sampling = Cloud::Ptr (*)(const Cloud&, double, unsigned);
     const auto row = [&](const char* name, double t_pcl, Sampling ours, unsigned t) {
-      Cloud::Ptr out;
-      const double t_ours = medianSeconds(opt.repeats, [&] { out = ours(*sweep, voxel, t); });
+      Cloud::Ptr sampled;
+      const double t_ours =
+          medianSeconds(opt.repeats, [&] { sampled = ours(*sweep, voxel, t); });
       table.addRow({fmt("%.2f", voxel),
                     name,
-                    std::to_string(out->size()),
+                    std::to_string(sampled->size()),
                     fmt("%.2f", 1e3 * t_pcl),
                     std::to_string(t),
                     fmt("%.2f", 1e3 * t_ours),
