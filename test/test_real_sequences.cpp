@@ -125,9 +125,9 @@ TEST(RealSequences, HandheldFrontEndKeepsTheOdometrysSteps)
 // planar patch (scans 112-137) pLUM's links of two reduced scans leave directions open;
 // the front end's steps, as sequence constraints, must hold them. Measured: 0.147 degrees
 // mean, 0.75 worst (0.175, 0.87 registering voxel centroids; 0.142, 1.47 before the front
-// end's coarse-to-fine refinement). With the
-// constraints' Cauchy kernel judged by their own information (chi2 in the thousands there) they
-// yielded to whatever the loops pulled: 0.232, 3.29.
+// end's coarse-to-fine refinement). With the constraints' Cauchy kernel judged by their own
+// information (chi2 in the thousands there) they yielded to whatever the loops pulled:
+// 0.232, 3.29.
 TEST(RealSequences, HandheldLoopClosingKeepsTheSteps)
 {
   PCL_PARALLEL_REQUIRE_DATA(odometry_file, "fastlio_quick_shack/odom_poses.txt");

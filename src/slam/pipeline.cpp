@@ -205,8 +205,10 @@ Pipeline::track(const Cloud& scan,
 std::optional<double>
 odometryDisagreement(const std::vector<ScanReport>& reports, double min_step)
 {
+  // The first scan has no step; the window's end, once.
+  const std::size_t end = std::min(reports.size(), 1 + kOdometryDisagreementSteps);
   std::vector<double> corrections, steps;
-  for (std::size_t i = 1; i < std::min(reports.size(), 1 + kOdometryDisagreementSteps); ++i) {
+  for (std::size_t i = 1; i < end; ++i) {
     corrections.push_back(reports[i].correction);
     steps.push_back(reports[i].predicted_step);
   }
