@@ -302,6 +302,10 @@ private:
   pcl::shared_ptr<search::KdTree<MapPoint>> previous_tree_;
   std::shared_ptr<const KdTreeIndex> previous_index_; ///< previous_tree_'s index
   Cloud::ConstPtr previous_points_;                   ///< its points, without normals
+  /** The scan before it, its tree and its pose in the previous scan's frame: what judges
+   *  a hypothesis that stands still against one that moves (bestHypothesis). */
+  std::shared_ptr<const KdTreeIndex> before_previous_index_;
+  Pose before_previous_ = Pose::Identity();
   std::vector<double> overlaps_; ///< of the recent matches to the previous scan
   /** The direction of the last step longer than a voxel, in the scanner's frame: where
    *  speed hypotheses go when the predicted step is too short to have one. */
