@@ -20,7 +20,6 @@
 #include <pcl_parallel/slam/correlative_search.h>
 #include <pcl_parallel/slam/local_map.h>
 #include <pcl_parallel/slam/loop_closure.h>
-#include <pcl_parallel/slam/overlap.h>
 #include <pcl_parallel/slam/pipeline.h>
 #include <pcl_parallel/slam/preprocess.h>
 #include <pcl_parallel/slam/segments.h>
@@ -1104,51 +1103,6 @@ TEST(LoopCloser, SpreadsOnlyAVisibleLoopError)
     else
       EXPECT_EQ(distributed, 0u);
   }
-}
-
-// overlap() and fitnessScore() against brute force: the fraction of moved source points
-// with a target point within the distance, and (PCL's getFitnessScore) the mean squared
-// distance over those; the largest double where none has one.
-TEST(Overlap, FractionAndFitnessMatchBruteForce)
-{
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> u(-5.0f, 5.0f);
-  Cloud source, target;
-  for (int i = 0; i < 400; ++i)
-    source.push_back(pcl::PointXYZ(u(rng), u(rng), 0.2f * u(rng)));
-  for (int i = 0; i < 3000; ++i)
-    target.push_back(pcl::PointXYZ(u(rng), u(rng), 0.2f * u(rng)));
-  KdTreeIndex tree;
-  tree.build(target.front().data, target.size(), sizeof(pcl::PointXYZ) / sizeof(float));
-  Pose pose = Pose::Identity();
-  pose.topLeftCorner<3, 3>() =
-      Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  pose.topRightCorner<3, 1>() << 1.5, -0.5, 0.1;
-  for (const double max_distance : {0.1, 0.3, 1.0}) {
-    std::size_t hits = 0, hits_every_3rd = 0, tried_every_3rd = 0;
-    double sum = 0.0;
-    for (std::size_t k = 0; k < source.size(); ++k) {
-      const Eigen::Vector3f q = (pose.cast<float>() * source[k].getVector4fMap()).head<3>();
-      float best = std::numeric_limits<float>::max();
-      for (const auto& t : target)
-        best = std::min(best, (t.getVector3fMap() - q).squaredNorm());
-      const bool hit = best <= max_distance * max_distance;
-      hits += hit;
-      sum += hit ? best : 0.0;
-      if (k % 3 == 0)
-        ++tried_every_3rd, hits_every_3rd += hit;
-    }
-    ASSERT_GT(hits, 0u);
-    EXPECT_DOUBLE_EQ(slam::overlap(source, pose, tree, max_distance), double(hits) / 400.0);
-    EXPECT_DOUBLE_EQ(slam::overlap(source, pose, tree, max_distance, 3),
-                     double(hits_every_3rd) / double(tried_every_3rd));
-    EXPECT_NEAR(
-        slam::fitnessScore(source, pose, tree, max_distance), sum / hits, 1e-6 * sum / hits);
-  }
-  pose.topRightCorner<3, 1>() << 100.0, 0.0, 0.0; // nothing within reach
-  EXPECT_EQ(slam::overlap(source, pose, tree, 1.0), 0.0);
-  EXPECT_EQ(slam::fitnessScore(source, pose, tree, 1.0), std::numeric_limits<double>::max());
-  EXPECT_EQ(slam::overlap(Cloud(), pose, tree, 1.0), 0.0);
 }
 
 TEST(LoopCloser, CandidatesByDistanceAndSeparation)

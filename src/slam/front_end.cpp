@@ -395,8 +395,6 @@ FrontEnd::track(const Cloud& scan,
     r.first_scan = deskewFirstAgain(sweep);
     reduced = reduce(scan, sweep_times, sweep);
   }
-  before_previous_ = r.pose.inverse() * pose_;
-  before_previous_index_ = previous_index_;
   pose_ = r.pose;
 
   r.scan = keep(reduced);
@@ -550,16 +548,8 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
   double best =
       own ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
   std::optional<Pose> winner;
-  // A match that ends where the previous scan was taken shares its sampling pattern (a
-  // rotating scanner's near field, its rings on a floor) and fits it better than the
-  // true step along a corridor: between such a stop and a move, the scan before judges.
   const auto standsStill = [&](const Pose& p) {
     return registration::motionDisplacement(pose_.inverse() * p, h.range) <= same;
-  };
-  const Pose to_before = before_previous_.inverse() * pose_.inverse();
-  const auto fitsBefore = [&](const Pose& a, const Pose& b) {
-    return fitnessScore(*source, to_before * a, *before_previous_index_, gate) <
-           fitnessScore(*source, to_before * b, *before_previous_index_, gate);
   };
   // The prior stays at the prediction: what the motion model believes, not the start.
   const auto tryStart = [&](const Pose& start, double offset, double turn) {
@@ -567,13 +557,15 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
     if (!other)
       return;
     const double fitness = icp_->to_previous.getFitnessScore(gate);
-    // A start that ends where the best so far did is the same solution, not a rival.
     const std::optional<Pose>& leader = winner ? winner : own;
-    if (leader && registration::motionDisplacement(leader->inverse() * *other, h.range) <= same)
+    // A start that ends where the best so far did is the same solution, not a rival; one
+    // that ends where the previous scan was taken shares its sampling pattern, so its
+    // fitness is no measure against a match that moves (docs/design.md, "Standing still").
+    if (leader &&
+        (registration::motionDisplacement(leader->inverse() * *other, h.range) <= same ||
+         (standsStill(*other) && !standsStill(*leader))))
       return;
-    const bool judged_before =
-        leader && before_previous_index_ && standsStill(*leader) != standsStill(*other);
-    if (judged_before ? fitsBefore(*other, *leader) : fitness < best) {
+    if (fitness < best) {
       best = fitness;
       winner = other;
       r.start_offset = offset;

@@ -17,6 +17,11 @@ done
 # MPI is up.
 yes '1.5 2.5 3.5' | head -n 8000000 > "$work/scans/scan5.xyz"
 
+# Open MPI ends the other ranks with SIGTERM and, 1 s later by default, SIGKILL: on a
+# loaded machine (ctest -j) rank 0 may not run in between, and its line is lost (2 of 4
+# runs beside 3 busy loops on 2 cores; 0 of 6 at 4 s). mpirun waits out the whole delay
+# even when the ranks have gone, so it stays short.
+export OMPI_MCA_odls_base_sigkill_timeout=4
 timeout 120 "${mpirun[@]}" "$np_flag" 3 "$pslam" run "$work/scans" -q --segment-size 2 \
   -t 1 -o "$work/out" > "$work/log" 2>&1 &
 job=$!

@@ -70,7 +70,9 @@ struct FrontEndParameters {
    *  between keyframes 0.5 s apart, 5-8 m), and along a street a start metres short
    *  converges to a false fit near the previous pose, which then sets the velocity
    *  (docs/design.md, "Speed hypotheses"). Starts within the refinement gate of the
-   *  prediction are not tried, so a narrow gate costs nothing. */
+   *  prediction are not tried, so a narrow gate costs nothing. A match that ends where
+   *  the previous scan was taken shares its sampling pattern and does not replace one
+   *  that moves (docs/design.md, "Standing still"). */
   bool speed_hypotheses = true;
   /** Without odometry, where the match to the previous scan looks wrong (the first one,
    *  or one that overlaps the previous scan less than 0.7 times the recent matches'
@@ -302,10 +304,6 @@ private:
   pcl::shared_ptr<search::KdTree<MapPoint>> previous_tree_;
   std::shared_ptr<const KdTreeIndex> previous_index_; ///< previous_tree_'s index
   Cloud::ConstPtr previous_points_;                   ///< its points, without normals
-  /** The scan before it, its tree and its pose in the previous scan's frame: what judges
-   *  a hypothesis that stands still against one that moves (bestHypothesis). */
-  std::shared_ptr<const KdTreeIndex> before_previous_index_;
-  Pose before_previous_ = Pose::Identity();
   std::vector<double> overlaps_; ///< of the recent matches to the previous scan
   /** The direction of the last step longer than a voxel, in the scanner's frame: where
    *  speed hypotheses go when the predicted step is too short to have one. */

@@ -22,14 +22,5 @@ overlap(const Cloud& source,
         double max_distance,
         std::size_t step = 1);
 
-/** PCL's Registration::getFitnessScore(max_distance) against a tree: the mean squared
- *  distance from `source`'s points, moved by `pose`, to their nearest `target` point,
- *  over those that have one within max_distance; as PCL, the largest double where none has. */
-double
-fitnessScore(const Cloud& source,
-             const Pose& pose,
-             const KdTreeIndex& target,
-             double max_distance);
-
 } // namespace slam
 } // namespace pcl_parallel
