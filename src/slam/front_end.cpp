@@ -537,6 +537,12 @@ FrontEnd::sameSolution() const
   return std::max(params_.final_correspondence_distance, params_.voxel_size);
 }
 
+bool
+FrontEnd::atPreviousScan(const Pose& local) const
+{
+  return local.topRightCorner<3, 1>().norm() <= sameSolution();
+}
+
 std::optional<Pose>
 FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
                          const Pose& prediction,
@@ -548,9 +554,6 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
   double best =
       own ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
   std::optional<Pose> winner;
-  const auto standsStill = [&](const Pose& p) {
-    return registration::motionDisplacement(pose_.inverse() * p, h.range) <= same;
-  };
   // The prior stays at the prediction: what the motion model believes, not the start.
   const auto tryStart = [&](const Pose& start, double offset, double turn) {
     const std::optional<Pose> other = alignToPrevious(source, start, false, &prediction);
@@ -563,7 +566,8 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
     // fitness is no measure against a match that moves (docs/design.md, "Standing still").
     if (leader &&
         (registration::motionDisplacement(leader->inverse() * *other, h.range) <= same ||
-         (standsStill(*other) && !standsStill(*leader))))
+         (atPreviousScan(pose_.inverse() * *other) &&
+          !atPreviousScan(pose_.inverse() * *leader))))
       return;
     if (fitness < best) {
       best = fitness;
@@ -604,9 +608,11 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
       own ? std::optional<Pose>(pose_.inverse() * *own) : std::nullopt;
   const double own_overlap =
       own_local ? overlap(*source, *own_local, *previous_index_, same) : 0.0;
-  // Searched only where the match looks wrong: the first, or one that sees far less of
-  // the previous scan than the recent matches did.
-  if (!overlaps_.empty() && own_overlap >= kSearchOverlapRatio * median(overlaps_)) {
+  // Searched only where the match looks wrong: the first, one that sees far less of the
+  // previous scan than the recent matches did, or one where a turn hypothesis won (the
+  // prediction missed the turn by its own size: a turn nothing predicted).
+  if (!overlaps_.empty() && r.start_turn == 0.0 &&
+      own_overlap >= kSearchOverlapRatio * median(overlaps_)) {
     keepOverlap(own_overlap);
     return std::nullopt;
   }
@@ -632,7 +638,8 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
                          start,
                          std::nullopt);
     if (!m || (own_local &&
-               registration::motionDisplacement(own_local->inverse() * *m, range) <= same))
+               (registration::motionDisplacement(own_local->inverse() * *m, range) <= same ||
+                (atPreviousScan(*m) && !atPreviousScan(*own_local)))))
       continue;
     if (const double o = overlap(*source, *m, *previous_index_, same); o > best) {
       best = o;

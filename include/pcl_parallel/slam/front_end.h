@@ -263,6 +263,12 @@ private:
    *  voxel. */
   double
   sameSolution() const;
+  /** Whether a match (in the previous scan's frame) puts the scanner where the previous
+   *  scan was taken, within sameSolution(), at any heading: there the two scans share
+   *  their sampling pattern, and their fitness and overlap are biased towards it
+   *  (docs/design.md, "Standing still"). */
+  bool
+  atPreviousScan(const Pose& local) const;
   /** Right after `own`, the prediction's match to the previous scan: the best of the
    *  hypotheses' matches if one fits better and ends elsewhere (more than sameSolution()
    *  at the median range; r.start_offset and r.start_turn say which), else none. */
