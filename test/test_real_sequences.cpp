@@ -201,7 +201,9 @@ carProgress(const Poses& poses, std::size_t first = 0)
 // went below the residual spread: 92 %, 153 m).
 // Matched to the local map from constant velocity the front end stalled there: 85 %, 47 m (and
 // 1,043 m); with the prior's spread from the combined model error it lost the street and
-// wandered in a 100 m tangle: 50 %, 30 m.
+// wandered in a 100 m tangle: 50 %, 30 m. With speed hypotheses that could start behind the
+// previous keyframe, the creeping start zig-zagged (keyframes 1-11: 30 m of steps, 0.8 m
+// net; 98.5 %, 400 m, 746 m); now 100 %, 401 m, 809 m.
 TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
 {
   PCL_PARALLEL_REQUIRE_DATA(dir, "mulran_riverside02_keyframes/bin");
@@ -219,7 +221,7 @@ TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
               100.0 * forward,
               pull_away,
               end_to_start);
-  EXPECT_GT(forward, 0.95);
+  EXPECT_GT(forward, 0.995); // at most one of 331 steps backwards
   EXPECT_GT(pull_away, 200.0);
   EXPECT_GT(end_to_start, 500.0);
 }

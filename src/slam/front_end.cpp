@@ -518,6 +518,7 @@ FrontEnd::hypotheses(const Cloud& source, const Pose& prediction) const
   // Speed: along the predicted step, or the way the scanner last moved (in its frame).
   const Eigen::Vector3d t = step.topRightCorner<3, 1>();
   h.travel = t.norm() >= params_.voxel_size ? t.normalized() : heading_;
+  h.speed = t.dot(h.travel);
   const double sigma = gate() / 3.0;
   if (!h.travel.isZero() && 2.0 * sigma > same)
     h.sigma = sigma;
@@ -577,7 +578,10 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
     }
   };
   for (const double k : {-2.0, -1.0, 1.0, 2.0})
-    if (h.sigma > 0.0 && std::abs(k) * h.sigma > same) {
+    // Speed, not direction: a start behind the previous scan's position would reverse the
+    // travel, and along a street it ends in a false fit behind (docs/design.md, "Standing
+    // still").
+    if (h.sigma > 0.0 && std::abs(k) * h.sigma > same && h.speed + k * h.sigma >= -same) {
       Pose start = prediction;
       start.topRightCorner<3, 1>() += pose_.topLeftCorner<3, 3>() * (k * h.sigma * h.travel);
       tryStart(start, k * h.sigma, 0.0);

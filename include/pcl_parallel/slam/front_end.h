@@ -214,6 +214,7 @@ private:
      *  direction, or a gate whose starts all lie inside the refinement gate). */
     Eigen::Vector3d travel = Eigen::Vector3d::Zero();
     double sigma = 0.0;
+    double speed = 0.0; ///< the predicted step's length along `travel`
     /** Turn rate: the predicted turn stopped and doubled; none at angle 0 (a turn that
      *  moves the median range's points less than the refinement gate). */
     Eigen::AngleAxisd turn = Eigen::AngleAxisd(0.0, Eigen::Vector3d::UnitZ());
