@@ -64,7 +64,8 @@ struct FrontEndParameters {
   bool guess_from_previous_scan = true;
   /** Without odometry, the match to the previous scan (the map match's guess, or with
    *  kPreviousScan the match itself) also starts from the prediction moved
-   *  along the direction of travel by -2, -1, +1 and +2 sigma of the adaptive gate, and
+   *  along the direction of travel by -2, -1, +1 and +2 sigma of the adaptive gate (none
+   *  behind the previous scan's position: speed, not direction), and
    *  the start whose match fits the previous scan best (pICP's fitness within the gate)
    *  gives the guess. Constant velocity misses a change of speed (a car pulling away
    *  between keyframes 0.5 s apart, 5-8 m), and along a street a start metres short
