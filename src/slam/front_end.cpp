@@ -544,6 +544,16 @@ FrontEnd::atPreviousScan(const Pose& local) const
   return local.topRightCorner<3, 1>().norm() <= sameSolution();
 }
 
+bool
+FrontEnd::isRival(const Pose& leader, const Pose& other, double range) const
+{
+  // A match where the best so far ended is the same solution; one that ends where the
+  // previous scan was taken shares its sampling pattern, so its fitness and overlap are
+  // no measure against a match that moves (docs/design.md, "Standing still").
+  return registration::motionDisplacement(leader.inverse() * other, range) > sameSolution() &&
+         !(atPreviousScan(other) && !atPreviousScan(leader));
+}
+
 std::optional<Pose>
 FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
                          const Pose& prediction,
@@ -562,13 +572,7 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
       return;
     const double fitness = icp_->to_previous.getFitnessScore(gate);
     const std::optional<Pose>& leader = winner ? winner : own;
-    // A start that ends where the best so far did is the same solution, not a rival; one
-    // that ends where the previous scan was taken shares its sampling pattern, so its
-    // fitness is no measure against a match that moves (docs/design.md, "Standing still").
-    if (leader &&
-        (registration::motionDisplacement(leader->inverse() * *other, h.range) <= same ||
-         (atPreviousScan(pose_.inverse() * *other) &&
-          !atPreviousScan(pose_.inverse() * *leader))))
+    if (leader && !isRival(pose_.inverse() * *leader, pose_.inverse() * *other, h.range))
       return;
     if (fitness < best) {
       best = fitness;
@@ -641,9 +645,7 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
                          icp_->threshold != nullptr,
                          start,
                          std::nullopt);
-    if (!m || (own_local &&
-               (registration::motionDisplacement(own_local->inverse() * *m, range) <= same ||
-                (atPreviousScan(*m) && !atPreviousScan(*own_local)))))
+    if (!m || (own_local && !isRival(*own_local, *m, range)))
       continue;
     if (const double o = overlap(*source, *m, *previous_index_, same); o > best) {
       best = o;

@@ -76,11 +76,11 @@ struct FrontEndParameters {
    *  that moves (docs/design.md, "Standing still"). */
   bool speed_hypotheses = true;
   /** Without odometry, where the match to the previous scan looks wrong (the first one,
-   *  or one that overlaps the previous scan less than 0.7 times the recent matches'
-   *  median), the pose is also searched over all headings about `up` and translations
-   *  (correlativeSearch), and pICP from its best candidates gives the guess where one
-   *  overlaps the previous scan more (docs/design.md, "Pose search"). For motion nothing
-   *  predicts: a stop-and-go scanner without initial poses is carried from one station
+   *  one where a turn hypothesis won, or one that overlaps the previous scan less than
+   *  0.7 times the recent matches' median), the pose is also searched over all headings about
+   * `up` and translations (correlativeSearch), and pICP from its best candidates gives the
+   * guess where one overlaps the previous scan more (docs/design.md, "Pose search"). For motion
+   * nothing predicts: a stop-and-go scanner without initial poses is carried from one station
    *  to the next and turned by any angle. */
   bool pose_search = true;
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ(); ///< the vertical axis, scanner frame
@@ -271,6 +271,11 @@ private:
    *  (docs/design.md, "Standing still"). */
   bool
   atPreviousScan(const Pose& local) const;
+  /** Whether `other` may replace `leader` (both in the previous scan's frame; poses
+   *  compared at `range`): not if it is the same solution, nor if it stands at the
+   *  previous scan where the leader moves (atPreviousScan). */
+  bool
+  isRival(const Pose& leader, const Pose& other, double range) const;
   /** Right after `own`, the prediction's match to the previous scan: the best of the
    *  hypotheses' matches if one fits better and ends elsewhere (more than sameSolution()
    *  at the median range; r.start_offset and r.start_turn say which), else none. */
