@@ -13,7 +13,6 @@
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/filters/voxel_grid.h>
-#include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/simulated_scans.h>
@@ -641,13 +640,11 @@ TEST(Pipeline, StopAndGoWithoutPosesThroughCorridorsAndACrossing)
   const PipelineRun run = runPipeline(set, frontEndOnly(), false);
   for (std::size_t i = 1; i < set.truth.size(); ++i) {
     const Pose truth = set.truth[i - 1].inverse() * set.truth[i];
-    const Pose error = truth.inverse() * (run.front_end[i - 1].inverse() * run.front_end[i]);
-    const double distance = error.topRightCorner<3, 1>().norm();
-    const double angle =
-        Eigen::AngleAxisd(Eigen::Matrix3d(error.topLeftCorner<3, 3>())).angle();
-    EXPECT_LT(distance, 0.4) << "step " << i << " of " << truth.topRightCorner<3, 1>().norm()
-                             << " m";
-    EXPECT_LT(angle, 1.0 * kDeg) << "step " << i;
+    const auto e =
+        evaluation::poseError(run.front_end[i - 1].inverse() * run.front_end[i], truth);
+    EXPECT_LT(e.distance, 0.4) << "step " << i << " of " << truth.topRightCorner<3, 1>().norm()
+                               << " m";
+    EXPECT_LT(e.angle, 1.0 * kDeg) << "step " << i;
   }
 }
 

@@ -60,9 +60,9 @@ usage()
   std::printf(
       "usage: pcl_parallel_bench <what> [--data DIR] [--repeats N] [--threads 1,2,...] "
       "[--no-reference]\n"
-      "  what: kdtree | filters | icp | lum (= lum-bunny + lum-scaling) | all\n        pslam (every "
-      "preset, minutes) | pslam-office | pslam-hannover | pslam-riegl | pslam-kitti | "
-      "pslam-kitti-cv\n"
+      "  what: kdtree | filters | icp | lum (= lum-bunny + lum-scaling) | all\n"
+      "        pslam (every preset, minutes) | pslam-office | pslam-hannover | pslam-riegl | "
+      "pslam-kitti | pslam-kitti-cv\n"
       "        sim (every preset, minutes) | sim-office | sim-hannover | sim-riegl | "
       "sim-kitti\n"
       "        memory (not in all: ICP on 20 million points, a few GB)\n"

@@ -565,6 +565,7 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
   double best =
       own ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
   std::optional<Pose> winner;
+  const Pose to_previous = pose_.inverse(); // rivals are compared in its frame
   // The prior stays at the prediction: what the motion model believes, not the start.
   const auto tryStart = [&](const Pose& start, double offset, double turn) {
     const std::optional<Pose> other = alignToPrevious(source, start, false, &prediction);
@@ -572,7 +573,7 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
       return;
     const double fitness = icp_->to_previous.getFitnessScore(gate);
     const std::optional<Pose>& leader = winner ? winner : own;
-    if (leader && !isRival(pose_.inverse() * *leader, pose_.inverse() * *other, h.range))
+    if (leader && !isRival(to_previous * *leader, to_previous * *other, h.range))
       return;
     if (fitness < best) {
       best = fitness;

@@ -77,11 +77,11 @@ struct FrontEndParameters {
   bool speed_hypotheses = true;
   /** Without odometry, where the match to the previous scan looks wrong (the first one,
    *  one where a turn hypothesis won, or one that overlaps the previous scan less than
-   *  0.7 times the recent matches' median), the pose is also searched over all headings about
-   * `up` and translations (correlativeSearch), and pICP from its best candidates gives the
-   * guess where one overlaps the previous scan more (docs/design.md, "Pose search"). For motion
-   * nothing predicts: a stop-and-go scanner without initial poses is carried from one station
-   *  to the next and turned by any angle. */
+   *  0.7 times the recent matches' median), the pose is also searched over all headings
+   *  about `up` and translations (correlativeSearch), and pICP from its best candidates
+   *  gives the guess where one overlaps the previous scan more (docs/design.md, "Pose
+   *  search"). For motion nothing predicts: a stop-and-go scanner without initial poses
+   *  is carried from one station to the next and turned by any angle. */
   bool pose_search = true;
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ(); ///< the vertical axis, scanner frame
   /** Point-to-plane pICP instead of point-to-point. */
