@@ -59,6 +59,9 @@ constexpr std::size_t kSearchOverlapHistory = 20;
 /** The search's match replaces the prediction's only if it overlaps the previous scan by
  *  this factor more: along a street or a corridor, shifted matches overlap alike. */
 constexpr double kSearchMargin = 1.25;
+/** The pose search works on points whose normal lies more than 45 degrees from up
+ *  (walls, poles, facades) where a scan has at least this many, else on all. */
+constexpr std::size_t kMinUprightPoints = 100;
 
 /** The reduced points' k-d tree (scanner frame): the scan's one tree, for its normals,
  *  the next scan's match to it and pLUM (ParallelLUM::setSearchTree: the tree pLUM would
@@ -107,6 +110,33 @@ scannerFrameCloud(const Cloud& reduced, const std::vector<Eigen::Vector3f>& norm
     p.getNormalVector3fMap() = normals[i] == Eigen::Vector3f::Zero() ? none : normals[i];
     p.curvature = 0.0f;
   }
+  return out;
+}
+
+/** The points whose normal lies more than 45 degrees from `up`: walls, poles, facades.
+ *  Floor and ceiling fix no horizontal position, and where they dominate a scan (a 3D
+ *  scanner indoors) the search would favour the poses that overlap the most floor. */
+Cloud::Ptr
+upright(const MapCloud& points, const Eigen::Vector3d& up)
+{
+  const Eigen::Vector3f u = up.normalized().cast<float>();
+  Cloud::Ptr out(new Cloud);
+  for (const MapPoint& p : points)
+    if (const Eigen::Vector3f n = p.getNormalVector3fMap();
+        n.allFinite() && std::abs(n.dot(u)) < M_SQRT1_2)
+      out->push_back(PointT(p.x, p.y, p.z));
+  return out;
+}
+
+/** Every k-th point, about `count` of them. */
+Cloud::Ptr
+everyKth(const Cloud& points, std::size_t count)
+{
+  const std::size_t k =
+      std::max<std::size_t>(1, points.size() / std::max<std::size_t>(1, count));
+  Cloud::Ptr out(new Cloud);
+  for (std::size_t i = 0; i < points.size(); i += k)
+    out->push_back(points[i]);
   return out;
 }
 
@@ -345,20 +375,24 @@ FrontEnd::track(const Cloud& scan,
       icp.setInputSource(source);
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
+      const Pose guess = initialGuess(source, *reduced, r.prediction, odometry.has_value(), r);
+      const bool placed = std::isfinite(r.start_heading); // by the pose search
       matched = align(icp,
-                      initialGuess(source, *reduced, r.prediction, odometry.has_value(), r),
+                      guess,
                       r.gate,
                       params_.final_correspondence_distance,
                       icp_->threshold != nullptr,
-                      r.prediction,
-                      priorSpreadIfUsed());
+                      placed ? guess : r.prediction,
+                      placed ? std::nullopt : priorSpreadIfUsed());
     }
     else { // the best guess refined (without odometry; with it, the prediction)
       std::optional<Pose> better;
       if (!odometry && (params_.speed_hypotheses || params_.pose_search))
         better = betterGuess(
             source, *reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
-      matched = better ? alignToPrevious(source, *better, true, &r.prediction)
+      const bool placed = std::isfinite(r.start_heading); // by the pose search
+      matched = better ? alignToPrevious(
+                             source, *better, true, placed ? nullptr : &r.prediction, !placed)
                        : alignToPrevious(source, r.prediction, true);
     }
     r.converged = matched.has_value();
@@ -486,7 +520,8 @@ std::optional<Pose>
 FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
                           const Pose& prediction,
                           bool refined,
-                          const Pose* prior_mean)
+                          const Pose* prior_mean,
+                          bool prior)
 {
   // In the previous scan's frame (its pose is still pose_), on the tree built with it.
   const Pose to_previous = pose_.inverse();
@@ -501,7 +536,7 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
                              refined ? params_.final_correspondence_distance : 0.0,
                              icp_->threshold != nullptr,
                              prior_mean ? Pose(to_previous * *prior_mean) : guess,
-                             priorSpreadIfUsed());
+                             prior ? priorSpreadIfUsed() : std::nullopt);
   if (!matched)
     return std::nullopt;
   return Pose(pose_ * *matched);
@@ -635,9 +670,32 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
   icp.setInputSource(source);
   if (!(range > 0.0))
     range = medianRange(*source);
-  double best = kSearchMargin * own_overlap;
+  // Searched and judged on both scans' upright points where they have them; judged by
+  // what a match agrees with less what it contradicts: the points on the previous scan's
+  // surfaces less those in the space it saw through (docs/design.md, "Where the site
+  // repeats").
+  const Cloud::Ptr walls =
+      upright(*scannerFrameCloud(reduced,
+                                 reducedNormals(*scanTree(reduced, params_.num_threads),
+                                                reduced.size(),
+                                                params_.num_threads)),
+              params_.up);
+  const Cloud::Ptr previous_walls = upright(*previous_, params_.up);
+  const bool on_walls =
+      walls->size() >= kMinUprightPoints && previous_walls->size() >= kMinUprightPoints;
+  const Cloud::ConstPtr judged =
+      on_walls ? Cloud::ConstPtr(everyKth(*walls, source->size())) : source;
+  const FreeSpace seen(*previous_points_, params_.up);
+  const auto agreement = [&](const Pose& local) {
+    return overlap(*judged, local, *previous_index_, same) -
+           seen.conflicts(*judged, local, same);
+  };
+  const double own_agreement = own_local ? agreement(*own_local) : 0.0;
+  double best = std::max(kSearchMargin * own_agreement, own_agreement);
   std::optional<Pose> winner;
-  for (const Pose& start : correlativeSearch(reduced, *previous_points_, params_.up, search)) {
+  const Cloud& searched = on_walls ? *walls : reduced;
+  for (const Pose& start : correlativeSearch(
+           searched, on_walls ? *previous_walls : *previous_points_, params_.up, search)) {
     // From a candidate good to a cell: a gate of two cells, no prior (none predicted it).
     const auto m = align(icp,
                          start,
@@ -648,14 +706,16 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
                          std::nullopt);
     if (!m || (own_local && !isRival(*own_local, *m, range)))
       continue;
-    if (const double o = overlap(*source, *m, *previous_index_, same); o > best) {
-      best = o;
-      winner = pose_ * *m;
+    if (const double a = agreement(*m); a > best) {
+      best = a;
+      winner = *m;
       const Eigen::AngleAxisd turn(Eigen::Matrix3d(start.topLeftCorner<3, 3>()));
       r.start_heading = turn.axis().dot(params_.up) < 0.0 ? -turn.angle() : turn.angle();
     }
   }
-  keepOverlap(winner ? best : own_overlap);
+  keepOverlap(winner ? overlap(*source, *winner, *previous_index_, same) : own_overlap);
+  if (winner)
+    winner = pose_ * *winner;
   return winner;
 }
 

@@ -5,6 +5,13 @@
 #include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/slam/overlap.h>
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
 namespace pcl_parallel {
 namespace slam {
 
@@ -26,6 +33,52 @@ overlap(const Cloud& source,
     hits += target.nearest(q.data(), max_sqr, d2) != KdTreeIndex::kInvalid ? 1 : 0;
   }
   return tried ? static_cast<double>(hits) / static_cast<double>(tried) : 0.0;
+}
+
+FreeSpace::FreeSpace(const Cloud& scan, const Eigen::Vector3d& up, double bin)
+{
+  if (!(bin > 0.0) || !std::isfinite(bin) || !(up.norm() > 0.0) || !up.allFinite())
+    throw std::invalid_argument("FreeSpace: bin > 0 and a non-zero up axis needed");
+  up_ = up.normalized();
+  u_ = up_.unitOrthogonal();
+  v_ = up_.cross(u_);
+  azimuths_ = static_cast<int>(std::ceil(2.0 * M_PI / bin));
+  elevations_ = static_cast<int>(std::ceil(M_PI / bin));
+  nearest_.assign(static_cast<std::size_t>(azimuths_) * elevations_,
+                  std::numeric_limits<float>::infinity());
+  for (const auto& point : scan) {
+    double range;
+    if (const long b = binOf(point.getVector3fMap().cast<double>(), range); b >= 0)
+      nearest_[b] = std::min(nearest_[b], static_cast<float>(range));
+  }
+}
+
+long
+FreeSpace::binOf(const Eigen::Vector3d& p, double& range) const
+{
+  range = p.norm();
+  if (!(range > 0.0) || !std::isfinite(range))
+    return -1;
+  const double azimuth = std::atan2(p.dot(v_), p.dot(u_)) + M_PI; // [0, 2 pi]
+  const double elevation = std::asin(std::clamp(p.dot(up_) / range, -1.0, 1.0)) + M_PI / 2;
+  const int a = std::min(azimuths_ - 1, static_cast<int>(azimuth / (2.0 * M_PI) * azimuths_));
+  const int e = std::min(elevations_ - 1, static_cast<int>(elevation / M_PI * elevations_));
+  return static_cast<long>(a) * elevations_ + e;
+}
+
+double
+FreeSpace::conflicts(const Cloud& source, const Pose& pose, double margin) const
+{
+  const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
+  const Eigen::Vector3d t = pose.topRightCorner<3, 1>();
+  std::size_t in_front = 0;
+  for (const auto& point : source) {
+    double range;
+    const long b = binOf(r * point.getVector3fMap().cast<double>() + t, range);
+    // An empty bin (+inf) was not seen: no conflict there.
+    in_front += b >= 0 && std::isfinite(nearest_[b]) && range < nearest_[b] - margin ? 1 : 0;
+  }
+  return source.empty() ? 0.0 : static_cast<double>(in_front) / source.size();
 }
 
 } // namespace slam

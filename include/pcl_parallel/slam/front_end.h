@@ -228,9 +228,10 @@ private:
   };
   /** Right after `own`, the prediction's match to the previous scan: where `own` looks
    *  wrong (pose_search), the best of correlativeSearch's candidates matched, if it
-   *  overlaps the previous scan more than `own` and ends elsewhere; r.start_heading
-   *  says which. `range`: the source's median range where known (Hypotheses::range),
-   *  else 0. */
+   *  agrees with the previous scan more than `own` (overlap less free-space conflicts,
+   *  FreeSpace; on upright points where both scans have them) and ends elsewhere;
+   *  r.start_heading says which. `range`: the source's median range where known
+   *  (Hypotheses::range), else 0. */
   std::optional<Pose>
   searchPose(const Cloud::ConstPtr& source,
              const Cloud& reduced,
@@ -300,13 +301,14 @@ private:
   ReducedScan
   keep(const Cloud::Ptr& reduced);
   /** pICP of the source from the prediction against the previous scan, \a refined
-   *  within the final gate, its motion prior at \a prior_mean (null: the prediction);
-   *  the world pose, or none if it did not converge. */
+   *  within the final gate, its motion prior at \a prior_mean (null: the prediction;
+   *  none without \a prior); the world pose, or none if it did not converge. */
   std::optional<Pose>
   alignToPrevious(const Cloud::ConstPtr& source,
                   const Pose& prediction,
                   bool refined,
-                  const Pose* prior_mean = nullptr);
+                  const Pose* prior_mean = nullptr,
+                  bool prior = true);
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;

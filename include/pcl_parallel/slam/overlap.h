@@ -6,7 +6,10 @@
 
 #include <pcl_parallel/slam/types.h>
 
+#include <Eigen/Core>
+
 #include <cstddef>
+#include <vector>
 
 namespace pcl_parallel {
 namespace slam {
@@ -21,6 +24,39 @@ overlap(const Cloud& source,
         const KdTreeIndex& target,
         double max_distance,
         std::size_t step = 1);
+
+/**
+ * \brief What a scan saw through: per direction from its origin (the scanner), the range
+ * of its nearest point. A point of another scan that lies well in front of it, in space the
+ * beams crossed unobstructed, contradicts the pose that put it there (free-space
+ * consistency). Where a site repeats (corridors, rooms of one size) a shifted match can
+ * overlap a scan more than the true one does, but it puts walls into the other scan's
+ * open space (docs/design.md, "Where the site repeats").
+ */
+class FreeSpace {
+public:
+  /** Directions binned by `bin` radians in azimuth about `up` and in elevation; a scan in
+   *  its own frame (its origin the scanner's). */
+  FreeSpace(const Cloud& scan, const Eigen::Vector3d& up, double bin = kDefaultBin);
+
+  /** Fraction of `source`'s points, moved by `pose` into the scan's frame, that lie more
+   *  than `margin` nearer the scanner than the scan's nearest point in their direction
+   *  (directions without a point count as not seen). 0 for an empty source. */
+  double
+  conflicts(const Cloud& source, const Pose& pose, double margin) const;
+
+  /** One degree: at 10 m, 17 cm across, about a reduced scan's point spacing. */
+  static constexpr double kDefaultBin = 0.017453292519943295;
+
+private:
+  /** The bin of direction p, or -1 for p at the origin; `range` is p's norm. */
+  long
+  binOf(const Eigen::Vector3d& p, double& range) const;
+
+  Eigen::Vector3d u_, v_, up_;
+  int azimuths_ = 0, elevations_ = 0;
+  std::vector<float> nearest_; ///< per bin; +inf where the scan has no point
+};
 
 } // namespace slam
 } // namespace pcl_parallel
