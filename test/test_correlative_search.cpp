@@ -4,10 +4,12 @@
  *
  * slam::correlativeSearch on a small synthetic site (light enough for ThreadSanitizer):
  * it finds the pose between two stations from nothing but their points, about any
- * vertical axis, the same for any thread count; bad settings throw. On the simulator's
- * terrestrial scans: test_slam, CorrelativeSearch.
+ * vertical axis, the same for any thread count; bad settings throw. And slam::FreeSpace,
+ * by which the search judges its candidates. On the simulator's terrestrial scans:
+ * test_slam, CorrelativeSearch.
  */
 #include <pcl_parallel/slam/correlative_search.h>
+#include <pcl_parallel/slam/overlap.h>
 
 #include <Eigen/Geometry>
 
@@ -185,6 +187,60 @@ TEST(CorrelativeSearch, BadSettingsThrowEmptyScansGiveNothing)
   p.headings = 72;
   p.radius = -1.0;
   EXPECT_THROW(slam::correlativeSearch(scan, scan, z, p), std::invalid_argument);
+}
+
+// A wall 10 m ahead of the scanner (x), 4 x 4 m: points in front of it along a beam
+// contradict it, points on it (within the margin), behind it or where no beam returned
+// do not; the pose moves the points first. Counted exactly: fractions of all points.
+TEST(FreeSpace, PointsInFrontOfWhatTheScanSawContradictIt)
+{
+  Cloud wall;
+  for (double y = -2.0; y <= 2.0; y += 0.05)
+    for (double z = -2.0; z <= 2.0; z += 0.05)
+      wall.push_back(pcl::PointXYZ(10.0f, static_cast<float>(y), static_cast<float>(z)));
+  const slam::FreeSpace seen(wall, Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(seen.conflicts(wall, Pose::Identity(), 0.1), 0.0);
+
+  Cloud points;
+  for (const Eigen::Vector3f p : {Eigen::Vector3f(5.0f, 0.0f, 0.0f),  // in front: conflict
+                                  Eigen::Vector3f(9.0f, 1.0f, 0.5f),  // in front: conflict
+                                  Eigen::Vector3f(9.95f, 0.0f, 0.0f), // on it, within 0.1
+                                  Eigen::Vector3f(15.0f, 0.0f, 0.0f), // behind it
+                                  Eigen::Vector3f(-5.0f, 0.0f, 0.0f), // no beam returned
+                                  Eigen::Vector3f(5.0f, 5.0f, 0.0f)}) // past its edge
+    points.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
+  EXPECT_DOUBLE_EQ(seen.conflicts(points, Pose::Identity(), 0.1), 2.0 / 6.0);
+  EXPECT_DOUBLE_EQ(seen.conflicts(points, Pose::Identity(), 4.5), 1.0 / 6.0); // 5 m in front
+  Pose back = Pose::Identity(); // 6 m further out: all but the first lie behind the wall
+  back(0, 3) = 6.0;
+  EXPECT_DOUBLE_EQ(seen.conflicts(points, back, 0.1), 0.0);
+  Pose turned = Pose::Identity(); // 180 degrees about z: the first two face the wall
+  turned.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  EXPECT_DOUBLE_EQ(seen.conflicts(points, turned, 0.1), 1.0 / 6.0); // (-5, 0, 0) -> (5, 0, 0)
+  EXPECT_EQ(seen.conflicts(Cloud(), Pose::Identity(), 0.1), 0.0);
+}
+
+// A scan of the courtyard against itself: none at the true pose, and a station's scan
+// put 4 m off (walls into the open yard) contradicts it far more than at its own pose.
+// Bad settings throw.
+TEST(FreeSpace, AWrongPoseContradictsTheScanAndBadSettingsThrow)
+{
+  const Cloud world = courtyard();
+  const Pose a = station(0.0, -6.0, 2.0, 0.0), b = station(30.0 * kDeg, 3.0, -1.0, 0.0);
+  const Cloud target = scanFrom(world, a, 25.0), source = scanFrom(world, b, 25.0);
+  const slam::FreeSpace seen(target, Eigen::Vector3d::UnitZ());
+  const Pose truth = a.inverse() * b;
+  Pose off = truth;
+  off(1, 3) += 4.0;
+  const double right = seen.conflicts(source, truth, 0.3),
+               wrong = seen.conflicts(source, off, 0.3);
+  std::printf("courtyard: conflicts at the true pose %.3f, 4 m off %.3f\n", right, wrong);
+  EXPECT_LT(right, 0.01);
+  EXPECT_GT(wrong, 0.05);
+  EXPECT_THROW(slam::FreeSpace(target, Eigen::Vector3d::Zero()), std::invalid_argument);
+  for (double bin : {0.0, -1.0, std::nan("")})
+    EXPECT_THROW(slam::FreeSpace(target, Eigen::Vector3d::UnitZ(), bin), std::invalid_argument);
 }
 
 } // namespace

@@ -335,6 +335,14 @@ FrontEnd::priorSpreadIfUsed() const
   return priorSpread();
 }
 
+const Pose&
+FrontEnd::priorMean(const FrontEndResult& r, const Pose& guess)
+{
+  // Where the pose search placed the scan, the prediction is what the search found wrong
+  // (docs/design.md, "Where the site repeats").
+  return std::isfinite(r.start_heading) ? guess : r.prediction;
+}
+
 FrontEnd::~FrontEnd() = default;
 
 FrontEndResult
@@ -376,23 +384,20 @@ FrontEnd::track(const Cloud& scan,
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
       const Pose guess = initialGuess(source, *reduced, r.prediction, odometry.has_value(), r);
-      const bool placed = std::isfinite(r.start_heading); // by the pose search
       matched = align(icp,
                       guess,
                       r.gate,
                       params_.final_correspondence_distance,
                       icp_->threshold != nullptr,
-                      placed ? guess : r.prediction,
-                      placed ? std::nullopt : priorSpreadIfUsed());
+                      priorMean(r, guess),
+                      priorSpreadIfUsed());
     }
     else { // the best guess refined (without odometry; with it, the prediction)
       std::optional<Pose> better;
       if (!odometry && (params_.speed_hypotheses || params_.pose_search))
         better = betterGuess(
             source, *reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
-      const bool placed = std::isfinite(r.start_heading); // by the pose search
-      matched = better ? alignToPrevious(
-                             source, *better, true, placed ? nullptr : &r.prediction, !placed)
+      matched = better ? alignToPrevious(source, *better, true, &priorMean(r, *better))
                        : alignToPrevious(source, r.prediction, true);
     }
     r.converged = matched.has_value();
@@ -520,8 +525,7 @@ std::optional<Pose>
 FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
                           const Pose& prediction,
                           bool refined,
-                          const Pose* prior_mean,
-                          bool prior)
+                          const Pose* prior_mean)
 {
   // In the previous scan's frame (its pose is still pose_), on the tree built with it.
   const Pose to_previous = pose_.inverse();
@@ -536,7 +540,7 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
                              refined ? params_.final_correspondence_distance : 0.0,
                              icp_->threshold != nullptr,
                              prior_mean ? Pose(to_previous * *prior_mean) : guess,
-                             prior ? priorSpreadIfUsed() : std::nullopt);
+                             priorSpreadIfUsed());
   if (!matched)
     return std::nullopt;
   return Pose(pose_ * *matched);
@@ -670,10 +674,10 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
   icp.setInputSource(source);
   if (!(range > 0.0))
     range = medianRange(*source);
-  // Searched and judged on both scans' upright points where they have them; judged by
-  // what a match agrees with less what it contradicts: the points on the previous scan's
-  // surfaces less those in the space it saw through (docs/design.md, "Where the site
-  // repeats").
+  // Searched and judged on both scans' upright points where they have them. A candidate
+  // must overlap the previous scan clearly more than `own`, and agree with it more:
+  // overlap less conflicts (points in the space it saw through); of those, the one that
+  // agrees most wins (docs/design.md, "Where the site repeats").
   const Cloud::Ptr walls =
       upright(*scannerFrameCloud(reduced,
                                  reducedNormals(*scanTree(reduced, params_.num_threads),
@@ -686,12 +690,14 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
   const Cloud::ConstPtr judged =
       on_walls ? Cloud::ConstPtr(everyKth(*walls, source->size())) : source;
   const FreeSpace seen(*previous_points_, params_.up);
-  const auto agreement = [&](const Pose& local) {
-    return overlap(*judged, local, *previous_index_, same) -
-           seen.conflicts(*judged, local, same);
+  const auto judge = [&](const Pose& local) {
+    return std::make_pair(overlap(*judged, local, *previous_index_, same),
+                          seen.conflicts(*judged, local, same));
   };
-  const double own_agreement = own_local ? agreement(*own_local) : 0.0;
-  double best = std::max(kSearchMargin * own_agreement, own_agreement);
+  const auto [own_agrees, own_conflicts] =
+      own_local ? judge(*own_local) : std::make_pair(0.0, 0.0);
+  const double own_net = own_agrees - own_conflicts;
+  double best = -std::numeric_limits<double>::infinity();
   std::optional<Pose> winner;
   const Cloud& searched = on_walls ? *walls : reduced;
   for (const Pose& start : correlativeSearch(
@@ -706,8 +712,10 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
                          std::nullopt);
     if (!m || (own_local && !isRival(*own_local, *m, range)))
       continue;
-    if (const double a = agreement(*m); a > best) {
-      best = a;
+    const auto [agrees, conflicts] = judge(*m);
+    if (agrees > kSearchMargin * own_agrees && agrees - conflicts > own_net &&
+        agrees - conflicts > best) {
+      best = agrees - conflicts;
       winner = *m;
       const Eigen::AngleAxisd turn(Eigen::Matrix3d(start.topLeftCorner<3, 3>()));
       r.start_heading = turn.axis().dot(params_.up) < 0.0 ? -turn.angle() : turn.angle();

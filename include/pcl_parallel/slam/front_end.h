@@ -209,6 +209,10 @@ private:
   /** priorSpread() where pICP takes a motion prior (adaptive threshold and motion_prior). */
   std::optional<std::pair<double, double>>
   priorSpreadIfUsed() const;
+  /** The motion prior's mean for the final match from `guess`: the prediction, or the
+   *  guess where the pose search placed the scan (r.start_heading). */
+  static const Pose&
+  priorMean(const FrontEndResult& r, const Pose& guess);
   /** Starts tried beside the prediction without odometry (speed_hypotheses). */
   struct Hypotheses {
     /** Speed: along `travel` (scanner frame) at -2..2 sigma of the gate; none at 0 (no
@@ -301,14 +305,13 @@ private:
   ReducedScan
   keep(const Cloud::Ptr& reduced);
   /** pICP of the source from the prediction against the previous scan, \a refined
-   *  within the final gate, its motion prior at \a prior_mean (null: the prediction;
-   *  none without \a prior); the world pose, or none if it did not converge. */
+   *  within the final gate, its motion prior at \a prior_mean (null: the prediction);
+   *  the world pose, or none if it did not converge. */
   std::optional<Pose>
   alignToPrevious(const Cloud::ConstPtr& source,
                   const Pose& prediction,
                   bool refined,
-                  const Pose* prior_mean = nullptr,
-                  bool prior = true);
+                  const Pose* prior_mean = nullptr);
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;
