@@ -202,22 +202,27 @@ TEST(FreeSpace, PointsInFrontOfWhatTheScanSawContradictIt)
   EXPECT_EQ(seen.conflicts(wall, Pose::Identity(), 0.1), 0.0);
 
   Cloud points;
-  for (const Eigen::Vector3f p : {Eigen::Vector3f(5.0f, 0.0f, 0.0f),  // in front: conflict
-                                  Eigen::Vector3f(9.0f, 1.0f, 0.5f),  // in front: conflict
-                                  Eigen::Vector3f(9.95f, 0.0f, 0.0f), // on it, within 0.1
-                                  Eigen::Vector3f(15.0f, 0.0f, 0.0f), // behind it
-                                  Eigen::Vector3f(-5.0f, 0.0f, 0.0f), // no beam returned
-                                  Eigen::Vector3f(5.0f, 5.0f, 0.0f)}) // past its edge
+  for (const Eigen::Vector3f& p : {Eigen::Vector3f(5.0f, 0.0f, 0.0f),  // in front: conflict
+                                   Eigen::Vector3f(9.0f, 1.0f, 0.5f),  // in front: conflict
+                                   Eigen::Vector3f(9.95f, 0.0f, 0.0f), // on it, within 0.1
+                                   Eigen::Vector3f(15.0f, 0.0f, 0.0f), // behind it
+                                   Eigen::Vector3f(-5.0f, 0.0f, 0.0f), // no beam returned
+                                   Eigen::Vector3f(5.0f, 5.0f, 0.0f)}) // past its edge
     points.push_back(pcl::PointXYZ(p.x(), p.y(), p.z()));
   EXPECT_DOUBLE_EQ(seen.conflicts(points, Pose::Identity(), 0.1), 2.0 / 6.0);
   EXPECT_DOUBLE_EQ(seen.conflicts(points, Pose::Identity(), 4.5), 1.0 / 6.0); // 5 m in front
-  Pose back = Pose::Identity(); // 6 m further out: all but the first lie behind the wall
+  // 6 m further out: (-5, 0, 0) comes to (1, 0, 0), in front of the wall; the rest lie
+  // behind it or beside it.
+  Pose back = Pose::Identity();
   back(0, 3) = 6.0;
+  EXPECT_DOUBLE_EQ(seen.conflicts(points, back, 0.1), 1.0 / 6.0);
+  back(0, 3) = 16.0; // all behind it or beside it
   EXPECT_DOUBLE_EQ(seen.conflicts(points, back, 0.1), 0.0);
-  Pose turned = Pose::Identity(); // 180 degrees about z: the first two face the wall
+  // 180 degrees about z: only (-5, 0, 0) comes to face the wall, at (5, 0, 0).
+  Pose turned = Pose::Identity();
   turned.topLeftCorner<3, 3>() =
       Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  EXPECT_DOUBLE_EQ(seen.conflicts(points, turned, 0.1), 1.0 / 6.0); // (-5, 0, 0) -> (5, 0, 0)
+  EXPECT_DOUBLE_EQ(seen.conflicts(points, turned, 0.1), 1.0 / 6.0);
   EXPECT_EQ(seen.conflicts(Cloud(), Pose::Identity(), 0.1), 0.0);
 }
 
