@@ -244,7 +244,9 @@ TEST(FreeSpace, AWrongPoseContradictsTheScanAndBadSettingsThrow)
   EXPECT_LT(right, 0.01);
   EXPECT_GT(wrong, 0.05);
   EXPECT_THROW(slam::FreeSpace(target, Eigen::Vector3d::Zero()), std::invalid_argument);
-  for (double bin : {0.0, -1.0, std::nan("")})
+  EXPECT_THROW(seen.conflicts(source, truth, -0.1), std::invalid_argument);
+  EXPECT_THROW(seen.conflicts(source, truth, std::nan("")), std::invalid_argument);
+  for (double bin : {0.0, -1.0, 1e-9, std::nan("")})
     EXPECT_THROW(slam::FreeSpace(target, Eigen::Vector3d::UnitZ(), bin), std::invalid_argument);
 }
 

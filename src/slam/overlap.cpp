@@ -37,8 +37,9 @@ overlap(const Cloud& source,
 
 FreeSpace::FreeSpace(const Cloud& scan, const Eigen::Vector3d& up, double bin)
 {
-  if (!(bin > 0.0) || !std::isfinite(bin) || !(up.norm() > 0.0) || !up.allFinite())
-    throw std::invalid_argument("FreeSpace: bin > 0 and a non-zero up axis needed");
+  if (!(bin >= kMinBin) || !std::isfinite(bin) || !(up.norm() > 0.0) || !up.allFinite())
+    throw std::invalid_argument("FreeSpace: a bin of at least 0.001 rad and a non-zero, "
+                                "finite up axis needed");
   up_ = up.normalized();
   u_ = up_.unitOrthogonal();
   v_ = up_.cross(u_);
@@ -69,6 +70,8 @@ FreeSpace::binOf(const Eigen::Vector3d& p, double& range) const
 double
 FreeSpace::conflicts(const Cloud& source, const Pose& pose, double margin) const
 {
+  if (!(margin >= 0.0))
+    throw std::invalid_argument("FreeSpace::conflicts: margin >= 0 needed");
   const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
   const Eigen::Vector3d t = pose.topRightCorner<3, 1>();
   std::size_t in_front = 0;

@@ -36,17 +36,21 @@ overlap(const Cloud& source,
 class FreeSpace {
 public:
   /** Directions binned by `bin` radians in azimuth about `up` and in elevation; a scan in
-   *  its own frame (its origin the scanner's). */
+   *  its own frame (its origin the scanner's). Throws std::invalid_argument for a bin
+   *  below kMinBin or not finite, or a zero or non-finite `up`. */
   FreeSpace(const Cloud& scan, const Eigen::Vector3d& up, double bin = kDefaultBin);
 
   /** Fraction of `source`'s points, moved by `pose` into the scan's frame, that lie more
    *  than `margin` nearer the scanner than the scan's nearest point in their direction
-   *  (directions without a point count as not seen). 0 for an empty source. */
+   *  (directions without a point count as not seen). 0 for an empty source; throws
+   *  std::invalid_argument for a negative or NaN margin. */
   double
   conflicts(const Cloud& source, const Pose& pose, double margin) const;
 
   /** One degree: at 10 m, 17 cm across, about a reduced scan's point spacing. */
   static constexpr double kDefaultBin = 0.017453292519943295;
+  /** The finest bin: 6,284 x 3,142 directions, 79 MB. */
+  static constexpr double kMinBin = 0.001;
 
 private:
   /** The bin of direction p, or -1 for p at the origin; `range` is p's norm. */
