@@ -232,10 +232,10 @@ private:
   };
   /** Right after `own`, the prediction's match to the previous scan: where `own` looks
    *  wrong (pose_search), the best of correlativeSearch's candidates matched, if it
-   *  agrees with the previous scan more than `own` (overlap less free-space conflicts,
-   *  FreeSpace; on upright points where both scans have them) and ends elsewhere;
-   *  r.start_heading says which. `range`: the source's median range where known
-   *  (Hypotheses::range), else 0. */
+   *  overlaps the previous scan 1.25 times more than `own`, agrees with it more
+   *  (overlap less free-space conflicts, FreeSpace; both on upright points where the
+   *  scans have them) and ends elsewhere; r.start_heading says which. `range`: the
+   *  source's median range where known (Hypotheses::range), else 0. */
   std::optional<Pose>
   searchPose(const Cloud::ConstPtr& source,
              const Cloud& reduced,
