@@ -62,6 +62,10 @@ constexpr double kSearchMargin = 1.25;
 /** The pose search works on points whose normal lies more than 45 degrees from up
  *  (walls, poles, facades) where a scan has at least this many, else on all. */
 constexpr std::size_t kMinUprightPoints = 100;
+/** A hypothesis that fits better does not replace the leader if it puts more of its
+ *  points into the space the previous scan saw through by this many standard errors of
+ *  the difference (the conflicts as counts among the source's n points: sqrt((a + b) / n)). */
+constexpr double kConflictSignificance = 3.0;
 
 /** The reduced points' k-d tree (scanner frame): the scan's one tree, for its normals,
  *  the next scan's match to it and pLUM (ParallelLUM::setSearchTree: the tree pLUM would
@@ -605,6 +609,17 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
       own ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
   std::optional<Pose> winner;
   const Pose to_previous = pose_.inverse(); // rivals are compared in its frame
+  // A better fit is no measure where it contradicts the previous scan more: the stop
+  // fits better by the shared sampling pattern, yet puts the far walls of the corridor
+  // into its open space (docs/design.md, "Standing still").
+  std::unique_ptr<FreeSpace> seen;
+  const auto contradictsMore = [&](const Pose& other, const Pose& leader) {
+    if (!seen)
+      seen.reset(new FreeSpace(*previous_points_, params_.up));
+    const double a = seen->conflicts(*source, other, same),
+                 b = seen->conflicts(*source, leader, same);
+    return a - b > kConflictSignificance * std::sqrt((a + b) / source->size());
+  };
   // The prior stays at the prediction: what the motion model believes, not the start.
   const auto tryStart = [&](const Pose& start, double offset, double turn) {
     const std::optional<Pose> other = alignToPrevious(source, start, false, &prediction);
@@ -614,7 +629,8 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
     const std::optional<Pose>& leader = winner ? winner : own;
     if (leader && !isRival(to_previous * *leader, to_previous * *other, h.range))
       return;
-    if (fitness < best) {
+    if (fitness < best &&
+        !(leader && contradictsMore(to_previous * *other, to_previous * *leader))) {
       best = fitness;
       winner = other;
       r.start_offset = offset;
