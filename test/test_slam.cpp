@@ -37,6 +37,7 @@
 #include <numeric>
 #include <random>
 #include <set>
+#include <string>
 #include <tuple>
 
 namespace {
@@ -106,6 +107,24 @@ presetScans(const std::string& name,
   o.beams = beams;
   o.num_threads = 2;
   return sim::simulatePreset(name, o);
+}
+
+/** Every consecutive step of `poses` within `distance` and `angle` (rad) of the truth's. */
+void
+expectStepsNear(const Poses& poses,
+                const Poses& truth,
+                double distance,
+                double angle,
+                const std::string& what)
+{
+  ASSERT_EQ(poses.size(), truth.size()) << what;
+  for (std::size_t i = 1; i < truth.size(); ++i) {
+    const Pose step = truth[i - 1].inverse() * truth[i];
+    const auto e = evaluation::poseError(poses[i - 1].inverse() * poses[i], step);
+    EXPECT_LT(e.distance, distance)
+        << what << ", step " << i << " of " << step.topRightCorner<3, 1>().norm() << " m";
+    EXPECT_LT(e.angle, angle) << what << ", step " << i;
+  }
 }
 
 /** The default pipeline on 2 threads without loop closing: the front end alone. */
@@ -643,14 +662,7 @@ TEST(Pipeline, StopAndGoWithoutPosesThroughCorridorsAndACrossing)
 {
   const sim::SimulatedScanSet set = presetScans("hannover", test::kSanitized ? 16 : 468);
   const PipelineRun run = runPipeline(set, frontEndOnly(), false);
-  for (std::size_t i = 1; i < set.truth.size(); ++i) {
-    const Pose truth = set.truth[i - 1].inverse() * set.truth[i];
-    const auto e =
-        evaluation::poseError(run.front_end[i - 1].inverse() * run.front_end[i], truth);
-    EXPECT_LT(e.distance, 0.4) << "step " << i << " of " << truth.topRightCorner<3, 1>().norm()
-                               << " m";
-    EXPECT_LT(e.angle, 1.0 * kDeg) << "step " << i;
-  }
+  expectStepsNear(run.front_end, set.truth, 0.4, 1.0 * kDeg, "hannover seed 1");
 }
 
 // A 3D scanner carried 2.5-3 m a station round a block of offices, turned about 45
@@ -669,12 +681,8 @@ TEST(Pipeline, PoseSearchPlacesStationsWhereTheSiteRepeats)
   for (const std::uint32_t seed : seeds) {
     const sim::SimulatedScanSet set = presetScans("office", 11, 1, 0, seed);
     const PipelineRun run = runPipeline(set, frontEndOnly(), false);
-    for (std::size_t i = 1; i < set.truth.size(); ++i) {
-      const auto e = evaluation::poseError(run.front_end[i - 1].inverse() * run.front_end[i],
-                                           set.truth[i - 1].inverse() * set.truth[i]);
-      EXPECT_LT(e.distance, 0.05) << "seed " << seed << ", step " << i;
-      EXPECT_LT(e.angle, 0.5 * kDeg) << "seed " << seed << ", step " << i;
-    }
+    expectStepsNear(
+        run.front_end, set.truth, 0.05, 0.5 * kDeg, "office seed " + std::to_string(seed));
   }
 }
 
