@@ -99,6 +99,18 @@ reducedNormals(const KdTreeIndex& tree, std::size_t num_points, unsigned num_thr
   return normals;
 }
 
+/** The reduced scan with its one tree and its normals: built once, before the match
+ *  (the pose search takes them) and kept after it. */
+ReducedScan
+describe(const Cloud::Ptr& reduced, unsigned num_threads)
+{
+  ReducedScan scan;
+  scan.reduced = reduced;
+  scan.tree = scanTree(*reduced, num_threads);
+  scan.normals = reducedNormals(*scan.tree, reduced->size(), num_threads);
+  return scan;
+}
+
 /** The reduced points with their normals, NaN where none (pICP then skips a pair
  *  there), in the scanner frame: the points the scan's tree holds. */
 MapCloud::Ptr
@@ -371,9 +383,9 @@ FrontEnd::track(const Cloud& scan,
   }
   else if (first_scan_ && odometry)
     r.first_scan = deskewFirstAgain(motion.sweep);
-  Cloud::Ptr reduced = reduce(scan, sweep_times, motion.sweep);
-  const auto source =
-      filters::voxelNearestToCentroid(*reduced, params_.source_voxel_size, params_.num_threads);
+  ReducedScan reduced = describe(reduce(scan, sweep_times, motion.sweep), params_.num_threads);
+  const auto source = filters::voxelNearestToCentroid(
+      *reduced.reduced, params_.source_voxel_size, params_.num_threads);
   r.source_points = source->size();
 
   r.pose = r.prediction;
@@ -387,7 +399,7 @@ FrontEnd::track(const Cloud& scan,
       icp.setInputSource(source);
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
-      const Pose guess = initialGuess(source, *reduced, r.prediction, odometry.has_value(), r);
+      const Pose guess = initialGuess(source, reduced, r.prediction, odometry.has_value(), r);
       matched = align(icp,
                       guess,
                       r.gate,
@@ -400,7 +412,7 @@ FrontEnd::track(const Cloud& scan,
       std::optional<Pose> better;
       if (!odometry && (params_.speed_hypotheses || params_.pose_search))
         better = betterGuess(
-            source, *reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
+            source, reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
       matched = better ? alignToPrevious(source, *better, true, &priorMean(r, *better))
                        : alignToPrevious(source, r.prediction, true);
     }
@@ -436,11 +448,11 @@ FrontEnd::track(const Cloud& scan,
   if (first_scan_ && !first) { // both scans were matched as they came, neither deskewed
     const Pose sweep = sweepMotion(velocity_, gap, params_.sweep_period);
     r.first_scan = deskewFirstAgain(sweep);
-    reduced = reduce(scan, sweep_times, sweep);
+    reduced = describe(reduce(scan, sweep_times, sweep), params_.num_threads);
   }
   pose_ = r.pose;
 
-  r.scan = keep(reduced);
+  r.scan = keep(std::move(reduced));
   return r;
 }
 
@@ -448,7 +460,8 @@ ReducedScan
 FrontEnd::deskewFirstAgain(const Pose& sweep)
 {
   map_.clear(); // of the first scan alone, at pose_
-  ReducedScan out = keep(reduce(*first_scan_, first_scan_times_, sweep));
+  ReducedScan out =
+      keep(describe(reduce(*first_scan_, first_scan_times_, sweep), params_.num_threads));
   first_scan_.reset();
   first_scan_times_.clear();
   return out;
@@ -467,14 +480,10 @@ FrontEnd::reduce(const Cloud& scan,
 }
 
 ReducedScan
-FrontEnd::keep(const Cloud::Ptr& reduced)
+FrontEnd::keep(ReducedScan kept)
 {
-  // The scan's one tree and its normals, once; then into the map at pose_, and kept in the
-  // scanner frame for the next scan's match to it.
-  ReducedScan kept;
-  kept.reduced = reduced;
-  kept.tree = scanTree(*reduced, params_.num_threads);
-  kept.normals = reducedNormals(*kept.tree, reduced->size(), params_.num_threads);
+  // Into the map at pose_, and kept in the scanner frame for the next scan's match to it.
+  const Cloud::Ptr& reduced = kept.reduced;
   const bool to_map = params_.target == MatchTarget::kLocalMap;
   if (to_map) {
     const MapCloud::Ptr world = withNormals(*reduced, kept.normals);
@@ -659,7 +668,7 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
 
 std::optional<Pose>
 FrontEnd::searchPose(const Cloud::ConstPtr& source,
-                     const Cloud& reduced,
+                     const ReducedScan& scan,
                      const std::optional<Pose>& own,
                      double range,
                      FrontEndResult& r)
@@ -694,12 +703,8 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
   // must overlap the previous scan clearly more than `own`, and agree with it more:
   // overlap less conflicts (points in the space it saw through); of those, the one that
   // agrees most wins (docs/design.md, "Where the site repeats").
-  const Cloud::Ptr walls =
-      upright(*scannerFrameCloud(reduced,
-                                 reducedNormals(*scanTree(reduced, params_.num_threads),
-                                                reduced.size(),
-                                                params_.num_threads)),
-              params_.up);
+  const Cloud& reduced = *scan.reduced;
+  const Cloud::Ptr walls = upright(*scannerFrameCloud(reduced, scan.normals), params_.up);
   const Cloud::Ptr previous_walls = upright(*previous_, params_.up);
   const bool on_walls =
       walls->size() >= kMinUprightPoints && previous_walls->size() >= kMinUprightPoints;
@@ -753,7 +758,7 @@ FrontEnd::keepOverlap(double o)
 
 Pose
 FrontEnd::initialGuess(const Cloud::ConstPtr& source,
-                       const Cloud& reduced,
+                       const ReducedScan& scan,
                        const Pose& prediction,
                        bool odometry,
                        FrontEndResult& r)
@@ -761,12 +766,12 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source,
   if (!params_.guess_from_previous_scan || odometry || !hasPrevious())
     return prediction;
   const std::optional<Pose> own = alignToPrevious(source, prediction, false);
-  return betterGuess(source, reduced, prediction, own, r).value_or(own.value_or(prediction));
+  return betterGuess(source, scan, prediction, own, r).value_or(own.value_or(prediction));
 }
 
 std::optional<Pose>
 FrontEnd::betterGuess(const Cloud::ConstPtr& source,
-                      const Cloud& reduced,
+                      const ReducedScan& scan,
                       const Pose& prediction,
                       const std::optional<Pose>& own,
                       FrontEndResult& r)
@@ -777,7 +782,7 @@ FrontEnd::betterGuess(const Cloud::ConstPtr& source,
   const Hypotheses h = hypotheses(*source, prediction);
   if (h.any())
     better = bestHypothesis(source, prediction, own, h, r);
-  if (auto found = searchPose(source, reduced, better ? better : own, h.range, r))
+  if (auto found = searchPose(source, scan, better ? better : own, h.range, r))
     better = found;
   return better;
 }

@@ -238,7 +238,7 @@ private:
    *  source's median range where known (Hypotheses::range), else 0. */
   std::optional<Pose>
   searchPose(const Cloud::ConstPtr& source,
-             const Cloud& reduced,
+             const ReducedScan& scan,
              const std::optional<Pose>& own,
              double range,
              FrontEndResult& r);
@@ -250,7 +250,7 @@ private:
    *  search's (searchPose) where even that looks wrong; none if neither won. */
   std::optional<Pose>
   betterGuess(const Cloud::ConstPtr& source,
-              const Cloud& reduced,
+              const ReducedScan& scan,
               const Pose& prediction,
               const std::optional<Pose>& own,
               FrontEndResult& r);
@@ -259,7 +259,7 @@ private:
    *  r.start_offset, r.start_turn and r.start_heading). */
   Pose
   initialGuess(const Cloud::ConstPtr& source,
-               const Cloud& reduced,
+               const ReducedScan& scan,
                const Pose& prediction,
                bool odometry,
                FrontEndResult& r);
@@ -300,10 +300,10 @@ private:
    *  again (pose_ still the first scan's). */
   ReducedScan
   deskewFirstAgain(const Pose& sweep);
-  /** Builds the reduced scan's tree and normals and puts it into the map at pose_ (and
-   *  keeps it as the previous scan where that is matched). */
+  /** Puts the reduced scan (with its tree and normals, built before the match) into the
+   *  map at pose_, and keeps it as the previous scan where that is matched. */
   ReducedScan
-  keep(const Cloud::Ptr& reduced);
+  keep(ReducedScan scan);
   /** pICP of the source from the prediction against the previous scan, \a refined
    *  within the final gate, its motion prior at \a prior_mean (null: the prediction);
    *  the world pose, or none if it did not converge. */
