@@ -619,6 +619,7 @@ scansJson(const Input& in, const Result& r)
     s["icp_start_offset"] = rep.start_offset;
     s["icp_start_turn"] = rep.start_turn;
     s["pose_searched"] = rep.pose_searched;
+    s["deskewed_again"] = rep.deskewed_again;
     if (std::isfinite(rep.start_heading)) // the pose search's start won (degrees)
       s["pose_search_heading_deg"] = rep.start_heading * 180.0 / M_PI;
     s["icp_source_points"] = rep.source_points;
@@ -701,6 +702,11 @@ writeOutputs(const Options& o,
       {"not_converged", r.icp_failures},
       {"pose_searched", searched},
       {"pose_search_won", found},
+      {"deskewed_again",
+       std::count_if(
+           r.reports.begin(),
+           r.reports.end(),
+           [](const pcl_parallel::slam::ScanReport& rep) { return rep.deskewed_again; })},
       {"odometry_disagreement",
        r.odometry_disagreement ? nlohmann::json(*r.odometry_disagreement) : nlohmann::json()}};
   nlohmann::json loop_list = nlohmann::json::array();

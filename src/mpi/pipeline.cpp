@@ -106,6 +106,7 @@ writeMatched(Writer& w, const slam::MatchedScan& m)
   w.put(fe.start_offset);
   w.put(fe.start_turn);
   w.put<std::uint8_t>(fe.pose_searched);
+  w.put<std::uint8_t>(fe.deskewed_again);
   w.put(fe.start_heading);
   const slam::ScanReport& r = m.report;
   w.put<std::uint64_t>(r.points);
@@ -149,6 +150,7 @@ readMatched(Reader& in)
   fe.start_offset = in.get<double>();
   fe.start_turn = in.get<double>();
   fe.pose_searched = in.get<std::uint8_t>() != 0;
+  fe.deskewed_again = in.get<std::uint8_t>() != 0;
   fe.start_heading = in.get<double>();
   slam::ScanReport& r = m.report;
   r.points = in.get<std::uint64_t>();

@@ -66,6 +66,23 @@ constexpr std::size_t kMinUprightPoints = 100;
  *  points into the space the previous scan saw through by this many standard errors of
  *  the difference (the conflicts as counts among the source's n points: sqrt((a + b) / n)). */
 constexpr double kConflictSignificance = 3.0;
+/** A scan is deskewed again by its matched step where that moves its farthest point by
+ *  more than this many voxels from where the predicted step put it. */
+constexpr double kRedeskewVoxels = 0.5;
+
+/** How far deskewing by `b` instead of `a` moves the scan's farthest point, to first order:
+ *  a point at sweep time t moves by motion^(t - 1/2), so by half the sweeps' difference
+ *  at the sweep's ends. */
+double
+skewChange(const Pose& a, const Pose& b, const Cloud& points)
+{
+  float reach = 0.0f;
+  for (const auto& p : points)
+    reach = std::max(reach, p.getVector3fMap().norm());
+  const Pose d = a.inverse() * b;
+  const double angle = Eigen::AngleAxisd(Eigen::Matrix3d(d.topLeftCorner<3, 3>())).angle();
+  return 0.5 * (d.topRightCorner<3, 1>().norm() + angle * reach);
+}
 
 /** The reduced points' k-d tree (scanner frame): the scan's one tree, for its normals,
  *  the next scan's match to it and pLUM (ParallelLUM::setSearchTree: the tree pLUM would
@@ -384,9 +401,8 @@ FrontEnd::track(const Cloud& scan,
   else if (first_scan_ && odometry)
     r.first_scan = deskewFirstAgain(motion.sweep);
   ReducedScan reduced = describe(reduce(scan, sweep_times, motion.sweep), params_.num_threads);
-  const auto source = filters::voxelNearestToCentroid(
+  auto source = filters::voxelNearestToCentroid(
       *reduced.reduced, params_.source_voxel_size, params_.num_threads);
-  r.source_points = source->size();
 
   r.pose = r.prediction;
   const bool to_map = params_.target == MatchTarget::kLocalMap;
@@ -395,26 +411,57 @@ FrontEnd::track(const Cloud& scan,
     r.gate = gate();
     Icp& icp = to_map ? icp_->icp : icp_->to_previous;
     std::optional<Pose> matched;
+    Pose prior_mean = r.prediction;
+    // The scan matched from `start`, with the motion prior at prior_mean.
+    const auto match = [&](const Cloud::ConstPtr& points, const Pose& start) {
+      if (!to_map)
+        return alignToPrevious(points, start, true, &prior_mean);
+      if (icp.getInputSource() != points)
+        icp.setInputSource(points);
+      return align(icp,
+                   start,
+                   r.gate,
+                   params_.final_correspondence_distance,
+                   icp_->threshold != nullptr,
+                   prior_mean,
+                   priorSpreadIfUsed());
+    };
     if (to_map) {
       icp.setInputSource(source);
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
       const Pose guess = initialGuess(source, reduced, r.prediction, odometry.has_value(), r);
-      matched = align(icp,
-                      guess,
-                      r.gate,
-                      params_.final_correspondence_distance,
-                      icp_->threshold != nullptr,
-                      priorMean(r, guess),
-                      priorSpreadIfUsed());
+      prior_mean = priorMean(r, guess);
+      matched = match(source, guess);
     }
     else { // the best guess refined (without odometry; with it, the prediction)
       std::optional<Pose> better;
       if (!odometry && (params_.speed_hypotheses || params_.pose_search))
         better = betterGuess(
             source, reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
-      matched = better ? alignToPrevious(source, *better, true, &priorMean(r, *better))
-                       : alignToPrevious(source, r.prediction, true);
+      if (better)
+        prior_mean = priorMean(r, *better);
+      matched = match(source, better ? *better : r.prediction);
+    }
+    // Deskewed by the predicted step, a scan taken while the motion changed (a turn
+    // begun or ended) is skewed by the change: deskewed again by the matched step and
+    // matched again from where it was matched (docs/design.md, "Deskewing by the match").
+    if (params_.deskew && matched && !first_scan_) {
+      // As the prediction's sweep (predictMotion): the velocity at the step's end.
+      const Pose step(pose_.inverse() * *matched);
+      const Pose sweep = sweepMotion(
+          scans_ > 2 ? extrapolateMotion(step, gap, velocity_, velocity_span_) : step,
+          gap,
+          params_.sweep_period);
+      if (skewChange(motion.sweep, sweep, *reduced.reduced) >
+          kRedeskewVoxels * params_.voxel_size) {
+        reduced = describe(reduce(scan, sweep_times, sweep), params_.num_threads);
+        source = filters::voxelNearestToCentroid(
+            *reduced.reduced, params_.source_voxel_size, params_.num_threads);
+        if (const auto rematched = match(source, *matched))
+          matched = rematched;
+        r.deskewed_again = true;
+      }
     }
     r.converged = matched.has_value();
     if (matched) {
@@ -440,6 +487,7 @@ FrontEnd::track(const Cloud& scan,
         icp_->threshold->updateModelDeviation(r.prediction.inverse() * r.pose);
     }
   }
+  r.source_points = source->size();
   velocity_ = first ? Pose::Identity() : Pose(pose_.inverse() * r.pose);
   if (velocity_.topRightCorner<3, 1>().norm() >= params_.voxel_size)
     heading_ = velocity_.topRightCorner<3, 1>().normalized();

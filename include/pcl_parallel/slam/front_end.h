@@ -135,6 +135,9 @@ struct FrontEndResult {
    *  stopped, 1: doubled; 0: the prediction's, or none tried). */
   double start_turn = 0.0;
   bool pose_searched = false; ///< the pose search ran (FrontEndParameters::pose_search)
+  /** With deskewing: the scan was deskewed again by its matched step, which differed
+   *  from the predicted one (a turn begun or ended), and matched again. */
+  bool deskewed_again = false;
   /** The pose search's winning start, turned about `up` from the previous scan's
    *  heading (rad); NaN: no search ran, or the prediction's match won. */
   double start_heading = std::numeric_limits<double>::quiet_NaN();

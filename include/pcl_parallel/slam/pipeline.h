@@ -92,8 +92,9 @@ struct ScanReport {
   /** FrontEndResult::start_offset: the speed hypothesis pICP started from (0: the
    *  prediction). */
   double start_offset = 0.0;
-  double start_turn = 0.0;    ///< FrontEndResult::start_turn
-  bool pose_searched = false; ///< FrontEndResult::pose_searched
+  double start_turn = 0.0;     ///< FrontEndResult::start_turn
+  bool pose_searched = false;  ///< FrontEndResult::pose_searched
+  bool deskewed_again = false; ///< FrontEndResult::deskewed_again
   double start_heading = std::numeric_limits<double>::quiet_NaN(); ///< ... ::start_heading
   double map_scans = 1.0;           ///< FrontEndResult::map_scans
   double seconds = 0.0;             ///< all stages for this scan
@@ -114,6 +115,7 @@ struct ScanReport {
     start_offset = fe.start_offset;
     start_turn = fe.start_turn;
     pose_searched = fe.pose_searched;
+    deskewed_again = fe.deskewed_again;
     start_heading = fe.start_heading;
     map_scans = fe.map_scans;
   }
