@@ -412,27 +412,13 @@ FrontEnd::track(const Cloud& scan,
     Icp& icp = to_map ? icp_->icp : icp_->to_previous;
     std::optional<Pose> matched;
     Pose prior_mean = r.prediction;
-    // The scan matched from `start`, with the motion prior at prior_mean.
-    const auto match = [&](const Cloud::ConstPtr& points, const Pose& start) {
-      if (!to_map)
-        return alignToPrevious(points, start, true, &prior_mean);
-      if (icp.getInputSource() != points)
-        icp.setInputSource(points);
-      return align(icp,
-                   start,
-                   r.gate,
-                   params_.final_correspondence_distance,
-                   icp_->threshold != nullptr,
-                   prior_mean,
-                   priorSpreadIfUsed());
-    };
     if (to_map) {
       icp.setInputSource(source);
       if (map_.cloud() != target_) // the tree is rebuilt only for a new map
         icp.setInputTarget(target_ = map_.cloud());
       const Pose guess = initialGuess(source, reduced, r.prediction, odometry.has_value(), r);
       prior_mean = priorMean(r, guess);
-      matched = match(source, guess);
+      matched = matchFrom(source, guess, prior_mean);
     }
     else { // the best guess refined (without odometry; with it, the prediction)
       std::optional<Pose> better;
@@ -441,27 +427,21 @@ FrontEnd::track(const Cloud& scan,
             source, reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
       if (better)
         prior_mean = priorMean(r, *better);
-      matched = match(source, better ? *better : r.prediction);
+      matched = matchFrom(source, better ? *better : r.prediction, prior_mean);
     }
     // Deskewed by the predicted step, a scan taken while the motion changed (a turn
     // begun or ended) is skewed by the change: deskewed again by the matched step and
-    // matched again from where it was matched (docs/design.md, "Deskewing by the match").
-    if (params_.deskew && matched && !first_scan_) {
-      // As the prediction's sweep (predictMotion): the velocity at the step's end.
-      const Pose step(pose_.inverse() * *matched);
-      const Pose sweep = sweepMotion(
-          scans_ > 2 ? extrapolateMotion(step, gap, velocity_, velocity_span_) : step,
-          gap,
-          params_.sweep_period);
-      if (skewChange(motion.sweep, sweep, *reduced.reduced) >
-          kRedeskewVoxels * params_.voxel_size) {
-        reduced = describe(reduce(scan, sweep_times, sweep), params_.num_threads);
-        source = filters::voxelNearestToCentroid(
-            *reduced.reduced, params_.source_voxel_size, params_.num_threads);
-        if (const auto rematched = match(source, *matched))
-          matched = rematched;
-        r.deskewed_again = true;
-      }
+    // matched again from where it was matched.
+    if (const auto sweep =
+            params_.deskew && matched && !first_scan_
+                ? sweepToDeskewAgain(*matched, motion.sweep, gap, *reduced.reduced)
+                : std::nullopt) {
+      reduced = describe(reduce(scan, sweep_times, *sweep), params_.num_threads);
+      source = filters::voxelNearestToCentroid(
+          *reduced.reduced, params_.source_voxel_size, params_.num_threads);
+      if (const auto again = matchFrom(source, *matched, prior_mean))
+        matched = again;
+      r.deskewed_again = true;
     }
     r.converged = matched.has_value();
     if (matched) {
@@ -605,6 +585,39 @@ FrontEnd::alignToPrevious(const Cloud::ConstPtr& source,
   if (!matched)
     return std::nullopt;
   return Pose(pose_ * *matched);
+}
+
+std::optional<Pose>
+FrontEnd::matchFrom(const Cloud::ConstPtr& source, const Pose& start, const Pose& prior_mean)
+{
+  if (params_.target != MatchTarget::kLocalMap)
+    return alignToPrevious(source, start, true, &prior_mean);
+  Icp& icp = icp_->icp;
+  if (icp.getInputSource() != source)
+    icp.setInputSource(source);
+  return align(icp,
+               start,
+               gate(),
+               params_.final_correspondence_distance,
+               icp_->threshold != nullptr,
+               prior_mean,
+               priorSpreadIfUsed());
+}
+
+std::optional<Pose>
+FrontEnd::sweepToDeskewAgain(const Pose& matched,
+                             const Pose& predicted,
+                             double gap,
+                             const Cloud& reduced) const
+{
+  const Pose step(pose_.inverse() * matched);
+  const Pose sweep =
+      sweepMotion(scans_ > 2 ? extrapolateMotion(step, gap, velocity_, velocity_span_) : step,
+                  gap,
+                  params_.sweep_period);
+  if (!(skewChange(predicted, sweep, reduced) > kRedeskewVoxels * params_.voxel_size))
+    return std::nullopt;
+  return sweep;
 }
 
 FrontEnd::Hypotheses

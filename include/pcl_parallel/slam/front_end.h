@@ -315,6 +315,20 @@ private:
                   const Pose& prediction,
                   bool refined,
                   const Pose* prior_mean = nullptr);
+  /** The source matched from \a start to the match target (the local map, whose tree
+   *  the map match's pICP holds, or the previous scan), coarse to fine from the gate,
+   *  its motion prior at \a prior_mean: the world pose, or none. */
+  std::optional<Pose>
+  matchFrom(const Cloud::ConstPtr& source, const Pose& start, const Pose& prior_mean);
+  /** The sweep's motion from the matched step (one sweep's share, at the velocity of the
+   *  step's end, as predictMotion's) where deskewing by it instead of \a predicted moves
+   *  the reduced scan's farthest point more than kRedeskewVoxels; none elsewhere
+   *  (docs/design.md, "Deskewing by the match"). */
+  std::optional<Pose>
+  sweepToDeskewAgain(const Pose& matched,
+                     const Pose& predicted,
+                     double gap,
+                     const Cloud& reduced) const;
 
   FrontEndParameters params_;
   std::unique_ptr<Registration> icp_;
