@@ -116,16 +116,16 @@ reducedNormals(const KdTreeIndex& tree, std::size_t num_points, unsigned num_thr
   return normals;
 }
 
-/** The reduced scan with its one tree and its normals: built once, before the match
- *  (the pose search takes them) and kept after it. */
-ReducedScan
-describe(const Cloud::Ptr& reduced, unsigned num_threads)
+/** Builds the reduced scan's one tree and its normals, unless built: by the pose search,
+ *  where it runs, else when the scan is kept, so that a scan deskewed again after its
+ *  match is described once. */
+void
+describe(ReducedScan& scan, unsigned num_threads)
 {
-  ReducedScan scan;
-  scan.reduced = reduced;
-  scan.tree = scanTree(*reduced, num_threads);
-  scan.normals = reducedNormals(*scan.tree, reduced->size(), num_threads);
-  return scan;
+  if (scan.tree)
+    return;
+  scan.tree = scanTree(*scan.reduced, num_threads);
+  scan.normals = reducedNormals(*scan.tree, scan.reduced->size(), num_threads);
 }
 
 /** The reduced points with their normals, NaN where none (pICP then skips a pair
@@ -400,7 +400,7 @@ FrontEnd::track(const Cloud& scan,
   }
   else if (first_scan_ && odometry)
     r.first_scan = deskewFirstAgain(motion.sweep);
-  ReducedScan reduced = describe(reduce(scan, sweep_times, motion.sweep), params_.num_threads);
+  ReducedScan reduced = reduce(scan, sweep_times, motion.sweep);
   auto source = filters::voxelNearestToCentroid(
       *reduced.reduced, params_.source_voxel_size, params_.num_threads);
 
@@ -436,7 +436,7 @@ FrontEnd::track(const Cloud& scan,
             params_.deskew && matched && !first_scan_
                 ? sweepToDeskewAgain(*matched, motion.sweep, gap, *reduced.reduced)
                 : std::nullopt) {
-      reduced = describe(reduce(scan, sweep_times, *sweep), params_.num_threads);
+      reduced = reduce(scan, sweep_times, *sweep);
       source = filters::voxelNearestToCentroid(
           *reduced.reduced, params_.source_voxel_size, params_.num_threads);
       if (const auto again = matchFrom(source, *matched, prior_mean))
@@ -476,7 +476,7 @@ FrontEnd::track(const Cloud& scan,
   if (first_scan_ && !first) { // both scans were matched as they came, neither deskewed
     const Pose sweep = sweepMotion(velocity_, gap, params_.sweep_period);
     r.first_scan = deskewFirstAgain(sweep);
-    reduced = describe(reduce(scan, sweep_times, sweep), params_.num_threads);
+    reduced = reduce(scan, sweep_times, sweep);
   }
   pose_ = r.pose;
 
@@ -488,14 +488,13 @@ ReducedScan
 FrontEnd::deskewFirstAgain(const Pose& sweep)
 {
   map_.clear(); // of the first scan alone, at pose_
-  ReducedScan out =
-      keep(describe(reduce(*first_scan_, first_scan_times_, sweep), params_.num_threads));
+  ReducedScan out = keep(reduce(*first_scan_, first_scan_times_, sweep));
   first_scan_.reset();
   first_scan_times_.clear();
   return out;
 }
 
-Cloud::Ptr
+ReducedScan
 FrontEnd::reduce(const Cloud& scan,
                  const std::vector<float>& sweep_times,
                  const Pose& sweep) const
@@ -504,13 +503,16 @@ FrontEnd::reduce(const Cloud& scan,
       params_.deskew
           ? deskewSweep(scan, sweep_times, sweep, params_.sweep_clockwise, params_.num_threads)
           : Cloud::Ptr(new Cloud(scan));
-  return filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
+  ReducedScan reduced;
+  reduced.reduced = filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
+  return reduced;
 }
 
 ReducedScan
 FrontEnd::keep(ReducedScan kept)
 {
   // Into the map at pose_, and kept in the scanner frame for the next scan's match to it.
+  describe(kept, params_.num_threads);
   const Cloud::Ptr& reduced = kept.reduced;
   const bool to_map = params_.target == MatchTarget::kLocalMap;
   if (to_map) {
@@ -729,7 +731,7 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
 
 std::optional<Pose>
 FrontEnd::searchPose(const Cloud::ConstPtr& source,
-                     const ReducedScan& scan,
+                     ReducedScan& scan,
                      const std::optional<Pose>& own,
                      double range,
                      FrontEndResult& r)
@@ -764,6 +766,7 @@ FrontEnd::searchPose(const Cloud::ConstPtr& source,
   // must overlap the previous scan clearly more than `own`, and agree with it more:
   // overlap less conflicts (points in the space it saw through); of those, the one that
   // agrees most wins (docs/design.md, "Where the site repeats").
+  describe(scan, params_.num_threads);
   const Cloud& reduced = *scan.reduced;
   const Cloud::Ptr walls = upright(*scannerFrameCloud(reduced, scan.normals), params_.up);
   const Cloud::Ptr previous_walls = upright(*previous_, params_.up);
@@ -819,7 +822,7 @@ FrontEnd::keepOverlap(double o)
 
 Pose
 FrontEnd::initialGuess(const Cloud::ConstPtr& source,
-                       const ReducedScan& scan,
+                       ReducedScan& scan,
                        const Pose& prediction,
                        bool odometry,
                        FrontEndResult& r)
@@ -832,7 +835,7 @@ FrontEnd::initialGuess(const Cloud::ConstPtr& source,
 
 std::optional<Pose>
 FrontEnd::betterGuess(const Cloud::ConstPtr& source,
-                      const ReducedScan& scan,
+                      ReducedScan& scan,
                       const Pose& prediction,
                       const std::optional<Pose>& own,
                       FrontEndResult& r)

@@ -241,7 +241,7 @@ private:
    *  source's median range where known (Hypotheses::range), else 0. */
   std::optional<Pose>
   searchPose(const Cloud::ConstPtr& source,
-             const ReducedScan& scan,
+             ReducedScan& scan,
              const std::optional<Pose>& own,
              double range,
              FrontEndResult& r);
@@ -253,7 +253,7 @@ private:
    *  search's (searchPose) where even that looks wrong; none if neither won. */
   std::optional<Pose>
   betterGuess(const Cloud::ConstPtr& source,
-              const ReducedScan& scan,
+              ReducedScan& scan,
               const Pose& prediction,
               const std::optional<Pose>& own,
               FrontEndResult& r);
@@ -262,7 +262,7 @@ private:
    *  r.start_offset, r.start_turn and r.start_heading). */
   Pose
   initialGuess(const Cloud::ConstPtr& source,
-               const ReducedScan& scan,
+               ReducedScan& scan,
                const Pose& prediction,
                bool odometry,
                FrontEndResult& r);
@@ -296,15 +296,17 @@ private:
   bool
   hasPrevious() const;
   /** The scan deskewed by the sweep's motion (params_.deskew; at its points' sweep times
-   *  when given, else by azimuth) and reduced. */
-  Cloud::Ptr
+   *  when given, else by azimuth) and reduced; its tree and normals not yet built
+   *  (describe). */
+  ReducedScan
   reduce(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
   /** The first scan deskewed by `sweep` and reduced, the map and previous scan made of it
    *  again (pose_ still the first scan's). */
   ReducedScan
   deskewFirstAgain(const Pose& sweep);
-  /** Puts the reduced scan (with its tree and normals, built before the match) into the
-   *  map at pose_, and keeps it as the previous scan where that is matched. */
+  /** Puts the reduced scan into the map at pose_ with its tree and normals (built here
+   *  unless the pose search built them), and keeps it as the previous scan where that
+   *  is matched. */
   ReducedScan
   keep(ReducedScan scan);
   /** pICP of the source from the prediction against the previous scan, \a refined
