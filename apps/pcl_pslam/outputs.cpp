@@ -348,15 +348,31 @@ writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporte
     writeMapPly(join(o.out, mapTileName(r.rank, ".ply")), *map);
 }
 
-double
-positionRmse(const Poses& poses, const Poses& truth)
+namespace {
+
+/** One row of errors against the simulation's truth: the console, map.png and
+ *  report.json give the same numbers. */
+struct TruthRow {
+  const char* name; ///< console and picture
+  const char* key;  ///< report.json
+  pcl_parallel::evaluation::TrajectoryEvaluation errors;
+};
+
+/** The odometry's (where the run had one), the front end's and the final poses' errors
+ *  (ATE after SE(3) alignment, KITTI-style RPE, per-frame RPE). */
+std::vector<TruthRow>
+truthErrors(const Input& in, const Result& r)
 {
-  double sum = 0.0;
-  const std::size_t n = std::min(poses.size(), truth.size());
-  for (std::size_t i = 0; i < n; ++i)
-    sum += (poses[i].topRightCorner<3, 1>() - truth[i].topRightCorner<3, 1>()).squaredNorm();
-  return n ? std::sqrt(sum / static_cast<double>(n)) : 0.0;
+  namespace ev = pcl_parallel::evaluation;
+  std::vector<TruthRow> rows;
+  if (in.odometry)
+    rows.push_back({"odometry", "odometry", ev::evaluateTrajectory(in.initial, in.truth)});
+  rows.push_back({"front end", "front_end", ev::evaluateTrajectory(r.icp, in.truth)});
+  rows.push_back({"final", "final", ev::evaluateTrajectory(r.final, in.truth)});
+  return rows;
 }
+
+} // namespace
 
 void
 printTruthErrors(std::ostream& out, const Input& in, const Result& r)
@@ -377,23 +393,19 @@ printTruthErrors(std::ostream& out, const Input& in, const Result& r)
                 "RPE [deg/m]",
                 "frame RPE [m]");
   out << line;
-  auto row = [&](const char* what, const Poses& poses) {
-    const auto e = ev::evaluateTrajectory(poses, in.truth);
+  for (const auto& row : truthErrors(in, r)) {
+    const auto& e = row.errors;
     std::snprintf(line,
                   sizeof line,
                   "  %-10s %10.4f %10.3f %9.3f %10.5f %12.4f\n",
-                  what,
+                  row.name,
                   e.ate.translation.rmse,
                   e.ate.rotation_deg.rmse,
                   e.kitti.translation_percent,
                   e.kitti.rotation_deg_per_m,
                   e.rpe.translation.rmse);
     out << line;
-  };
-  if (in.odometry)
-    row("odometry", in.initial);
-  row("front end", r.icp);
-  row("final", r.final);
+  }
 }
 
 namespace {
@@ -486,23 +498,25 @@ writePicture(const Options& o,
   char line[256];
   std::snprintf(line,
                 sizeof line,
-                "%zu scans, %zu map points (%.2f m voxels), %zu loop links, pLUM %d "
-                "iterations",
+                "%zu scans, %zu map points (%.2f m voxels), %zu loop link%s, pLUM %d "
+                "iteration%s",
                 in.size(),
                 map.size(),
                 map_voxel,
                 loops.size(),
-                r.lum_iterations);
+                loops.size() == 1 ? "" : "s",
+                r.lum_iterations,
+                r.lum_iterations == 1 ? "" : "s");
   po.caption.push_back(line);
   if (!in.truth.empty()) {
-    std::snprintf(line,
-                  sizeof line,
-                  "position RMSE against the truth: odometry %.3f m, pICP %.3f m, final "
-                  "%.3f m",
-                  positionRmse(in.initial, in.truth),
-                  positionRmse(r.icp, in.truth),
-                  positionRmse(r.final, in.truth));
-    po.caption.push_back(line);
+    std::string errors = "ATE against the truth (SE(3)-aligned):";
+    for (const auto& row : truthErrors(in, r)) {
+      std::snprintf(
+          line, sizeof line, " %s %.3f m,", row.name, row.errors.ate.translation.rmse);
+      errors += line;
+    }
+    errors.pop_back();
+    po.caption.push_back(errors);
   }
   po.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
   std::string style;
@@ -718,10 +732,17 @@ writeOutputs(const Options& o,
   j["map"] = {{"points", map->size()}, {"voxel_m", map_voxel}};
   if (!style.empty())
     j["picture_style"] = style;
-  if (!in.truth.empty())
-    j["position_rmse_m"] = {{"odometry", positionRmse(in.initial, in.truth)},
-                            {"icp", positionRmse(r.icp, in.truth)},
-                            {"final", positionRmse(r.final, in.truth)}};
+  if (!in.truth.empty()) {
+    nlohmann::json& truth = j["errors_against_truth"];
+    for (const auto& row : truthErrors(in, r)) {
+      const auto& e = row.errors;
+      truth[row.key] = {{"ate_m", e.ate.translation.rmse},
+                        {"ate_deg", e.ate.rotation_deg.rmse},
+                        {"kitti_rpe_percent", e.kitti.translation_percent},
+                        {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
+                        {"frame_rpe_m", e.rpe.translation.rmse}};
+    }
+  }
   j["outputs"] = written;
   writeAtomically(join(o.out, "report.json"), [&](const std::string& tmp) {
     std::ofstream out = openText(tmp);
@@ -743,10 +764,12 @@ printSummary(const Options& o,
     std::printf("pICP: %d of %zu matches did not converge; their initial steps were kept\n",
                 r.icp_failures,
                 in.size() - 1);
-  std::printf("pLUM: %zu loop links beside the %zu consecutive ones, %d iterations\n",
+  std::printf("pLUM: %zu loop link%s beside the %zu consecutive ones, %d iteration%s\n",
               r.links.size(),
+              r.links.size() == 1 ? "" : "s",
               in.size() - 1,
-              r.lum_iterations);
+              r.lum_iterations,
+              r.lum_iterations == 1 ? "" : "s");
   // Matches the pose search found came from nothing but the scans: right on a distinct
   // site, possibly a room or corridor away where the site repeats (docs/design.md,
   // "Pose search").

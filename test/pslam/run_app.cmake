@@ -7,8 +7,9 @@
 # a full disk (file_size_limit.sh). STDOUT: standard output goes there (e.g. /dev/full), not
 # into the checked output. CHECK_REPORT: OUT_DIR/report.json parses, has scan 1's
 # sequence_chi2 and holds a time for
-# each pipeline stage. EXPECT_JSON="KEY... =VALUE|...": OUT_DIR/report.json holds each
-# VALUE at its path of keys and indices (string(JSON GET): booleans read ON/OFF). Every output in
+# each pipeline stage. EXPECT_JSON="KEY... =VALUE|KEY... ~REGEX|...": OUT_DIR/report.json
+# holds each VALUE (or a value matching REGEX) at its path of keys and indices (string(JSON
+# GET): booleans read ON/OFF). Every output in
 # OUT_DIR must be complete: no temporary left.
 cmake_minimum_required(VERSION 3.19) # string(JSON), IN_LIST
 string(REPLACE "|" ";" cmd "${CMD}")
@@ -65,12 +66,15 @@ if(EXPECT_JSON)
   file(READ "${OUT_DIR}/report.json" json)
   string(REPLACE "|" ";" checks "${EXPECT_JSON}")
   foreach(check IN LISTS checks)
-    string(REGEX MATCH "^(.*)=(.*)$" matched "${check}")
-    set(want "${CMAKE_MATCH_2}")
+    string(REGEX MATCH "^([^=~]*)([=~])(.*)$" matched "${check}")
+    set(op "${CMAKE_MATCH_2}")
+    set(want "${CMAKE_MATCH_3}")
     separate_arguments(path UNIX_COMMAND "${CMAKE_MATCH_1}")
     string(JSON got GET "${json}" ${path})
-    if(NOT got STREQUAL want)
+    if(op STREQUAL "=" AND NOT got STREQUAL want)
       message(FATAL_ERROR "report.json: ${path} is '${got}', expected '${want}'")
+    elseif(op STREQUAL "~" AND NOT got MATCHES "${want}")
+      message(FATAL_ERROR "report.json: ${path} is '${got}', expected to match '${want}'")
     endif()
   endforeach()
 endif()
