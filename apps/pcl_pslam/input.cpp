@@ -267,7 +267,7 @@ openDirectory(const Options& o)
                      " scans lie in the range -s " + std::to_string(o.first) +
                      (o.last >= 0 ? " -e " + std::to_string(o.last) : "") +
                      "; pcl_pslam needs at least 2");
-  bool have_uos_poses = uos && all_poses.empty();
+  bool have_uos_poses = uos && all_poses.empty() && !o.no_poses;
   for (const std::size_t i : selected) {
     in.files.push_back(files[i].string());
     in.numbers.push_back(static_cast<int>(numbers[i]));
@@ -389,7 +389,8 @@ simulateDemo(Options& o)
   pcl_parallel::sim::writeScanSet(set, dir);
   o.dir = dir;
   if (!set.point_times.empty()) { // KITTI-like: odometry.txt beside, raw sweeps
-    o.poses_file = (fs::path(dir) / "odometry.txt").string();
+    if (!o.no_poses)
+      o.poses_file = (fs::path(dir) / "odometry.txt").string();
     o.deskew = true;
   }
   return dir;

@@ -110,8 +110,8 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
       progress.update("simulate", 1, 1);
       truth = pcl_parallel::io::loadKittiPoses(demo_dir + "/ground_truth.txt");
     }
-    else if (std::error_code ec;
-             o.poses_file.empty() && fs::exists(fs::path(o.dir) / "odometry.txt", ec)) {
+    else if (std::error_code ec; o.poses_file.empty() && !o.no_poses &&
+                                 fs::exists(fs::path(o.dir) / "odometry.txt", ec)) {
       o.poses_file = (fs::path(o.dir) / "odometry.txt").string(); // as `simulate` writes it
       progress.note("odometry from " + o.poses_file);
     }

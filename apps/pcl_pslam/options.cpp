@@ -61,11 +61,12 @@ struct Descriptions {
        "initial poses, KITTI (12 numbers a line) or TUM (timestamp tx ty tz qx qy qz qw: "
        "its stamps are the scans' unless --times or times.txt give them), one line per "
        "scan file in DIR, files' units, the scanner's frame (KITTI's poses.txt is the "
-       "left camera's). Default: .pose files beside .3d scans, else none (constant "
-       "velocity)")
+       "left camera's). Default: odometry.txt in DIR (as `simulate` writes it), else "
+       ".pose files beside .3d scans, else none (constant velocity; --no-poses)")
       ("times", po::value<std::string>(&o.times_file)->value_name("FILE"),
        "one timestamp (s) per scan file in DIR, for poses_tum.txt [default: times.txt in DIR "
-       "or its parent, else the scan index]")
+       "or its parent, else a TUM --poses file's stamps, else each scan's number as -s/-e "
+       "count it]")
       ("scale", po::value<double>()->value_name("S"),
        "coordinates times S are metres [default 1; uos: 0.01]")
       ("up", po::value<std::string>()->value_name("x|y|z"),
@@ -133,6 +134,9 @@ struct Descriptions {
        "without initial poses, never search a scan's pose over all headings and "
        "translations (by default searched where a match to the previous scan looks wrong: "
        "stop-and-go scanners carried between stations)")
+      ("no-poses", po::bool_switch(&o.no_poses),
+       "no initial poses even where the scans have them (.pose files, odometry.txt in DIR; "
+       "demo: the simulated odometry): constant-velocity guesses, as without any")
       ("no-loops", po::bool_switch(&o.no_loops), "no loop closing (front end only)");
     output.add_options()
       ("out,o", po::value<std::string>(&o.out)->value_name("DIR"),
@@ -225,8 +229,9 @@ helpText(const std::string& command)
       << d.input << "\n";
   else
     s << "usage: pcl_pslam demo [options]\n\n"
-         "Simulates the built-in scan set (a ring corridor, drifting odometry), maps it and\n"
-         "prints the pose errors against the simulation's truth. Lengths in metres.\n\n";
+         "Simulates a preset (--preset, office by default: 11 stop-and-go scans of an office\n"
+         "floor with drifting odometry), maps it as `run` would and prints the pose errors\n"
+         "against the simulation's truth. Lengths in metres.\n\n";
   s << d.pipeline << "\n"
     << d.output << "\n"
     << d.general << "\n"
@@ -334,6 +339,8 @@ parseCommandLine(int argc, const char* const* argv)
     o.loop_distance = positive(vm, "cldist", true);
   if (o.metascan && o.scan_to_scan)
     throw UsageError("--metascan and --scan-to-scan exclude each other");
+  if (o.no_poses && !o.poses_file.empty())
+    throw UsageError("--poses and --no-poses exclude each other");
   if (vm.count("map-voxel"))
     o.map_voxel = positive(vm, "map-voxel", true);
   if (vm.count("epsICP"))

@@ -52,7 +52,7 @@ struct Options {
   int icp_iterations = Parameters().icp_iterations;
   int loop_size = Parameters().loop_size;
   int lum_iterations = Parameters().lum_iterations;
-  std::optional<double> eps_icp, eps_slam; ///< accepted; not yet passed to the pipeline
+  std::optional<double> eps_icp, eps_slam; ///< unset: the pipeline's defaults
   bool metascan = false;     ///< against a map of previous scans (the pipeline's default)
   bool scan_to_scan = false; ///< against the previous scan only (the paper's default)
   bool deskew = false;
@@ -60,6 +60,7 @@ struct Options {
   bool sweep_ccw = false;    ///< the head turns counter-clockwise in the scans' frame
   bool map_normals = false;  ///< point-to-plane normals on the local map (sparse scanners)
   bool no_loops = false;
+  bool no_poses = false; ///< no initial poses even where the directory has them
   bool no_pose_search = false;
   int elch = 4; ///< [-L] 3DTK's loop closing algorithm: 0 none, else ELCH
   bool no_sequence_constraints = false;

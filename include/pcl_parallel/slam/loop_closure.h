@@ -218,8 +218,9 @@ private:
   owner(std::size_t i) const;
   bool
   owns(std::size_t i) const;
-  /** Overlap of every-256th points of the newest scan with each candidate at the current
-   *  poses, computed where the candidate is kept. */
+  /** Overlap of 256-511 evenly spaced points of the newest scan (every size/256-th) with
+   *  each candidate at the current poses, within twice the overlap distance, computed
+   *  where the candidate is kept. */
   std::vector<double>
   firstLook(const std::vector<std::uint32_t>& candidates);
   /** pICP of the newest scan against scan i where the newest is kept: converged (0/1),
