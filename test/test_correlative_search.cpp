@@ -187,6 +187,9 @@ TEST(CorrelativeSearch, BadSettingsThrowEmptyScansGiveNothing)
   p.headings = 72;
   p.radius = -1.0;
   EXPECT_THROW(slam::correlativeSearch(scan, scan, z, p), std::invalid_argument);
+  p = slam::CorrelativeSearchParameters();
+  p.max_points = 0; // was a division by zero
+  EXPECT_THROW(slam::correlativeSearch(scan, scan, z, p), std::invalid_argument);
 }
 
 // A wall 10 m ahead of the scanner (x), 4 x 4 m: points in front of it along a beam

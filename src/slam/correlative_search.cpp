@@ -213,9 +213,10 @@ correlativeSearch(const Cloud& source,
                   const CorrelativeSearchParameters& params)
 {
   if (!(params.cell > 0.0) || !std::isfinite(params.cell) || params.headings < 1 ||
-      !(params.radius >= 0.0) || !std::isfinite(params.radius) || !(up.norm() > 0.0))
-    throw std::invalid_argument("correlativeSearch: cell > 0, radius >= 0, headings >= 1 "
-                                "and a non-zero up axis needed");
+      !(params.radius >= 0.0) || !std::isfinite(params.radius) || params.max_points < 1 ||
+      !(up.norm() > 0.0))
+    throw std::invalid_argument("correlativeSearch: cell > 0, radius >= 0, headings >= 1, "
+                                "max_points >= 1 and a non-zero up axis needed");
   const Frame frame(up);
   double radius = params.radius;
   if (radius == 0.0) { // as far as the target reaches: its 90th percentile range

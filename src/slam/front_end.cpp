@@ -218,7 +218,7 @@ configure(Icp& icp,
 /** pICP from `guess` within `gate` (configure()), then refined from there within
  *  `final_gate` where that is narrower (coarse to fine; docs/design.md, "Coarse to
  *  fine"; 0: not refined). None if the wide match did not converge; its result if the
- *  refinement does not. */
+ *  refinement does not. `icp` is left with the returned match's pairs and Hessian. */
 std::optional<Pose>
 align(Icp& icp,
       const Pose& guess,
@@ -244,6 +244,12 @@ align(Icp& icp,
   if (!(final_gate < gate))
     return matched;
   configure(icp, final_gate, adaptive, prediction, prior_spread);
+  icp.alignDouble(aligned, matched);
+  if (icp.hasConverged())
+    return Pose(icp.getFinalTransformationDouble());
+  // The wide match again, from its own result (it stays there), so that the statistics
+  // read from `icp` (fitness, Hessian) are the returned pose's, not the failed refinement's.
+  configure(icp, gate, adaptive, prediction, prior_spread);
   icp.alignDouble(aligned, matched);
   return icp.hasConverged() ? Pose(icp.getFinalTransformationDouble()) : matched;
 }
@@ -421,13 +427,15 @@ FrontEnd::track(const Cloud& scan,
       matched = matchFrom(source, guess, prior_mean);
     }
     else { // the best guess refined (without odometry; with it, the prediction)
-      std::optional<Pose> better;
-      if (!odometry && (params_.speed_hypotheses || params_.pose_search))
-        better = betterGuess(
-            source, reduced, r.prediction, alignToPrevious(source, r.prediction, false), r);
+      std::optional<Pose> own, better;
+      if (!odometry && (params_.speed_hypotheses || params_.pose_search)) {
+        own = alignToPrevious(source, r.prediction, false);
+        better = betterGuess(source, reduced, r.prediction, own, r);
+      }
       if (better)
         prior_mean = priorMean(r, *better);
-      matched = matchFrom(source, better ? *better : r.prediction, prior_mean);
+      // From the prediction's wide match, made already, the same wide stage stops at once.
+      matched = matchFrom(source, better ? *better : own.value_or(r.prediction), prior_mean);
     }
     // Deskewed by the predicted step, a scan taken while the motion changed (a turn
     // begun or ended) is skewed by the change: deskewed again by the matched step and
@@ -436,12 +444,17 @@ FrontEnd::track(const Cloud& scan,
             params_.deskew && matched && !first_scan_
                 ? sweepToDeskewAgain(*matched, motion.sweep, gap, *reduced.reduced)
                 : std::nullopt) {
-      reduced = reduce(scan, sweep_times, *sweep);
-      source = filters::voxelNearestToCentroid(
-          *reduced.reduced, params_.source_voxel_size, params_.num_threads);
-      if (const auto again = matchFrom(source, *matched, prior_mean))
-        matched = again;
-      r.deskewed_again = true;
+      ReducedScan again = reduce(scan, sweep_times, *sweep);
+      const auto again_source = filters::voxelNearestToCentroid(
+          *again.reduced, params_.source_voxel_size, params_.num_threads);
+      if (const auto rematched = matchFrom(again_source, *matched, prior_mean)) {
+        matched = rematched;
+        reduced = std::move(again);
+        source = again_source;
+        r.deskewed_again = true;
+      }
+      else // the first match again, from itself: its scan, pairs and Hessian are kept
+        matched = matchFrom(source, *matched, prior_mean);
     }
     r.converged = matched.has_value();
     if (matched) {
@@ -449,7 +462,7 @@ FrontEnd::track(const Cloud& scan,
       // which compounds rounding (mulran, 332 keyframes: |RᵀR - I| grew to 1e-9, faster
       // than linearly), and odometry read from text carries its digits' error.
       r.pose = lum::orthonormalized(*matched);
-      r.fitness = icp.getFitnessScore(r.gate);
+      r.fitness = icp.getFitnessScore(r.gate * r.gate); // squared, as PCL's max_range
       r.information =
           information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
       r.information_pairs = icp.getFinalWeight();
@@ -461,7 +474,9 @@ FrontEnd::track(const Cloud& scan,
                                      r.pose,
                                      tree->index(),
                                      map_.scans(),
-                                     params_.final_correspondence_distance,
+                                     params_.final_correspondence_distance > 0.0
+                                         ? params_.final_correspondence_distance
+                                         : r.gate,
                                      params_.num_threads);
       if (icp_->threshold) // how far the match moved the scan from the prior
         icp_->threshold->updateModelDeviation(r.prediction.inverse() * r.pose);
@@ -480,7 +495,7 @@ FrontEnd::track(const Cloud& scan,
   }
   pose_ = r.pose;
 
-  r.scan = keep(std::move(reduced));
+  r.scan = keep(std::move(reduced), static_cast<std::uint32_t>(scans_));
   return r;
 }
 
@@ -488,7 +503,9 @@ ReducedScan
 FrontEnd::deskewFirstAgain(const Pose& sweep)
 {
   map_.clear(); // of the first scan alone, at pose_
-  ReducedScan out = keep(reduce(*first_scan_, first_scan_times_, sweep));
+  ReducedScan out = // the first scan, kept again while the second is tracked
+      keep(reduce(*first_scan_, first_scan_times_, sweep),
+           static_cast<std::uint32_t>(scans_ - 1));
   first_scan_.reset();
   first_scan_times_.clear();
   return out;
@@ -509,7 +526,7 @@ FrontEnd::reduce(const Cloud& scan,
 }
 
 ReducedScan
-FrontEnd::keep(ReducedScan kept)
+FrontEnd::keep(ReducedScan kept, std::uint32_t id)
 {
   // Into the map at pose_, and kept in the scanner frame for the next scan's match to it.
   describe(kept, params_.num_threads);
@@ -518,7 +535,7 @@ FrontEnd::keep(ReducedScan kept)
   if (to_map) {
     const MapCloud::Ptr world = withNormals(*reduced, kept.normals);
     pcl::transformPointCloudWithNormals(*world, *world, pose_);
-    map_.update(*world, pose_.topRightCorner<3, 1>(), static_cast<std::uint32_t>(scans_));
+    map_.update(*world, pose_.topRightCorner<3, 1>(), id);
   }
   if (to_map && !params_.guess_from_previous_scan)
     return kept; // the previous scan is not matched
@@ -676,11 +693,16 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
                          const Hypotheses& h,
                          FrontEndResult& r)
 {
-  const double gate = this->gate(), same = sameSolution();
-  double best =
-      own ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
-  std::optional<Pose> winner;
+  const double same = sameSolution();
   const Pose to_previous = pose_.inverse(); // rivals are compared in its frame
+  // pICP's mean squared pair distance over the pairs within sqrt(gate): PCL's max_range
+  // is a squared distance, and the gate (metres) went in as it. That radius depends on
+  // the units (1-2.9 m for gates of 1-8.25 m); the unit-free radii and fits tried instead
+  // each lost the drive or a corridor set (docs/design.md, "Speed hypotheses").
+  const double fit_range = gate();
+  const auto fit = [&] { return icp_->to_previous.getFitnessScore(fit_range); };
+  double best = own ? fit() : std::numeric_limits<double>::infinity();
+  std::optional<Pose> winner;
   // A better fit is no measure where it contradicts the previous scan more: the stop
   // fits better by the shared sampling pattern, yet puts the far walls of the corridor
   // into its open space (docs/design.md, "Standing still").
@@ -697,7 +719,7 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
     const std::optional<Pose> other = alignToPrevious(source, start, false, &prediction);
     if (!other)
       return;
-    const double fitness = icp_->to_previous.getFitnessScore(gate);
+    const double fitness = fit();
     const std::optional<Pose>& leader = winner ? winner : own;
     if (leader && !isRival(to_previous * *leader, to_previous * *other, h.range))
       return;

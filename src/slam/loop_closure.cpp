@@ -216,8 +216,7 @@ LoopCloser::firstLook(const std::vector<std::uint32_t>& candidates)
       overlaps[k] = overlap(points,
                             Pose(poses_[i].inverse() * poses_[j]),
                             *impl_->trees[i],
-                            params_.overlap_distance * 2.0,
-                            1);
+                            params_.overlap_distance * 2.0);
   }
   if (exchange_)
     exchange_->maximum(overlaps);
@@ -245,7 +244,7 @@ LoopCloser::matchPair(std::uint32_t i)
       const Pose measured = icp.getFinalTransformation();
       result[0] = 1.0;
       Pose::Map(&result[1]) = measured;
-      result[17] = overlap(*scans_[j], measured, *impl_->trees[i], params_.overlap_distance, 1);
+      result[17] = overlap(*scans_[j], measured, *impl_->trees[i], params_.overlap_distance);
     }
   }
   if (exchange_)

@@ -16,23 +16,18 @@ namespace pcl_parallel {
 namespace slam {
 
 double
-overlap(const Cloud& source,
-        const Pose& pose,
-        const KdTreeIndex& target,
-        double max_distance,
-        std::size_t step)
+overlap(const Cloud& source, const Pose& pose, const KdTreeIndex& target, double max_distance)
 {
   const Eigen::Matrix3f r = pose.topLeftCorner<3, 3>().cast<float>();
   const Eigen::Vector3f t = pose.topRightCorner<3, 1>().cast<float>();
   const float max_sqr = static_cast<float>(max_distance * max_distance);
-  std::size_t tried = 0, hits = 0;
-  for (std::size_t k = 0; k < source.size(); k += step) {
-    const Eigen::Vector3f q = r * source[k].getVector3fMap() + t;
+  std::size_t hits = 0;
+  for (const auto& p : source) {
+    const Eigen::Vector3f q = r * p.getVector3fMap() + t;
     float d2;
-    ++tried;
     hits += target.nearest(q.data(), max_sqr, d2) != KdTreeIndex::kInvalid ? 1 : 0;
   }
-  return tried ? static_cast<double>(hits) / static_cast<double>(tried) : 0.0;
+  return source.empty() ? 0.0 : static_cast<double>(hits) / static_cast<double>(source.size());
 }
 
 FreeSpace::FreeSpace(const Cloud& scan, const Eigen::Vector3d& up, double bin)

@@ -39,7 +39,7 @@ struct CorrelativeSearchParameters {
  * which also takes what the search leaves (tilt: the scanners are assumed level). Same
  * result for any thread count. Empty if either scan has no points within reach.
  * Throws std::invalid_argument for cell <= 0 or not finite, headings < 1, a negative or
- * non-finite radius, or a zero `up`.
+ * non-finite radius, max_points 0, or a zero `up`.
  */
 std::vector<Pose>
 correlativeSearch(const Cloud& source,

@@ -36,12 +36,12 @@ struct FrontEndParameters {
   double map_distance = 30.0;               ///< local map: voxels within this of the scanner
   double map_voxel_size = 0.3;              ///< local map voxel
   int map_points_per_voxel = 20;            ///< local map density
-  double max_correspondence_distance = 0.5; ///< pICP gate (the first, when adaptive)
+  double max_correspondence_distance = 0.5; ///< pICP gate (adaptive: its first value and cap)
   /** A match whose gate is wider than this is refined from its result within this gate
    *  (coarse to fine): the wide gate is the prediction's basin, the narrow one keeps
-   *  pairs across occlusion edges and unseen surfaces out of the final pose. Never
-   *  below 9x the wide match's residual RMS, so the kernel (gate / 9) keeps the inliers
-   *  (docs/design.md, "Coarse to fine"). 0: no refinement. */
+   *  pairs across occlusion edges and unseen surfaces out of the final pose. With
+   *  point-to-plane, never below 9x the wide match's residual RMS, so the kernel
+   *  (gate / 9) keeps the inliers (docs/design.md, "Coarse to fine"). 0: no refinement. */
   double final_correspondence_distance = 0.2; ///< 2 voxels, as the pipeline's default
   /** KISS-ICP's adaptive gate (Vizzo et al. 2023, Sec. III-C): 3 sigma of how far the
    *  matches moved the scans from the motion prior, Geman-McClure kernel of scale
@@ -66,7 +66,8 @@ struct FrontEndParameters {
    *  kPreviousScan the match itself) also starts from the prediction moved
    *  along the direction of travel by -2, -1, +1 and +2 sigma of the adaptive gate (none
    *  behind the previous scan's position: speed, not direction), and
-   *  the start whose match fits the previous scan best (pICP's fitness within the gate)
+   *  the start whose match fits the previous scan best (pICP's fitness, pairs within
+   *  sqrt(gate): metres assumed, docs/design.md "Speed hypotheses")
    *  gives the guess. Constant velocity misses a change of speed (a car pulling away
    *  between keyframes 0.5 s apart, 5-8 m), and along a street a start metres short
    *  converges to a false fit near the previous pose, which then sets the velocity
@@ -126,7 +127,7 @@ struct FrontEndResult {
   ReducedScan scan; ///< the scan deskewed and reduced, with its tree and normals
   std::size_t source_points = 0;
   bool converged = true; ///< false: pICP failed and the prediction was kept
-  double fitness = 0.0;  ///< mean squared distance of matched pairs (pICP's fitness)
+  double fitness = 0.0; ///< mean squared distance of the pairs within the gate (pICP's fitness)
   double gate = 0.0;     ///< the correspondence distance used
   /** Where the winning start of the speed hypotheses lay along the direction of travel,
    *  from the prediction (scan units; 0: the prediction's, or none tried). */
@@ -233,12 +234,12 @@ private:
       return sigma > 0.0 || turn.angle() > 0.0;
     }
   };
-  /** Right after `own`, the prediction's match to the previous scan: where `own` looks
-   *  wrong (pose_search), the best of correlativeSearch's candidates matched, if it
-   *  overlaps the previous scan 1.25 times more than `own`, agrees with it more
-   *  (overlap less free-space conflicts, FreeSpace; both on upright points where the
-   *  scans have them) and ends elsewhere; r.start_heading says which. `range`: the
-   *  source's median range where known (Hypotheses::range), else 0. */
+  /** Right after `own`, the best guess so far (the hypotheses' winner, else the
+   *  prediction's match to the previous scan): where `own` looks wrong (pose_search), the best
+   * of correlativeSearch's candidates matched, if it overlaps the previous scan 1.25 times more
+   * than `own`, agrees with it more (overlap less free-space conflicts, FreeSpace; both on
+   * upright points where the scans have them) and ends elsewhere; r.start_heading says which.
+   * `range`: the source's median range where known (Hypotheses::range), else 0. */
   std::optional<Pose>
   searchPose(const Cloud::ConstPtr& source,
              ReducedScan& scan,
@@ -304,11 +305,11 @@ private:
    *  again (pose_ still the first scan's). */
   ReducedScan
   deskewFirstAgain(const Pose& sweep);
-  /** Puts the reduced scan into the map at pose_ with its tree and normals (built here
-   *  unless the pose search built them), and keeps it as the previous scan where that
-   *  is matched. */
+  /** Puts the reduced scan into the map at pose_ as scan `id` (1 for the first) with its
+   *  tree and normals (built here unless the pose search built them), and keeps it as
+   *  the previous scan where that is matched. */
   ReducedScan
-  keep(ReducedScan scan);
+  keep(ReducedScan scan, std::uint32_t id);
   /** pICP of the source from the prediction against the previous scan, \a refined
    *  within the final gate, its motion prior at \a prior_mean (null: the prediction);
    *  the world pose, or none if it did not converge. */

@@ -14,16 +14,12 @@
 namespace pcl_parallel {
 namespace slam {
 
-/** Fraction of (every step-th point of) `source`, moved by `pose`, that has a point of
+/** Fraction of the points of `source`, moved by `pose`, that have a point of
  *  `target` within max_distance: how much of one scan another sees (3DTK's minimum
  *  overlap). Loop links are kept by it, and the front end's pose search decides by it
  *  when to search and which candidate wins. 0 for an empty source. */
 double
-overlap(const Cloud& source,
-        const Pose& pose,
-        const KdTreeIndex& target,
-        double max_distance,
-        std::size_t step = 1);
+overlap(const Cloud& source, const Pose& pose, const KdTreeIndex& target, double max_distance);
 
 /**
  * \brief What a scan saw through: per direction from its origin (the scanner), the range

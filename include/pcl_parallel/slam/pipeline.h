@@ -62,7 +62,8 @@ struct Parameters {
    *  distribute_error) */
   bool elch = true;
   /** The front end's matches as pose constraints in pLUM (LoopClosureParameters::
-   *  sequence_constraints) */
+   *  sequence_constraints); point-to-plane only: a point-to-point match has no
+   *  information matrix, and its constraint is left out. */
   bool sequence_constraints = true;
   unsigned num_threads = 0; ///< 0: all cores
 };
@@ -81,7 +82,7 @@ struct ScanReport {
   std::size_t reduced_points = 0; ///< kept (after crop, deskew and reduction)
   std::size_t source_points = 0;  ///< registered against the map
   bool converged = true;          ///< pICP; false: the prediction was kept
-  double fitness = 0.0;           ///< pICP's mean squared pair distance
+  double fitness = 0.0;           ///< pICP's mean squared pair distance, within the gate
   double gate = 0.0;              ///< pICP's correspondence distance (adaptive)
   /** How far pICP moved the scan from the motion prior (translation plus rotation at the
    *  median range, as the adaptive gate measures it). */
