@@ -407,8 +407,7 @@ FrontEnd::track(const Cloud& scan,
   else if (first_scan_ && odometry)
     r.first_scan = deskewFirstAgain(motion.sweep);
   ReducedScan reduced = reduce(scan, sweep_times, motion.sweep);
-  auto source = filters::voxelNearestToCentroid(
-      *reduced.reduced, params_.source_voxel_size, params_.num_threads);
+  auto source = sourceOf(reduced);
 
   r.pose = r.prediction;
   const bool to_map = params_.target == MatchTarget::kLocalMap;
@@ -445,8 +444,7 @@ FrontEnd::track(const Cloud& scan,
                 ? sweepToDeskewAgain(*matched, motion.sweep, gap, *reduced.reduced)
                 : std::nullopt) {
       ReducedScan again = reduce(scan, sweep_times, *sweep);
-      const auto again_source = filters::voxelNearestToCentroid(
-          *again.reduced, params_.source_voxel_size, params_.num_threads);
+      const auto again_source = sourceOf(again);
       if (const auto rematched = matchFrom(again_source, *matched, prior_mean)) {
         matched = rematched;
         reduced = std::move(again);
@@ -523,6 +521,13 @@ FrontEnd::reduce(const Cloud& scan,
   ReducedScan reduced;
   reduced.reduced = filters::voxelCentroid(*frame, params_.voxel_size, params_.num_threads);
   return reduced;
+}
+
+Cloud::Ptr
+FrontEnd::sourceOf(const ReducedScan& scan) const
+{
+  return filters::voxelNearestToCentroid(
+      *scan.reduced, params_.source_voxel_size, params_.num_threads);
 }
 
 ReducedScan
@@ -693,16 +698,15 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
                          const Hypotheses& h,
                          FrontEndResult& r)
 {
-  const double same = sameSolution();
-  const Pose to_previous = pose_.inverse(); // rivals are compared in its frame
-  // pICP's mean squared pair distance over the pairs within sqrt(gate): PCL's max_range
-  // is a squared distance, and the gate (metres) went in as it. That radius depends on
-  // the units (1-2.9 m for gates of 1-8.25 m); the unit-free radii and fits tried instead
-  // each lost the drive or a corridor set (docs/design.md, "Speed hypotheses").
-  const double fit_range = gate();
-  const auto fit = [&] { return icp_->to_previous.getFitnessScore(fit_range); };
-  double best = own ? fit() : std::numeric_limits<double>::infinity();
+  const double gate = this->gate(), same = sameSolution();
+  // Fitness over the pairs within sqrt(gate): PCL's max_range is a squared distance, and
+  // the gate (metres) goes in as it. That radius depends on the units (1-2.9 m for gates
+  // of 1-8.25 m); the unit-free radii and fits tried instead each lost the drive or a
+  // corridor set (docs/design.md, "Speed hypotheses").
+  double best =
+      own ? icp_->to_previous.getFitnessScore(gate) : std::numeric_limits<double>::infinity();
   std::optional<Pose> winner;
+  const Pose to_previous = pose_.inverse(); // rivals are compared in its frame
   // A better fit is no measure where it contradicts the previous scan more: the stop
   // fits better by the shared sampling pattern, yet puts the far walls of the corridor
   // into its open space (docs/design.md, "Standing still").
@@ -719,7 +723,7 @@ FrontEnd::bestHypothesis(const Cloud::ConstPtr& source,
     const std::optional<Pose> other = alignToPrevious(source, start, false, &prediction);
     if (!other)
       return;
-    const double fitness = fit();
+    const double fitness = icp_->to_previous.getFitnessScore(gate);
     const std::optional<Pose>& leader = winner ? winner : own;
     if (leader && !isRival(to_previous * *leader, to_previous * *other, h.range))
       return;

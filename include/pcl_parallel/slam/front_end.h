@@ -127,7 +127,7 @@ struct FrontEndResult {
   ReducedScan scan; ///< the scan deskewed and reduced, with its tree and normals
   std::size_t source_points = 0;
   bool converged = true; ///< false: pICP failed and the prediction was kept
-  double fitness = 0.0; ///< mean squared distance of the pairs within the gate (pICP's fitness)
+  double fitness = 0.0;  ///< pICP's mean squared pair distance, within the gate
   double gate = 0.0;     ///< the correspondence distance used
   /** Where the winning start of the speed hypotheses lay along the direction of travel,
    *  from the prediction (scan units; 0: the prediction's, or none tried). */
@@ -235,11 +235,12 @@ private:
     }
   };
   /** Right after `own`, the best guess so far (the hypotheses' winner, else the
-   *  prediction's match to the previous scan): where `own` looks wrong (pose_search), the best
-   * of correlativeSearch's candidates matched, if it overlaps the previous scan 1.25 times more
-   * than `own`, agrees with it more (overlap less free-space conflicts, FreeSpace; both on
-   * upright points where the scans have them) and ends elsewhere; r.start_heading says which.
-   * `range`: the source's median range where known (Hypotheses::range), else 0. */
+   *  prediction's match to the previous scan): where `own` looks wrong (pose_search),
+   *  the best of correlativeSearch's candidates matched, if it overlaps the previous scan
+   *  1.25 times more than `own`, agrees with it more (overlap less free-space conflicts,
+   *  FreeSpace; both on upright points where the scans have them) and ends elsewhere;
+   *  r.start_heading says which. `range`: the source's median range where known
+   *  (Hypotheses::range), else 0. */
   std::optional<Pose>
   searchPose(const Cloud::ConstPtr& source,
              ReducedScan& scan,
@@ -301,6 +302,9 @@ private:
    *  (describe). */
   ReducedScan
   reduce(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
+  /** The points pICP registers: per source voxel the reduced point nearest its centroid. */
+  Cloud::Ptr
+  sourceOf(const ReducedScan& scan) const;
   /** The first scan deskewed by `sweep` and reduced, the map and previous scan made of it
    *  again (pose_ still the first scan's). */
   ReducedScan
