@@ -4,8 +4,6 @@
  */
 #include <pcl_parallel/kdtree.h>
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -248,15 +246,16 @@ struct KdTreeIndex::Builder {
     std::vector<Range> level{{0, 0, m}}, subtrees;
     while (!level.empty()) {
       std::vector<Range> children(2 * level.size(), Range{kInvalid, 0, 0});
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-      for (std::int64_t i = 0; i < static_cast<std::int64_t>(level.size()); ++i) {
-        const Range& r = level[i];
-        std::uint32_t mid, right;
-        if (r.end - r.begin > subtree_points && makeNode(r, mid, right)) {
-          children[2 * i] = {r.node + 1, r.begin, mid};
-          children[2 * i + 1] = {right, mid, r.end};
+      parallelFor(level.size(), threads, 1, [&](std::size_t first, std::size_t last) {
+        for (std::size_t i = first; i < last; ++i) {
+          const Range& r = level[i];
+          std::uint32_t mid, right;
+          if (r.end - r.begin > subtree_points && makeNode(r, mid, right)) {
+            children[2 * i] = {r.node + 1, r.begin, mid};
+            children[2 * i + 1] = {right, mid, r.end};
+          }
         }
-      }
+      });
       std::vector<Range> next;
       for (std::size_t i = 0; i < level.size(); ++i) {
         if (level[i].end - level[i].begin <= subtree_points)
@@ -267,9 +266,10 @@ struct KdTreeIndex::Builder {
       }
       level.swap(next);
     }
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-    for (std::int64_t i = 0; i < static_cast<std::int64_t>(subtrees.size()); ++i)
-      buildSubtree(subtrees[i]);
+    parallelFor(subtrees.size(), threads, 1, [&](std::size_t first, std::size_t last) {
+      for (std::size_t i = first; i < last; ++i)
+        buildSubtree(subtrees[i]);
+    });
   }
 };
 
@@ -351,11 +351,12 @@ KdTreeIndex::build(const float* xyz,
 
   points_.resize(3 * std::size_t{m});
   ids_.resize(m);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1)
-  for (std::int64_t i = 0; i < static_cast<std::int64_t>(m); ++i) {
-    std::copy_n(pts[i].p, 3, &points_[3 * static_cast<std::size_t>(i)]);
-    ids_[i] = pts[i].id;
-  }
+  parallelFor(m, threads, evenGrain(m, threads), [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      std::copy_n(pts[i].p, 3, &points_[3 * i]);
+      ids_[i] = pts[i].id;
+    }
+  });
 }
 
 std::uint32_t
@@ -490,19 +491,17 @@ KdTreeIndex::nearestBatchImpl(const float* queries,
                               unsigned num_threads) const
 {
   const unsigned threads = resolveNumberOfThreads(num_threads);
-  // One slot per thread, indexed by omp_get_thread_num() (paper Sec. IV-B).
+  // One slot per thread, indexed by parallelFor's slot (paper Sec. IV-B).
   std::vector<Slot> slots(threads);
-#pragma omp parallel num_threads(threads) if (threads > 1)
-  {
-    Slot& slot = slots[omp_get_thread_num()];
-#pragma omp for schedule(dynamic, 256)
-    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
-      slot.query = queries + static_cast<std::size_t>(i) * stride;
+  parallelFor(n, threads, 256, [&](std::size_t first, std::size_t last, unsigned t) {
+    Slot& slot = slots[t];
+    for (std::size_t i = first; i < last; ++i) {
+      slot.query = queries + i * stride;
       out_pos[i] = nearestImpl(slot, max_sqr_dist, kInvalid);
       if (out_sqr_dist)
         out_sqr_dist[i] = slot.sqr_dist;
     }
-  }
+  });
 }
 
 void

@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/normal_estimation.h>
+#include <pcl_parallel/parallel.h>
 
 #include <Eigen/Eigenvalues>
 
@@ -27,12 +28,10 @@ estimateNormals(const KdTreeIndex& tree,
                        viewpoint ? viewpoint[1] : 0.0f,
                        viewpoint ? viewpoint[2] : 0.0f};
   const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel num_threads(threads) if (threads > 1)
-  {
+  parallelFor(n, threads, 512, [&](std::size_t first, std::size_t last) {
     std::vector<std::uint32_t> pos(k);
     std::vector<float> d2(k);
-#pragma omp for schedule(dynamic, 512)
-    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+    for (std::size_t i = first; i < last; ++i) {
       const float* p = tree.point(static_cast<std::uint32_t>(i));
       const std::size_t found = tree.knn(p, k, pos.data(), d2.data());
       Eigen::Vector3d nrm, ev; // neighbourhoodNormal: false below 3 neighbours
@@ -47,7 +46,7 @@ estimateNormals(const KdTreeIndex& tree,
       for (int a = 0; a < 3; ++a)
         out[a] = static_cast<float>(nrm[a]);
     }
-  }
+  });
 }
 
 bool

@@ -9,10 +9,11 @@
  */
 #include <pcl_parallel/reduction.h>
 
-#include <omp.h>
-
+#include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <gtest/gtest.h>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -75,15 +76,23 @@ TEST(Reduction, SumIsBitIdenticalForAnyThreadCount)
 }
 
 // A downsampled scan's source (10^3 points: KISS-ICP-style sources, mulran's keyframes)
-// spans several blocks, so the reduction runs on every thread asked for, not on one
-// (with 2,048-point blocks it was one block, run serially).
+// spans several blocks, so the reduction is shared by every thread asked for, not run on
+// one (with 2,048-point blocks it was one block, run serially). Each block waits for a
+// second thread to show up (bounded), so the test sees the sharing without timing it.
 TEST(Reduction, ThousandPointSourceRunsInParallel)
 {
-  const std::vector<int> got = deterministicBlocks(
-      1000, 2, 0, [](std::size_t, std::size_t) { return omp_get_num_threads(); });
+  std::atomic<unsigned> seen{0}; // bit s: slot s took a block
+  const std::vector<unsigned> got =
+      deterministicBlocks(1000, 2, 0u, [&](std::size_t, std::size_t, unsigned slot) {
+        seen |= 1u << slot;
+        for (int i = 0; i < 2000 && seen.load() != 3u; ++i)
+          std::this_thread::sleep_for(std::chrono::microseconds(500));
+        return slot;
+      });
   ASSERT_GE(got.size(), 4u);
-  for (const int size : got)
-    EXPECT_EQ(size, 2);
+  for (const unsigned slot : got)
+    EXPECT_LT(slot, 2u);
+  EXPECT_EQ(seen.load(), 3u) << "one thread took every block";
 }
 
 } // namespace

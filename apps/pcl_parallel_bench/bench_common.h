@@ -131,6 +131,11 @@ runSimPreset(const Options& opt, const std::string& name);
 int
 runMemory(const Options& opt);
 
+/** pICP, pLUM and the pipeline at 1 and N threads, idle and beside CPU-bound processes,
+ *  on the library's pool and on OpenMP. */
+int
+runContention(const Options& opt);
+
 /** voxelCentroid vs pcl::VoxelGrid, voxelNearestToCentroid vs pcl::UniformSampling. */
 int
 runFilters(const Options& opt);

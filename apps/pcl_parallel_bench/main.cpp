@@ -66,6 +66,7 @@ usage()
       "        sim (every preset, minutes) | sim-office | sim-hannover | sim-riegl | "
       "sim-kitti\n"
       "        memory (not in all: ICP on 20 million points, a few GB)\n"
+      "        contention (not in all: 1 vs N threads beside CPU-bound processes it starts)\n"
       "  --data     reference data directory (default: the build's PCL_PARALLEL_DATA_DIR)\n"
       "  --repeats  timed repeats per cell, median reported (default 5)\n"
       "  --threads  thread counts to compare (default: 1 and all cores)\n"
@@ -135,11 +136,13 @@ main(int argc, char** argv)
       {"sim-hannover", [](const Options& o) { return runSimPreset(o, "hannover"); }},
       {"sim-riegl", [](const Options& o) { return runSimPreset(o, "riegl"); }},
       {"sim-kitti", [](const Options& o) { return runSimPreset(o, "kitti"); }},
-      {"memory", runMemory}};
+      {"memory", runMemory},
+      {"contention", runContention}};
   if (what == "all") {
     int rc = 0;
     for (const auto& b : benches)
-      if (b.first.find('-') == std::string::npos && b.first != "memory") // parts: in groups
+      if (b.first.find('-') == std::string::npos && b.first != "memory" &&
+          b.first != "contention") // parts: in groups
         rc |= b.second(opt);
     return rc;
   }

@@ -239,11 +239,15 @@ chooseStyle(const Cloud& map, const Poses& trajectory, int up, unsigned num_thre
   const TrajectoryIndex index(traj, 1.0, 0.25);
   // Each point's trajectory position in parallel (millions of map points), counted after.
   std::vector<int> nearest(map.size());
-  const auto n = static_cast<std::int64_t>(map.size());
-  const unsigned threads = pcl_parallel::resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 100000)
-  for (std::int64_t i = 0; i < n; ++i)
-    nearest[i] = index.nearest(view(map[i].data));
+  const std::size_t n = map.size();
+  const unsigned threads = n > 100000 ? pcl_parallel::resolveNumberOfThreads(num_threads) : 1;
+  pcl_parallel::parallelFor(n,
+                            threads,
+                            pcl_parallel::evenGrain(n, threads),
+                            [&](std::size_t first, std::size_t last) {
+                              for (std::size_t i = first; i < last; ++i)
+                                nearest[i] = index.nearest(view(map[i].data));
+                            });
   std::vector<int> ceiling(trajectory.size(), 0);
   for (std::size_t i = 0; i < map.size(); ++i) {
     const int k = nearest[i];
@@ -318,20 +322,26 @@ heightGrid(const Cloud& map,
   g.band_hi.assign(cells, -1e30f);
   std::vector<float> rel(map.size());
   std::vector<std::int64_t> cell_of(map.size(), -1);
-  const auto n = static_cast<std::int64_t>(map.size());
-  const unsigned threads = pcl_parallel::resolveNumberOfThreads(opt.num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 100000)
-  for (std::int64_t i = 0; i < n; ++i) {
-    const Eigen::Vector2d q = view(map[i].data);
-    const Eigen::Vector2d xy = px(q) / g.cell_px;
-    if (!(xy.x() >= 0 && xy.y() >= 0 && xy.x() < g.width && xy.y() < g.height))
-      continue;
-    const int k = index.nearest(q);
-    rel[i] =
-        static_cast<float>(map[i].data[opt.up] - (k >= 0 ? trajectory[k](opt.up, 3) : 0.0));
-    cell_of[i] =
-        static_cast<std::int64_t>(xy.y()) * g.width + static_cast<std::int64_t>(xy.x());
-  }
+  const std::size_t n = map.size();
+  const unsigned threads =
+      n > 100000 ? pcl_parallel::resolveNumberOfThreads(opt.num_threads) : 1;
+  pcl_parallel::parallelFor(
+      n,
+      threads,
+      pcl_parallel::evenGrain(n, threads),
+      [&](std::size_t first, std::size_t last) {
+        for (std::size_t i = first; i < last; ++i) {
+          const Eigen::Vector2d q = view(map[i].data);
+          const Eigen::Vector2d xy = px(q) / g.cell_px;
+          if (!(xy.x() >= 0 && xy.y() >= 0 && xy.x() < g.width && xy.y() < g.height))
+            continue;
+          const int k = index.nearest(q);
+          rel[i] = static_cast<float>(map[i].data[opt.up] -
+                                      (k >= 0 ? trajectory[k](opt.up, 3) : 0.0));
+          cell_of[i] =
+              static_cast<std::int64_t>(xy.y()) * g.width + static_cast<std::int64_t>(xy.x());
+        }
+      });
   // Floor plan, per cell: the lowest and highest points are floor and ceiling (or a table
   // top); points between them, over 25 cm of height, are a wall or an object. Per cell,
   // so a world frame that is not level (a handheld scanner's first pose) does not turn a

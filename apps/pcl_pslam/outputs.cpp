@@ -304,14 +304,20 @@ buildMap(const Options& o,
     if (count == 1)
       prepare(0, threads);
     else {
-#pragma omp parallel for num_threads(count) schedule(dynamic, 1)
-      for (int i = 0; i < count; ++i)
-        try {
-          prepare(i, 1);
-        }
-        catch (...) { // rethrown below, the first scan's first: as a serial pass would
-          errors[i] = std::current_exception();
-        }
+      pcl_parallel::parallelFor(static_cast<std::size_t>(count),
+                                static_cast<unsigned>(count),
+                                1,
+                                [&](std::size_t i0, std::size_t i1) {
+                                  for (std::size_t i = i0; i < i1; ++i)
+                                    try {
+                                      prepare(static_cast<int>(i), 1);
+                                    }
+                                    // rethrown below, the first scan's first: as a serial
+                                    // pass would
+                                    catch (...) {
+                                      errors[i] = std::current_exception();
+                                    }
+                                });
     }
     for (int i = 0; i < count; ++i) {
       if (errors[i])

@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -21,7 +22,8 @@ constexpr std::size_t kReductionBlockSize = 256;
 
 /**
  * \brief The map half of deterministicReduce(): [0, n) cut into fixed blocks of
- * \a block_size, `Acc block(std::size_t begin, std::size_t end)` run on each block by
+ * \a block_size, `Acc block(std::size_t begin, std::size_t end)` (or with a third
+ * argument, parallelFor()'s slot, for per-thread scratch state) run on each block by
  * whichever thread takes it, the results returned in block order. What a block computes
  * depends only on its range, never on the thread count. Use it directly when the
  * combination is not a plain fold (e.g. pICP's Eq. 12 needs every block's centroid).
@@ -42,14 +44,16 @@ deterministicBlocks(std::size_t n,
     block_size = kReductionBlockSize;
   const std::size_t blocks = (n + block_size - 1) / block_size;
   std::vector<Slot> partial(blocks, Slot{identity});
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads)                                                  \
-    schedule(dynamic, 1) if (threads > 1 && blocks > 1)
-  for (std::int64_t b = 0; b < static_cast<std::int64_t>(blocks); ++b) {
-    const std::size_t begin = static_cast<std::size_t>(b) * block_size;
-    const std::size_t end = begin + block_size < n ? begin + block_size : n;
-    partial[b].value = block(begin, end);
-  }
+  parallelFor(blocks, num_threads, 1, [&](std::size_t first, std::size_t last, unsigned slot) {
+    for (std::size_t b = first; b < last; ++b) {
+      const std::size_t begin = b * block_size;
+      const std::size_t end = begin + block_size < n ? begin + block_size : n;
+      if constexpr (std::is_invocable_v<BlockFn&, std::size_t, std::size_t, unsigned>)
+        partial[b].value = block(begin, end, slot);
+      else
+        partial[b].value = block(begin, end);
+    }
+  });
   std::vector<Acc> out;
   out.reserve(blocks);
   for (Slot& s : partial)

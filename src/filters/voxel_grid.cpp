@@ -72,9 +72,13 @@ forEachBlock(int count, const Fn& fn)
     fn(0);
     return;
   }
-#pragma omp parallel for num_threads(count) schedule(static, 1)
-  for (int t = 0; t < count; ++t)
-    fn(t);
+  parallelFor(static_cast<std::size_t>(count),
+              static_cast<unsigned>(count),
+              1,
+              [&](std::size_t first, std::size_t last) {
+                for (std::size_t t = first; t < last; ++t)
+                  fn(static_cast<int>(t));
+              });
 }
 
 /** Stable LSD radix sort by key, 8 bits a pass over the `bits` low bits: O(n), and equal
@@ -215,9 +219,15 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   radixSort(keyed, bits <= 64 ? bits : width[2], static_cast<unsigned>(blocks.count));
   const std::int64_t m = static_cast<std::int64_t>(keyed.size());
   if (bits > 64) {
-#pragma omp parallel for num_threads(blocks.count) schedule(static) if (blocks.count > 1)
-    for (std::int64_t j = 0; j < m; ++j)
-      keyed[j].key = (offset(keyed[j].index, 0) << 32) | offset(keyed[j].index, 1);
+    const auto threads = static_cast<unsigned>(blocks.count);
+    parallelFor(keyed.size(),
+                threads,
+                evenGrain(keyed.size(), threads),
+                [&](std::size_t first, std::size_t last) {
+                  for (std::size_t j = first; j < last; ++j)
+                    keyed[j].key =
+                        (offset(keyed[j].index, 0) << 32) | offset(keyed[j].index, 1);
+                });
     radixSort(keyed, 64, static_cast<unsigned>(blocks.count));
   }
   // A voxel starts where the key changes; block by block, then gathered in order.
@@ -270,9 +280,15 @@ reduceByVoxel(const Cloud& cloud,
   const std::int64_t voxels = static_cast<std::int64_t>(g.runs.size()) - 1;
   out->resize(static_cast<std::size_t>(voxels));
   const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && voxels > 5000)
-  for (std::int64_t v = 0; v < voxels; ++v)
-    (*out)[v] = pick(cloud, g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
+  const unsigned used = voxels > 5000 ? threads : 1;
+  parallelFor(out->size(),
+              used,
+              evenGrain(out->size(), used),
+              [&](std::size_t first, std::size_t last) {
+                for (std::size_t v = first; v < last; ++v)
+                  (*out)[v] =
+                      pick(cloud, g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
+              });
   return out;
 }
 
@@ -458,18 +474,19 @@ VoxelCentroidMap::add(Grouped&& scan)
   const VoxelRuns& g = s->voxels;
   const std::size_t voxels = g.runs.size() - 1;
   const unsigned threads = resolveNumberOfThreads(num_threads_);
-#pragma omp parallel for num_threads(threads)                                                  \
-    schedule(dynamic) if (threads > 1 && voxels > 5000)
-  for (std::int64_t k = 0; k < static_cast<std::int64_t>(kShards); ++k)
-    for (std::uint32_t b = s->begin[k]; b < s->begin[k + 1]; ++b) {
-      const std::uint32_t v = s->by_shard[b];
-      auto& slot = shards_[k].find(g.keys[g.order[g.runs[v]]]);
-      for (std::uint32_t i = g.runs[v]; i < g.runs[v + 1]; ++i) {
-        const auto& p = s->moved[g.order[i]];
-        slot.x += p.x, slot.y += p.y, slot.z += p.z;
-      }
-      slot.count += g.runs[v + 1] - g.runs[v];
-    }
+  parallelFor(
+      kShards, voxels > 5000 ? threads : 1, 1, [&](std::size_t first, std::size_t last) {
+        for (std::size_t k = first; k < last; ++k)
+          for (std::uint32_t b = s->begin[k]; b < s->begin[k + 1]; ++b) {
+            const std::uint32_t v = s->by_shard[b];
+            auto& slot = shards_[k].find(g.keys[g.order[g.runs[v]]]);
+            for (std::uint32_t i = g.runs[v]; i < g.runs[v + 1]; ++i) {
+              const auto& p = s->moved[g.order[i]];
+              slot.x += p.x, slot.y += p.y, slot.z += p.z;
+            }
+            slot.count += g.runs[v + 1] - g.runs[v];
+          }
+      });
 }
 
 std::size_t
@@ -499,37 +516,40 @@ VoxelCentroidMap::centroids() const
     offset[s + 1] = offset[s] + shards_[s].used;
   std::vector<Centroid> all(offset.back());
   const unsigned threads = resolveNumberOfThreads(num_threads_);
-  const bool parallel = threads > 1 && all.size() > 10000;
-#pragma omp parallel for num_threads(threads) schedule(dynamic) if (parallel)
-  for (std::int64_t s = 0; s < static_cast<std::int64_t>(kShards); ++s) {
-    auto out = all.begin() + static_cast<std::ptrdiff_t>(offset[s]);
-    for (const auto& slot : shards_[s].slots)
-      if (slot.count > 0) {
-        const double count = static_cast<double>(slot.count);
-        *out++ = {slot.key,
-                  pcl::PointXYZ(static_cast<float>(slot.x / count),
-                                static_cast<float>(slot.y / count),
-                                static_cast<float>(slot.z / count))};
-      }
-    std::sort(all.begin() + static_cast<std::ptrdiff_t>(offset[s]), out, by_key);
-  }
-  for (std::size_t width = 1; width < kShards; width *= 2) {
-    const auto pairs = static_cast<std::int64_t>(kShards / (2 * width));
-#pragma omp parallel for num_threads(threads) schedule(dynamic) if (parallel)
-    for (std::int64_t k = 0; k < pairs; ++k) {
-      const std::size_t s = static_cast<std::size_t>(k) * 2 * width;
-      const auto at = [&](std::size_t shard) {
-        return all.begin() + static_cast<std::ptrdiff_t>(offset[shard]);
-      };
-      std::inplace_merge(at(s), at(s + width), at(s + 2 * width), by_key);
+  const unsigned used = all.size() > 10000 ? threads : 1;
+  parallelFor(kShards, used, 1, [&](std::size_t first, std::size_t last) {
+    for (std::size_t s = first; s < last; ++s) {
+      auto out = all.begin() + static_cast<std::ptrdiff_t>(offset[s]);
+      for (const auto& slot : shards_[s].slots)
+        if (slot.count > 0) {
+          const double count = static_cast<double>(slot.count);
+          *out++ = {slot.key,
+                    pcl::PointXYZ(static_cast<float>(slot.x / count),
+                                  static_cast<float>(slot.y / count),
+                                  static_cast<float>(slot.z / count))};
+        }
+      std::sort(all.begin() + static_cast<std::ptrdiff_t>(offset[s]), out, by_key);
     }
+  });
+  for (std::size_t width = 1; width < kShards; width *= 2) {
+    const std::size_t pairs = kShards / (2 * width);
+    parallelFor(pairs, used, 1, [&](std::size_t first, std::size_t last) {
+      for (std::size_t k = first; k < last; ++k) {
+        const std::size_t s = k * 2 * width;
+        const auto at = [&](std::size_t shard) {
+          return all.begin() + static_cast<std::ptrdiff_t>(offset[shard]);
+        };
+        std::inplace_merge(at(s), at(s + width), at(s + 2 * width), by_key);
+      }
+    });
   }
   Cloud::Ptr out(new Cloud);
   out->resize(all.size());
-  const auto n = static_cast<std::int64_t>(all.size());
-#pragma omp parallel for num_threads(threads) schedule(static) if (parallel)
-  for (std::int64_t i = 0; i < n; ++i)
-    (*out)[i] = all[i].p;
+  parallelFor(
+      all.size(), used, evenGrain(all.size(), used), [&](std::size_t first, std::size_t last) {
+        for (std::size_t i = first; i < last; ++i)
+          (*out)[i] = all[i].p;
+      });
   return out;
 }
 

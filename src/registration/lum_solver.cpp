@@ -263,12 +263,11 @@ estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
   std::vector<Eigen::Vector3f> normals(n, Eigen::Vector3f::Zero());
   k = std::max<std::size_t>(k, 3);
   const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel num_threads(threads) if (threads > 1)
-  {
+  // A scan's few thousand points over every thread.
+  parallelFor(n, threads, 256, [&](std::size_t first, std::size_t last) {
     std::vector<std::uint32_t> pos(k);
     std::vector<float> sqr(k);
-#pragma omp for schedule(dynamic, 256) // a scan's few thousand points over every thread
-    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+    for (std::size_t i = first; i < last; ++i) {
       const std::uint32_t p = static_cast<std::uint32_t>(i);
       const std::size_t got = tree.knn(tree.point(p), k, pos.data(), sqr.data());
       Eigen::Vector3d normal, ev;
@@ -278,7 +277,7 @@ estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
         continue;
       normals[i] = normal.normalized().cast<float>();
     }
-  }
+  });
   return normals;
 }
 

@@ -775,9 +775,13 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   const int batch = per_scan ? 8 * static_cast<int>(threads) : 1;
   for (int first = 0; first < n; first += batch) {
     const int last = std::min(n, first + batch);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (per_scan)
-    for (int i = first; i < last; ++i)
-      scan(i, per_scan ? 1u : threads);
+    parallelFor(static_cast<std::size_t>(last - first),
+                per_scan ? threads : 1,
+                1,
+                [&](std::size_t i0, std::size_t i1) {
+                  for (std::size_t i = i0; i < i1; ++i)
+                    scan(first + static_cast<int>(i), per_scan ? 1u : threads);
+                });
     if (o.progress)
       o.progress(last, n);
   }

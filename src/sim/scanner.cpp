@@ -118,41 +118,43 @@ castScan(const RayCaster& caster,
     poses[static_cast<std::size_t>(c)] = pose_of_column(c);
   std::vector<std::vector<pcl::PointXYZ>> per_column(static_cast<std::size_t>(columns));
   const unsigned threads = resolveNumberOfThreads(num_threads);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 4) if (threads > 1)
-  for (int c = 0; c < columns; ++c) {
-    const Eigen::Matrix4d& pose = poses[static_cast<std::size_t>(c)];
-    const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
-    const Eigen::Vector3d origin = pose.topRightCorner<3, 1>();
-    auto& out = per_column[static_cast<std::size_t>(c)];
-    out.reserve(static_cast<std::size_t>(rows));
-    for (int row = 0; row < rows; ++row) {
-      const std::uint64_t ray = static_cast<std::uint64_t>(c) * rows + row;
-      const Eigen::Vector3d d = direction(s, c, row);
-      double range;
-      if (!caster.raycast(origin, r * d, s.max_range, range)) {
-        if (s.max_range_points)
-          out.emplace_back(static_cast<float>(s.max_range * d.x()),
-                           static_cast<float>(s.max_range * d.y()),
-                           static_cast<float>(s.max_range * d.z()));
-        continue;
-      }
-      if (s.mixed_pixel_probability > 0.0) { // a footprint across a depth edge
-        double other;
-        const Eigen::Vector3d half = direction(s, c + 0.5, row);
-        if (caster.raycast(origin, r * half, s.max_range, other) &&
-            std::abs(other - range) > s.mixed_pixel_gap &&
-            counterUniform(key ^ 0x6d69786564ull, ray) < s.mixed_pixel_probability)
-          range += counterUniform(key ^ 0x7765696768ull, ray) * (other - range);
-      }
-      if (s.range_noise > 0.0)
-        range += s.range_noise * counterNormal(key, ray);
-      if (range < s.min_range || range > s.max_range)
-        continue;
-      out.emplace_back(static_cast<float>(range * d.x()),
-                       static_cast<float>(range * d.y()),
-                       static_cast<float>(range * d.z()));
-    }
-  }
+  parallelFor(
+      static_cast<std::size_t>(columns), threads, 4, [&](std::size_t c0, std::size_t c1) {
+        for (int c = static_cast<int>(c0); c < static_cast<int>(c1); ++c) {
+          const Eigen::Matrix4d& pose = poses[static_cast<std::size_t>(c)];
+          const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
+          const Eigen::Vector3d origin = pose.topRightCorner<3, 1>();
+          auto& out = per_column[static_cast<std::size_t>(c)];
+          out.reserve(static_cast<std::size_t>(rows));
+          for (int row = 0; row < rows; ++row) {
+            const std::uint64_t ray = static_cast<std::uint64_t>(c) * rows + row;
+            const Eigen::Vector3d d = direction(s, c, row);
+            double range;
+            if (!caster.raycast(origin, r * d, s.max_range, range)) {
+              if (s.max_range_points)
+                out.emplace_back(static_cast<float>(s.max_range * d.x()),
+                                 static_cast<float>(s.max_range * d.y()),
+                                 static_cast<float>(s.max_range * d.z()));
+              continue;
+            }
+            if (s.mixed_pixel_probability > 0.0) { // a footprint across a depth edge
+              double other;
+              const Eigen::Vector3d half = direction(s, c + 0.5, row);
+              if (caster.raycast(origin, r * half, s.max_range, other) &&
+                  std::abs(other - range) > s.mixed_pixel_gap &&
+                  counterUniform(key ^ 0x6d69786564ull, ray) < s.mixed_pixel_probability)
+                range += counterUniform(key ^ 0x7765696768ull, ray) * (other - range);
+            }
+            if (s.range_noise > 0.0)
+              range += s.range_noise * counterNormal(key, ray);
+            if (range < s.min_range || range > s.max_range)
+              continue;
+            out.emplace_back(static_cast<float>(range * d.x()),
+                             static_cast<float>(range * d.y()),
+                             static_cast<float>(range * d.z()));
+          }
+        }
+      });
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   std::size_t total = 0;
   for (const auto& col : per_column)

@@ -122,6 +122,24 @@ public:
     return at(index(p.x()), index(p.y()), layer(p.z()));
   }
 
+  /** scores[(a + n) * (2n + 1) + b + n] += at(i + a, j + b, k) for a, b in [-n, n]: one
+   *  point's votes for every translation of the window. The sizes are read into locals,
+   *  so the writes to scores cannot alias them. */
+  void
+  addWindow(int i, int j, int k, int n, int* scores) const
+  {
+    const int side = side_, layers = layers_, width = 2 * n + 1;
+    const std::uint8_t* near = near_.data();
+    if (k < 0 || k >= layers)
+      return;
+    for (int a = std::max(-n, -i); a <= n && i + a < side; ++a) {
+      int* row = scores + static_cast<std::size_t>(a + n) * width + n;
+      const std::uint8_t* column = near + static_cast<std::size_t>(i + a) * side * layers + k;
+      for (int b = std::max(-n, -j); b <= n && j + b < side; ++b)
+        row[b] += column[static_cast<std::size_t>(j + b) * layers];
+    }
+  }
+
 private:
   std::size_t
   offset(int i, int j, int k) const
@@ -257,29 +275,30 @@ correlativeSearch(const Cloud& source,
   const int side = 2 * n + 1;
   const double step = 2.0 * M_PI / params.headings;
   std::vector<std::vector<Peak>> best(static_cast<std::size_t>(params.headings));
-#pragma omp parallel for schedule(dynamic, 1)                                                  \
-    num_threads(resolveNumberOfThreads(params.num_threads))
-  for (int h = 0; h < params.headings; ++h) {
-    std::vector<int> s(static_cast<std::size_t>(side) * side, 0);
-    for (const auto& q : turned(points, h * step)) {
-      const int i = coarse.index(q.x()), j = coarse.index(q.y()), k = coarse.layer(q.z());
-      if (i < 0 || j < 0 || k < 0)
-        continue;
-      for (int a = -n; a <= n; ++a) {
-        int* row = &s[static_cast<std::size_t>(a + n) * side];
-        for (int b = -n; b <= n; ++b)
-          row[b + n] += coarse.at(i + a, j + b, k);
-      }
-    }
-    // This heading's best distinct peaks (memory: a few per heading, not every cell).
-    std::vector<Peak> peaks;
-    for (int a = -n; a <= n; ++a)
-      for (int b = -n; b <= n; ++b)
-        if (const int v = s[static_cast<std::size_t>(a + n) * side + b + n];
-            v > 0 && a * a + b * b <= n * n)
-          peaks.push_back({v, h * step, Eigen::Vector3d(a, b, 0.0) * coarse_cell});
-    best[h] = distinctPeaks(std::move(peaks), coarse_cell, 0.0, kCoarsePeaks);
-  }
+  const unsigned threads = resolveNumberOfThreads(params.num_threads);
+  parallelFor(
+      static_cast<std::size_t>(params.headings),
+      threads,
+      1,
+      [&, n, side, step](std::size_t h0, std::size_t h1) {
+        for (int h = static_cast<int>(h0); h < static_cast<int>(h1); ++h) {
+          std::vector<int> s(static_cast<std::size_t>(side) * side, 0);
+          for (const auto& q : turned(points, h * step)) {
+            const int i = coarse.index(q.x()), j = coarse.index(q.y()), k = coarse.layer(q.z());
+            if (i < 0 || j < 0 || k < 0)
+              continue;
+            coarse.addWindow(i, j, k, n, s.data());
+          }
+          // This heading's best distinct peaks (memory: a few per heading, not every cell).
+          std::vector<Peak> peaks;
+          for (int a = -n; a <= n; ++a)
+            for (int b = -n; b <= n; ++b)
+              if (const int v = s[static_cast<std::size_t>(a + n) * side + b + n];
+                  v > 0 && a * a + b * b <= n * n)
+                peaks.push_back({v, h * step, Eigen::Vector3d(a, b, 0.0) * coarse_cell});
+          best[h] = distinctPeaks(std::move(peaks), coarse_cell, 0.0, kCoarsePeaks);
+        }
+      });
   std::vector<Peak> peaks;
   for (const auto& b : best) // in heading order: ties keep it
     peaks.insert(peaks.end(), b.begin(), b.end());
@@ -287,25 +306,26 @@ correlativeSearch(const Cloud& source,
 
   // Fine: around each coarse peak, heights too, by direct lookup.
   std::vector<Peak> refined(peaks.size());
-#pragma omp parallel for schedule(dynamic, 1)                                                  \
-    num_threads(resolveNumberOfThreads(params.num_threads))
-  for (int k = 0; k < static_cast<int>(peaks.size()); ++k) {
-    Peak best;
-    for (int dh = -kFineHeadings; dh <= kFineHeadings; ++dh) {
-      const double heading = peaks[k].heading + dh * step / (2 * kFineHeadings);
-      const std::vector<Eigen::Vector3d> turned_points = turned(points, heading);
-      for (int a = -kFineCells; a <= kFineCells; ++a)
-        for (int b = -kFineCells; b <= kFineCells; ++b)
-          for (int c = -kFineCells; c <= kFineCells; ++c) {
-            const Eigen::Vector3d t =
-                peaks[k].translation + Eigen::Vector3d(a, b, c) * params.cell;
-            const int s = score(turned_points, fine, t);
-            if (s > best.score)
-              best = {s, heading, t};
-          }
+  parallelFor(peaks.size(), threads, 1, [&, step](std::size_t k0, std::size_t k1) {
+    for (std::size_t k = k0; k < k1; ++k) {
+      Peak best;
+      const Eigen::Vector3d centre = peaks[k].translation;
+      const double cell = params.cell;
+      for (int dh = -kFineHeadings; dh <= kFineHeadings; ++dh) {
+        const double heading = peaks[k].heading + dh * step / (2 * kFineHeadings);
+        const std::vector<Eigen::Vector3d> turned_points = turned(points, heading);
+        for (int a = -kFineCells; a <= kFineCells; ++a)
+          for (int b = -kFineCells; b <= kFineCells; ++b)
+            for (int c = -kFineCells; c <= kFineCells; ++c) {
+              const Eigen::Vector3d t = centre + Eigen::Vector3d(a, b, c) * cell;
+              const int s = score(turned_points, fine, t);
+              if (s > best.score)
+                best = {s, heading, t};
+            }
+      }
+      refined[k] = best;
     }
-    refined[k] = best;
-  }
+  });
   std::vector<Pose> out;
   for (const Peak& p :
        distinctPeaks(std::move(refined), 2.0 * params.cell, step / 2.0, params.candidates)) {

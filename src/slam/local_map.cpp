@@ -52,18 +52,23 @@ LocalMap::insert(const MapCloud& points, const ScanOf& scan_of)
   if (shards_.empty())
     shards_.resize(kShards);
   const std::int64_t n = static_cast<std::int64_t>(points.size());
-  const bool in_parallel = num_threads_ > 1 && n > 5000;
+  const unsigned threads = n > 5000 ? num_threads_ : 1;
   // Each point's voxel and shard (none: not finite, or beyond the int32 voxel keys).
   std::vector<Key> keys(points.size());
   std::vector<std::uint8_t> shard(points.size());
-#pragma omp parallel for num_threads(num_threads_) schedule(static) if (in_parallel)
-  for (std::int64_t i = 0; i < n; ++i) {
-    const MapPoint& p = points[i];
-    const bool valid = std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
-                       p.getVector3fMap().cwiseAbs().maxCoeff() < 2e9 * voxel_size_;
-    keys[i] = valid ? key(p) : Key{};
-    shard[i] = valid ? static_cast<std::uint8_t>(KeyHash()(keys[i]) % kShards) : kNoShard;
-  }
+  parallelFor(
+      points.size(),
+      threads,
+      evenGrain(points.size(), threads),
+      [&](std::size_t first, std::size_t last) {
+        for (std::size_t i = first; i < last; ++i) {
+          const MapPoint& p = points[i];
+          const bool valid = std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
+                             p.getVector3fMap().cwiseAbs().maxCoeff() < 2e9 * voxel_size_;
+          keys[i] = valid ? key(p) : Key{};
+          shard[i] = valid ? static_cast<std::uint8_t>(KeyHash()(keys[i]) % kShards) : kNoShard;
+        }
+      });
   // The points by shard, each shard's in input order (a counting sort).
   std::vector<std::uint32_t> begin(kShards + 2, 0), by_shard(points.size());
   for (const std::uint8_t s : shard)
@@ -77,21 +82,25 @@ LocalMap::insert(const MapCloud& points, const ScanOf& scan_of)
   // Each shard fills its voxels as one pass over all points would; a new voxel is noted at
   // its first point, so that order_ gets the new voxels in input order.
   std::vector<Voxels::value_type*> created(points.size(), nullptr);
-  std::size_t added = 0;
-#pragma omp parallel for num_threads(num_threads_) schedule(dynamic) reduction(+ : added) if (in_parallel)
-  for (std::int64_t s = 0; s < static_cast<std::int64_t>(kShards); ++s)
-    for (std::uint32_t b = begin[s]; b < begin[s + 1]; ++b) {
-      const std::uint32_t i = by_shard[b];
-      auto [it, is_new] = shards_[s].try_emplace(keys[i]);
-      if (is_new)
-        created[i] = &*it;
-      Voxel& voxel = it->second;
-      if (voxel.points.size() < max_points_) {
-        voxel.points.push_back(points[i]);
-        voxel.scans.push_back(scan_of(i));
-        ++added;
+  std::vector<std::size_t> added_to(kShards, 0);
+  parallelFor(kShards, threads, 1, [&](std::size_t s0, std::size_t s1) {
+    for (std::size_t s = s0; s < s1; ++s)
+      for (std::uint32_t b = begin[s]; b < begin[s + 1]; ++b) {
+        const std::uint32_t i = by_shard[b];
+        auto [it, is_new] = shards_[s].try_emplace(keys[i]);
+        if (is_new)
+          created[i] = &*it;
+        Voxel& voxel = it->second;
+        if (voxel.points.size() < max_points_) {
+          voxel.points.push_back(points[i]);
+          voxel.scans.push_back(scan_of(i));
+          ++added_to[s];
+        }
       }
-    }
+  });
+  std::size_t added = 0;
+  for (const std::size_t a : added_to)
+    added += a;
   for (Voxels::value_type* v : created)
     if (v)
       order_.push_back(v);
@@ -113,9 +122,13 @@ LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin, std::uin
   std::vector<char> far;
   if (parallel(voxels)) {
     far.resize(order_.size());
-#pragma omp parallel for num_threads(num_threads_) schedule(static)
-    for (std::int64_t v = 0; v < voxels; ++v)
-      far[v] = out_of_reach(v);
+    parallelFor(far.size(),
+                num_threads_,
+                evenGrain(far.size(), num_threads_),
+                [&](std::size_t first, std::size_t last) {
+                  for (std::size_t v = first; v < last; ++v)
+                    far[v] = out_of_reach(static_cast<std::int64_t>(v));
+                });
   }
   std::size_t kept = 0;
   for (std::int64_t v = 0; v < voxels; ++v) {
@@ -189,12 +202,17 @@ LocalMap::refresh()
   else { // each voxel's points to their place in voxel order, in parallel
     cloud_->resize(first.back());
     cloud_scans_.resize(first.back());
-#pragma omp parallel for num_threads(num_threads_) schedule(static)
-    for (std::int64_t v = 0; v < voxels; ++v) {
-      const Voxel& voxel = order_[v]->second;
-      std::copy(voxel.points.begin(), voxel.points.end(), cloud_->begin() + first[v]);
-      std::copy(voxel.scans.begin(), voxel.scans.end(), cloud_scans_.begin() + first[v]);
-    }
+    parallelFor(
+        order_.size(),
+        num_threads_,
+        evenGrain(order_.size(), num_threads_),
+        [&](std::size_t v0, std::size_t v1) {
+          for (std::size_t v = v0; v < v1; ++v) {
+            const Voxel& voxel = order_[v]->second;
+            std::copy(voxel.points.begin(), voxel.points.end(), cloud_->begin() + first[v]);
+            std::copy(voxel.scans.begin(), voxel.scans.end(), cloud_scans_.begin() + first[v]);
+          }
+        });
   }
   added_ = 0;
 }

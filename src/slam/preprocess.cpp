@@ -49,29 +49,32 @@ crop(const Cloud& scan,
     return r2 > 0.0 && r2 >= lo && r2 <= hi; // at the origin: a driver's no-return
   };
   const std::size_t n = scan.size();
-  const int blocks = static_cast<int>(threadsFor(n, num_threads));
-  const auto begin = [&](int b) { return n * static_cast<std::size_t>(b) / blocks; };
-  std::vector<std::size_t> first(static_cast<std::size_t>(blocks) + 1, 0);
-#pragma omp parallel for num_threads(blocks) schedule(static, 1) if (blocks > 1)
-  for (int b = 0; b < blocks; ++b)
-    first[b + 1] = static_cast<std::size_t>(
-        std::count_if(scan.begin() + begin(b), scan.begin() + begin(b + 1), keep));
-  for (int b = 0; b < blocks; ++b)
+  const unsigned threads = threadsFor(n, num_threads);
+  const std::size_t blocks = threads > 1 ? 4 * std::size_t{threads} : 1;
+  const auto begin = [&](std::size_t b) { return n * b / blocks; };
+  std::vector<std::size_t> first(blocks + 1, 0);
+  parallelFor(blocks, threads, 1, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t b = b0; b < b1; ++b)
+      first[b + 1] = static_cast<std::size_t>(
+          std::count_if(scan.begin() + begin(b), scan.begin() + begin(b + 1), keep));
+  });
+  for (std::size_t b = 0; b < blocks; ++b)
     first[b + 1] += first[b];
   Cloud::Ptr out(new Cloud);
   out->resize(first.back());
   if (times)
     kept_times->resize(first.back());
-#pragma omp parallel for num_threads(blocks) schedule(static, 1) if (blocks > 1)
-  for (int b = 0; b < blocks; ++b) {
-    std::size_t j = first[b];
-    for (std::size_t i = begin(b); i < begin(b + 1); ++i)
-      if (keep(scan[i])) {
-        if (times)
-          (*kept_times)[j] = (*times)[i];
-        (*out)[j++] = scan[i];
-      }
-  }
+  parallelFor(blocks, threads, 1, [&](std::size_t b0, std::size_t b1) {
+    for (std::size_t b = b0; b < b1; ++b) {
+      std::size_t j = first[b];
+      for (std::size_t i = begin(b); i < begin(b + 1); ++i)
+        if (keep(scan[i])) {
+          if (times)
+            (*kept_times)[j] = (*times)[i];
+          (*out)[j++] = scan[i];
+        }
+    }
+  });
   return out;
 }
 
@@ -338,15 +341,16 @@ deskewAt(const Cloud& scan, const Pose& motion, unsigned num_threads, Time time)
 {
   Cloud::Ptr out(new Cloud(scan));
   const ScrewMotion screw(motion);
-  const std::int64_t n = static_cast<std::int64_t>(scan.size());
-  const unsigned threads = threadsFor(scan.size(), num_threads);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1)
-  for (std::int64_t i = 0; i < n; ++i) {
-    const PointT& p = scan[i];
-    const double s = time(i, p) - 0.5; // motion^s, s in [-1/2, 1/2]
-    (*out)[i].getVector3fMap() =
-        screw.apply(s, p.getVector3fMap().cast<double>()).cast<float>();
-  }
+  const std::size_t n = scan.size();
+  const unsigned threads = threadsFor(n, num_threads);
+  parallelFor(n, threads, evenGrain(n, threads), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const PointT& p = scan[i];
+      const double s = time(i, p) - 0.5; // motion^s, s in [-1/2, 1/2]
+      (*out)[i].getVector3fMap() =
+          screw.apply(s, p.getVector3fMap().cast<double>()).cast<float>();
+    }
+  });
   return out;
 }
 

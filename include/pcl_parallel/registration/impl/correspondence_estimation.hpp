@@ -77,9 +77,10 @@ ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>::matchSource(
   const std::size_t n = indices_->size();
   const unsigned threads = resolveNumberOfThreads(num_threads_);
   std::vector<float> queries(3 * n);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1)
-  for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i)
-    std::copy_n((*input_)[(*indices_)[i]].data, 3, &queries[3 * i]);
+  parallelFor(n, threads, evenGrain(n, threads), [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i)
+      std::copy_n((*input_)[(*indices_)[i]].data, 3, &queries[3 * i]);
+  });
   match.resize(n);
   sqr_dist.resize(n);
   target.nearestBatch(queries.data(),
@@ -146,11 +147,9 @@ ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>::
   const std::size_t n = match.size();
   std::vector<char> keep(n, 0);
   const unsigned threads = resolveNumberOfThreads(num_threads_);
-#pragma omp parallel num_threads(threads) if (threads > 1)
-  {
+  parallelFor(n, threads, 256, [&](std::size_t first, std::size_t last) {
     NearestSlot slot; // on this thread's stack: nothing shared
-#pragma omp for schedule(dynamic, 256)
-    for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
+    for (std::size_t i = first; i < last; ++i) {
       if (match[i] == KdTreeIndex::kInvalid)
         continue;
       slot.query = target->point(match[i]);
@@ -158,7 +157,7 @@ ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>::
       keep[i] = back != KdTreeIndex::kInvalid &&
                 static_cast<pcl::index_t>(source_index_.id(back)) == (*indices_)[i];
     }
-  }
+  });
   for (std::size_t i = 0; i < n; ++i)
     if (keep[i])
       correspondences.emplace_back(

@@ -14,8 +14,6 @@
 #include <pcl/registration/transformation_estimation_svd.h>
 #include <pcl/type_traits.h>
 
-#include <omp.h>
-
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
@@ -247,15 +245,16 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::updateTargetNor
       // over a whole local map (300k points) each time it changes, so in parallel.
       const PointCloudTarget& tgt = *target_;
       target_normals_.resize(3 * target.size());
-      const std::int64_t n = static_cast<std::int64_t>(target.size());
-      const unsigned threads = resolveNumberOfThreads(num_threads_);
-#pragma omp parallel for num_threads(threads) schedule(static) if (threads > 1 && n > 20000)
-      for (std::int64_t pos = 0; pos < n; ++pos) {
-        const auto& p = tgt[target.id(static_cast<std::uint32_t>(pos))];
-        target_normals_[3 * pos] = p.normal_x;
-        target_normals_[3 * pos + 1] = p.normal_y;
-        target_normals_[3 * pos + 2] = p.normal_z;
-      }
+      const std::size_t n = target.size();
+      const unsigned threads = n > 20000 ? resolveNumberOfThreads(num_threads_) : 1;
+      parallelFor(n, threads, evenGrain(n, threads), [&](std::size_t first, std::size_t last) {
+        for (std::size_t pos = first; pos < last; ++pos) {
+          const auto& p = tgt[target.id(static_cast<std::uint32_t>(pos))];
+          target_normals_[3 * pos] = p.normal_x;
+          target_normals_[3 * pos + 1] = p.normal_y;
+          target_normals_[3 * pos + 2] = p.normal_z;
+        }
+      });
       return;
     }
   }
@@ -297,8 +296,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
 
   if (!point_to_plane_) {
     const std::vector<PointToPointMoments> children = deterministicBlocks(
-        n, threads, PointToPointMoments{}, [&](std::size_t begin, std::size_t end) {
-          const std::size_t t = static_cast<std::size_t>(omp_get_thread_num()) % threads;
+        n, threads, PointToPointMoments{}, [&](std::size_t begin, std::size_t end, unsigned t) {
           NearestSlot& slot = slots[t];
           std::vector<MatchedPair>& buf = pair_buffers_[t];
           buf.clear();
@@ -335,9 +333,9 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
       n,
       threads,
       NormalEquations{},
-      [&](std::size_t begin, std::size_t end) {
+      [&](std::size_t begin, std::size_t end, unsigned t) {
         NormalEquations acc;
-        NearestSlot& slot = slots[static_cast<std::size_t>(omp_get_thread_num()) % threads];
+        NearestSlot& slot = slots[t];
         float q[3];
         for (std::size_t i = begin; i < end; ++i) {
           const std::uint32_t pos =

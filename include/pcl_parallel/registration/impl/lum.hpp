@@ -11,8 +11,6 @@
 #include <pcl/common/transforms.h>
 #include <pcl/console/print.h>
 
-#include <omp.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -523,17 +521,18 @@ ParallelLUM<PointT>::buildTrees(const std::vector<char>* needed)
   }
   const unsigned threads = resolveNumberOfThreads(num_threads_);
   // One tree per thread at a time; a tree does not depend on how it was built.
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
-  for (std::int64_t k = 0; k < static_cast<std::int64_t>(todo.size()); ++k) {
-    const std::size_t v = todo[k];
-    auto tree = std::make_shared<KdTreeIndex>();
-    search::detail::buildIndex(
-        *tree, (*slam_graph_)[v].cloud_.get(), nullptr, 1, KdTreeIndex::kDefaultBucketSize);
-    trees_[v] = tree;
-    const PointCloud* c = (*slam_graph_)[v].cloud_.get();
-    tree_source_[v] = {c, c ? c->size() : 0};
-    normals_k_[v] = 0;
-  }
+  parallelFor(todo.size(), threads, 1, [&](std::size_t first, std::size_t last) {
+    for (std::size_t k = first; k < last; ++k) {
+      const std::size_t v = todo[k];
+      auto tree = std::make_shared<KdTreeIndex>();
+      search::detail::buildIndex(
+          *tree, (*slam_graph_)[v].cloud_.get(), nullptr, 1, KdTreeIndex::kDefaultBucketSize);
+      trees_[v] = tree;
+      const PointCloud* c = (*slam_graph_)[v].cloud_.get();
+      tree_source_[v] = {c, c ? c->size() : 0};
+      normals_k_[v] = 0;
+    }
+  });
   if (!point_to_plane_)
     return;
   given_normals_.resize(n);
@@ -730,31 +729,33 @@ ParallelLUM<PointT>::measureLinks(Run& run, int it)
   const double gate = correspondenceDistanceAt(it);
   const unsigned threads = run.threads;
   // Steps 1-2 for the links in parallel; each link's sums run in a fixed order.
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
-  for (std::int64_t k = 0; k < static_cast<std::int64_t>(run.mine.size()); ++k) {
-    const std::size_t li = run.mine[k];
-    const LinkRef& link = run.links[li];
-    lum::LinkBlock& b = run.blocks[li];
-    b.source = static_cast<std::uint32_t>(link.source);
-    b.target = static_cast<std::uint32_t>(link.target);
-    if (run.plum) {
-      if (!run.link_corrs[li])
-        run.link_corrs[li].reset(new pcl::Correspondences);
-      b.valid = measureLink(link,
-                            gate,
-                            run.states[omp_get_thread_num()],
-                            b,
-                            run.link_corrs[li].get(),
-                            run.pair_counts[li],
-                            &run.reasons[li]);
-      continue;
-    }
-    lum::LinkAccumulator acc;
-    computeLinkFixed(link, acc);
-    run.pair_counts[li] = acc.size();
-    b.valid =
-        acc.finish(min_correspondences_, 1e-12, b.info, b.grad, nullptr, &run.reasons[li]);
-  }
+  parallelFor(
+      run.mine.size(), threads, 1, [&](std::size_t first, std::size_t last, unsigned t) {
+        for (std::size_t k = first; k < last; ++k) {
+          const std::size_t li = run.mine[k];
+          const LinkRef& link = run.links[li];
+          lum::LinkBlock& b = run.blocks[li];
+          b.source = static_cast<std::uint32_t>(link.source);
+          b.target = static_cast<std::uint32_t>(link.target);
+          if (run.plum) {
+            if (!run.link_corrs[li])
+              run.link_corrs[li].reset(new pcl::Correspondences);
+            b.valid = measureLink(link,
+                                  gate,
+                                  run.states[t],
+                                  b,
+                                  run.link_corrs[li].get(),
+                                  run.pair_counts[li],
+                                  &run.reasons[li]);
+            continue;
+          }
+          lum::LinkAccumulator acc;
+          computeLinkFixed(link, acc);
+          run.pair_counts[li] = acc.size();
+          b.valid = acc.finish(
+              min_correspondences_, 1e-12, b.info, b.grad, nullptr, &run.reasons[li]);
+        }
+      });
 }
 
 template <typename PointT>
@@ -942,12 +943,13 @@ ParallelLUM<PointT>::findOverlappingPairs(double max_distance, double min_fracti
       pairs.emplace_back(i, j);
   std::vector<char> keep(pairs.size(), 0);
   const unsigned threads = resolveNumberOfThreads(num_threads_);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1) if (threads > 1)
-  for (std::int64_t k = 0; k < static_cast<std::int64_t>(pairs.size()); ++k) {
-    const auto [i, j] = pairs[k];
-    const double o = std::min(overlap(i, j, max_distance), overlap(j, i, max_distance));
-    keep[k] = o >= min_fraction;
-  }
+  parallelFor(pairs.size(), threads, 1, [&](std::size_t first, std::size_t last) {
+    for (std::size_t k = first; k < last; ++k) {
+      const auto [i, j] = pairs[k];
+      const double o = std::min(overlap(i, j, max_distance), overlap(j, i, max_distance));
+      keep[k] = o >= min_fraction;
+    }
+  });
   std::vector<std::pair<Vertex, Vertex>> out;
   for (std::size_t k = 0; k < pairs.size(); ++k)
     if (keep[k])

@@ -8,8 +8,6 @@
 
 #include <pcl/console/print.h>
 
-#include <omp.h>
-
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
@@ -179,11 +177,12 @@ KdTree<PointT>::searchBatch(const PointCloud& cloud,
   k_indices.resize(n);
   k_sqr_distances.resize(n);
   const unsigned threads = resolveNumberOfThreads(num_threads_);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 64) if (threads > 1)
-  for (std::int64_t i = 0; i < static_cast<std::int64_t>(n); ++i) {
-    const auto q = indices.empty() ? i : indices[i];
-    search_one(cloud[q], k_indices[i], k_sqr_distances[i]);
-  }
+  parallelFor(n, threads, 64, [&](std::size_t first, std::size_t last) {
+    for (std::size_t i = first; i < last; ++i) {
+      const std::size_t q = indices.empty() ? i : static_cast<std::size_t>(indices[i]);
+      search_one(cloud[q], k_indices[i], k_sqr_distances[i]);
+    }
+  });
 }
 
 template <typename PointT>
