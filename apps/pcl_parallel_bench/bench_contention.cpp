@@ -18,6 +18,8 @@
 #include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/slam/pipeline.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
@@ -216,14 +218,41 @@ pipelineWorkloads(const Options& opt)
   return out;
 }
 
-/** Median seconds of \a w at \a threads on \a backend. */
 double
-timeOn(const Workload& w, unsigned threads, ParallelBackend backend, int repeats)
+secondsOf(const std::function<void()>& fn)
+{
+  const auto start = std::chrono::steady_clock::now();
+  fn();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+double
+median(std::vector<double> v)
+{
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+/** \a w at 1 and \a n threads on \a backend, the two alternating (after one warm-up
+ *  each) so that the machine's drift falls on both: the median of each, and the median
+ *  of the pairs' ratios n / 1. */
+struct Pair {
+  double one, many, ratio;
+};
+Pair
+timePair(const Workload& w, unsigned n, ParallelBackend backend, int repeats)
 {
   setParallelBackend(backend);
-  const double s = medianSeconds(repeats, [&] { w.run(threads); });
+  w.run(1);
+  w.run(n);
+  std::vector<double> one, many, ratio;
+  for (int r = 0; r < std::max(1, repeats); ++r) {
+    one.push_back(secondsOf([&] { w.run(1); }));
+    many.push_back(secondsOf([&] { w.run(n); }));
+    ratio.push_back(many.back() / one.back());
+  }
   setParallelBackend(ParallelBackend::kThreadPool);
-  return s;
+  return {median(one), median(many), median(ratio)};
 }
 
 } // namespace
@@ -242,11 +271,13 @@ runContention(const Options& opt)
       workloads.push_back(std::move(w));
 
   std::printf("### Contention: 1 vs %u threads, idle and beside CPU-bound processes\n\n", n);
-  std::printf("Medians of %d runs after a warm-up. 'one busy core': one spinning process "
+  std::printf("1 and %u threads alternating, %d runs each after a warm-up: medians, and the "
+              "median of the pairs' ratios. 'one busy core': one spinning process "
               "pinned to one of this process's CPUs; 'all cores busy': %u spinning processes, "
               "unpinned. Pool: the library's threads (default); OpenMP: the same loops on "
               "libgomp (PCL_PARALLEL_BACKEND=openmp), without OMP_WAIT_POLICY. Ratio = %u "
               "threads / 1 thread in the same conditions (below 1: faster).\n\n",
+              n,
               opt.repeats,
               n,
               n);
@@ -278,11 +309,10 @@ runContention(const Options& opt)
       std::vector<std::string> row{w.name, b == ParallelBackend::kOpenMP ? "OpenMP" : "pool"};
       for (const Condition& c : conditions) {
         const Load load(c.processes, c.pinned);
-        const double one = timeOn(w, 1, b, opt.repeats);
-        const double many = timeOn(w, n, b, opt.repeats);
-        row.push_back(fmt("%.3f", one));
-        row.push_back(fmt("%.3f", many));
-        row.push_back(fmt("%.2f", many / one));
+        const Pair p = timePair(w, n, b, opt.repeats);
+        row.push_back(fmt("%.3f", p.one));
+        row.push_back(fmt("%.3f", p.many));
+        row.push_back(fmt("%.2f", p.ratio));
       }
       t.addRow(row);
       std::fprintf(stderr, "contention: %s (%s) done\n", w.name.c_str(), row[1].c_str());

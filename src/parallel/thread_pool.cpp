@@ -12,6 +12,7 @@
 #include <exception>
 #include <memory>
 #include <mutex>
+#include <system_error>
 #include <pthread.h>
 #include <thread>
 #include <vector>
@@ -127,8 +128,12 @@ public:
     unsigned wake = 0;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      while (workers_.size() + 1 < job->threads)
-        workers_.emplace_back([this] { serve(); });
+      try {
+        while (workers_.size() + 1 < job->threads)
+          workers_.emplace_back([this] { serve(); });
+      }
+      catch (const std::system_error&) { // no more threads to be had: run with those there
+      }
       job_ = job;
       published_.store(++epoch_, std::memory_order_release);
       wake = std::min(sleeping_, job->threads - 1);
