@@ -8,7 +8,9 @@
 # PCL_PSLAM defaults to build/apps/pcl_pslam, WORK_DIR to a fresh temporary directory
 # (kept, so the outputs can be compared file by file). Runs on 2 threads unless THREADS is
 # set; the data comes from ../shared/data (DATA to override). Runs whose data is absent, and
-# the MPI run where mpirun is missing, print "skipped". About 10 minutes on 2 cores.
+# the MPI run where mpirun is missing, print "skipped". About 5-10 minutes on 2 cores.
+# scripts/output_hashes.expected holds the lines of the commit it names (Debian 12, GCC 12):
+#   scripts/output_hashes.sh | diff <(grep -v "^#" scripts/output_hashes.expected) -
 set -euo pipefail
 cd "$(dirname "$0")/.."
 app=$(realpath "${1:-build/apps/pcl_pslam}")
@@ -16,7 +18,7 @@ work=${2:-$(mktemp -d /tmp/pcl_parallel_hashes.XXXXXX)}
 data=${DATA:-$(realpath ../shared/data 2>/dev/null || echo ../shared/data)}
 threads=${THREADS:-2}
 mkdir -p "$work"
-echo "# $app, -t $threads, outputs under $work"
+echo "# $app, -t $threads, outputs under $work" >&2
 
 # The simulated presets, written once per work directory.
 for p in office hannover riegl kitti; do

@@ -238,8 +238,8 @@ struct KdTreeIndex::Builder {
   /** Sec. IV-A.2: the two halves of a split are disjoint, so they are built concurrently.
    *  The top levels are split breadth-first, one parallel loop per level, until every range
    *  has at most subtree_points points; those subtrees are then built in one dynamic loop.
-   *  (Plain loops rather than OpenMP tasks: their barriers are what ThreadSanitizer's OpenMP
-   *  support sees, and the tree does not depend on the schedule either way.) */
+   *  (Plain loops rather than tasks: ThreadSanitizer sees their synchronisation, and the
+   *  tree does not depend on the schedule either way.) */
   void
   buildParallel(std::uint32_t m, std::uint32_t subtree_points, unsigned threads)
   {

@@ -24,6 +24,15 @@ struct Options {
   bool reference = true;         ///< time PCL (and Open3D) beside ours; off: scaling only
 };
 
+/** Wall time in seconds of one run of fn. */
+inline double
+seconds(const std::function<void()>& fn)
+{
+  const auto start = std::chrono::steady_clock::now();
+  fn();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 /** Median and best wall time in seconds of `repeats` runs of fn, after one untimed
  *  warm-up. The median is what tables rank by; the best is less sensitive to other
  *  processes on a shared machine. */
@@ -35,12 +44,8 @@ timeRuns(int repeats, const std::function<void()>& fn)
 {
   fn();
   std::vector<double> t;
-  for (int r = 0; r < std::max(1, repeats); ++r) {
-    const auto start = std::chrono::steady_clock::now();
-    fn();
-    t.push_back(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
-  }
+  for (int r = 0; r < std::max(1, repeats); ++r)
+    t.push_back(seconds(fn));
   std::sort(t.begin(), t.end());
   return {t[t.size() / 2], t.front()};
 }

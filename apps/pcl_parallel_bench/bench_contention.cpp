@@ -219,14 +219,6 @@ pipelineWorkloads(const Options& opt)
 }
 
 double
-secondsOf(const std::function<void()>& fn)
-{
-  const auto start = std::chrono::steady_clock::now();
-  fn();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-double
 median(std::vector<double> v)
 {
   std::sort(v.begin(), v.end());
@@ -247,8 +239,8 @@ timePair(const Workload& w, unsigned n, ParallelBackend backend, int repeats)
   w.run(n);
   std::vector<double> one, many, ratio;
   for (int r = 0; r < std::max(1, repeats); ++r) {
-    one.push_back(secondsOf([&] { w.run(1); }));
-    many.push_back(secondsOf([&] { w.run(n); }));
+    one.push_back(seconds([&] { w.run(1); }));
+    many.push_back(seconds([&] { w.run(n); }));
     ratio.push_back(many.back() / one.back());
   }
   setParallelBackend(ParallelBackend::kThreadPool);

@@ -52,14 +52,6 @@ maxError(const Poses& a, const Poses& b, double& rot, double& trans)
   }
 }
 
-double
-seconds(const std::function<void()>& fn)
-{
-  const auto start = std::chrono::steady_clock::now();
-  fn();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
 /** PCL as pcl_lum drives it: one iteration = pairs of every link on the transformed
  *  clouds (a FLANN tree per target) + LUM::compute(). */
 double
