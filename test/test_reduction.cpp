@@ -85,7 +85,7 @@ TEST(Reduction, ThousandPointSourceRunsInParallel)
   const std::vector<unsigned> got =
       deterministicBlocks(1000, 2, 0u, [&](std::size_t, std::size_t, unsigned slot) {
         seen |= 1u << slot;
-        for (int i = 0; i < 2000 && seen.load() != 3u; ++i)
+        for (int i = 0; i < 10000 && seen.load() != 3u; ++i)
           std::this_thread::sleep_for(std::chrono::microseconds(500));
         return slot;
       });

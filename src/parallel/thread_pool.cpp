@@ -12,8 +12,8 @@
 #include <exception>
 #include <memory>
 #include <mutex>
-#include <system_error>
 #include <pthread.h>
+#include <system_error>
 #include <thread>
 #include <vector>
 
