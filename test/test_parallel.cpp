@@ -125,7 +125,7 @@ TEST_P(ParallelFor, ConcurrentCallersEachCompleteTheirOwn)
 {
   constexpr std::size_t n = 20000;
   std::vector<std::atomic<int>> a(n), b(n);
-  const auto fill = [n](std::vector<std::atomic<int>>& v) {
+  const auto fill = [](std::vector<std::atomic<int>>& v) {
     for (int rep = 0; rep < 20; ++rep)
       parallelFor(n, 2, 97, [&](std::size_t begin, std::size_t end) {
         for (std::size_t i = begin; i < end; ++i)
