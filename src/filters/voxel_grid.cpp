@@ -63,15 +63,11 @@ struct Blocks {
   }
 };
 
-/** fn(t) for each block t, one thread a block; on the calling thread for one block. */
+/** fn(t) for each block t, one thread a block (parallelFor runs one block inline). */
 template <typename Fn>
 void
 forEachBlock(int count, const Fn& fn)
 {
-  if (count == 1) {
-    fn(0);
-    return;
-  }
   parallelFor(static_cast<std::size_t>(count),
               static_cast<unsigned>(count),
               1,

@@ -95,6 +95,14 @@ cfsQuota(const std::string& dir)
   return q / p;
 }
 
+/** best becomes \a limit where that is set and tighter. */
+void
+keepTighter(std::optional<double>& best, const std::optional<double>& limit)
+{
+  if (limit && (!best || *limit < *best))
+    best = limit;
+}
+
 /** The tightest limit read by \a limit_in over \a dir and its parents up to \a root. */
 template <typename Read>
 std::optional<double>
@@ -102,8 +110,7 @@ tightestUpTo(const std::string& root, std::string path, Read&& limit_in)
 {
   std::optional<double> best;
   for (;;) {
-    if (const std::optional<double> l = limit_in(root + path); l && (!best || *l < *best))
-      best = l;
+    keepTighter(best, limit_in(root + path));
     if (path.empty() || path == "/")
       return best;
     const std::size_t slash = path.find_last_of('/');
@@ -145,10 +152,6 @@ std::optional<double>
 cgroupCpuLimit(const std::string& proc_cgroup, const std::string& cgroup_root)
 {
   std::optional<double> best;
-  const auto keep = [&](std::optional<double> l) {
-    if (l && (!best || *l < *best))
-      best = l;
-  };
   std::istringstream lines(proc_cgroup);
   std::string line;
   while (std::getline(lines, line)) {
@@ -160,12 +163,12 @@ cgroupCpuLimit(const std::string& proc_cgroup, const std::string& cgroup_root)
     const std::string id = line.substr(0, a), controllers = line.substr(a + 1, b - a - 1);
     const std::string path = line.substr(b + 1);
     if (id == "0" && controllers.empty())
-      keep(tightestUpTo(cgroup_root, path, [](const std::string& dir) {
-        return cpuMax(readText(dir + "/cpu.max"));
-      }));
+      keepTighter(best, tightestUpTo(cgroup_root, path, [](const std::string& dir) {
+                    return cpuMax(readText(dir + "/cpu.max"));
+                  }));
     else if (hasController(controllers, "cpu"))
       for (const char* mount : {"/cpu,cpuacct", "/cpuacct,cpu", "/cpu"})
-        keep(tightestUpTo(cgroup_root + mount, path, cfsQuota));
+        keepTighter(best, tightestUpTo(cgroup_root + mount, path, cfsQuota));
   }
   return best;
 }

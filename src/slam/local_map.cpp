@@ -84,7 +84,8 @@ LocalMap::insert(const MapCloud& points, const ScanOf& scan_of)
   std::vector<Voxels::value_type*> created(points.size(), nullptr);
   std::vector<std::size_t> added_to(kShards, 0);
   parallelFor(kShards, threads, 1, [&](std::size_t s0, std::size_t s1) {
-    for (std::size_t s = s0; s < s1; ++s)
+    for (std::size_t s = s0; s < s1; ++s) {
+      std::size_t added_here = 0; // counted locally: neighbouring shards share a line
       for (std::uint32_t b = begin[s]; b < begin[s + 1]; ++b) {
         const std::uint32_t i = by_shard[b];
         auto [it, is_new] = shards_[s].try_emplace(keys[i]);
@@ -94,9 +95,11 @@ LocalMap::insert(const MapCloud& points, const ScanOf& scan_of)
         if (voxel.points.size() < max_points_) {
           voxel.points.push_back(points[i]);
           voxel.scans.push_back(scan_of(i));
-          ++added_to[s];
+          ++added_here;
         }
       }
+      added_to[s] = added_here;
+    }
   });
   std::size_t added = 0;
   for (const std::size_t a : added_to)
