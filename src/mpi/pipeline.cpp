@@ -90,25 +90,25 @@ writePoints(Writer& w, const slam::Cloud& points, const std::vector<Eigen::Vecto
 
 /** A matched scan without its points and normals (the owner keeps those). */
 void
-writeMatched(Writer& w, const slam::MatchedScan& m)
+writeMatched(Writer& w, const slam::ScanRecord& m)
 {
-  const slam::FrontEndResult& fe = m.front_end;
-  w.putMatrix(fe.pose);
-  w.putMatrix(fe.prediction);
+  w.put<std::uint64_t>(m.index);
+  w.putMatrix(m.pose);
+  w.putMatrix(m.prediction);
   w.putMatrix(m.step);
-  w.putMatrix(fe.information);
-  w.put(fe.information_pairs);
-  w.put(fe.map_scans);
-  w.put<std::uint64_t>(fe.source_points);
-  w.put<std::uint8_t>(fe.converged);
-  w.put(fe.fitness);
-  w.put(fe.gate);
-  w.put(fe.start_offset);
-  w.put(fe.start_turn);
-  w.put<std::uint8_t>(fe.pose_searched);
-  w.put<std::uint8_t>(fe.deskewed_again);
-  w.put(fe.start_heading);
+  w.putMatrix(m.information);
+  w.put(m.information_pairs);
   const slam::ScanReport& r = m.report;
+  w.put(r.map_scans);
+  w.put<std::uint64_t>(r.source_points);
+  w.put<std::uint8_t>(r.converged);
+  w.put(r.fitness);
+  w.put(r.gate);
+  w.put(r.start_offset);
+  w.put(r.start_turn);
+  w.put<std::uint8_t>(r.pose_searched);
+  w.put<std::uint8_t>(r.deskewed_again);
+  w.put(r.start_heading);
   w.put<std::uint64_t>(r.points);
   w.put<std::uint64_t>(r.reduced_points);
   w.put(r.correction);
@@ -132,30 +132,29 @@ readPoints(Reader& in, std::vector<Eigen::Vector3f>& normals)
   return points;
 }
 
-slam::MatchedScan
+slam::ScanRecord
 readMatched(Reader& in)
 {
-  slam::MatchedScan m;
-  slam::FrontEndResult& fe = m.front_end;
-  in.getMatrix(fe.pose);
-  in.getMatrix(fe.prediction);
+  slam::ScanRecord m;
+  m.index = in.get<std::uint64_t>();
+  in.getMatrix(m.pose);
+  in.getMatrix(m.prediction);
   in.getMatrix(m.step);
-  in.getMatrix(fe.information);
-  fe.information_pairs = in.get<double>();
-  fe.map_scans = in.get<double>();
-  fe.source_points = in.get<std::uint64_t>();
-  fe.converged = in.get<std::uint8_t>() != 0;
-  fe.fitness = in.get<double>();
-  fe.gate = in.get<double>();
-  fe.start_offset = in.get<double>();
-  fe.start_turn = in.get<double>();
-  fe.pose_searched = in.get<std::uint8_t>() != 0;
-  fe.deskewed_again = in.get<std::uint8_t>() != 0;
-  fe.start_heading = in.get<double>();
+  in.getMatrix(m.information);
+  m.information_pairs = in.get<double>();
   slam::ScanReport& r = m.report;
+  r.map_scans = in.get<double>();
+  r.source_points = in.get<std::uint64_t>();
+  r.converged = in.get<std::uint8_t>() != 0;
+  r.fitness = in.get<double>();
+  r.gate = in.get<double>();
+  r.start_offset = in.get<double>();
+  r.start_turn = in.get<double>();
+  r.pose_searched = in.get<std::uint8_t>() != 0;
+  r.deskewed_again = in.get<std::uint8_t>() != 0;
+  r.start_heading = in.get<double>();
   r.points = in.get<std::uint64_t>();
   r.reduced_points = in.get<std::uint64_t>();
-  r.setMatch(fe);
   r.correction = in.get<double>();
   r.predicted_step = in.get<double>();
   r.seconds = in.get<double>();
@@ -317,7 +316,7 @@ mapSegments(MPI_Comm comm,
   std::size_t total = 0, done = 0;
   for (std::size_t s = own_begin; s < own_end; ++s)
     total += segments[s].end - segments[s].first;
-  std::vector<std::vector<slam::MatchedScan>> mine;
+  std::vector<std::vector<slam::ScanRecord>> mine;
   slam::StageTimes times;
   try {
     for (std::size_t s = own_begin; s < own_end; ++s) {
@@ -358,7 +357,7 @@ mapSegments(MPI_Comm comm,
   for (int owner = 0; owner < size; ++owner) {
     const auto [begin, end] = linkRange(segments.size(), owner, size);
     for (std::size_t s = begin; s < end; ++s) {
-      std::vector<slam::MatchedScan> scans;
+      std::vector<slam::ScanRecord> scans;
       if (owner == rank) {
         scans = std::move(mine[s - begin]);
         if (size > 1) {
@@ -378,7 +377,7 @@ mapSegments(MPI_Comm comm,
         for (auto& m : scans)
           m = readMatched(in);
       }
-      for (slam::MatchedScan& m : scans) {
+      for (slam::ScanRecord& m : scans) {
         pipeline->addMatched(std::move(m));
         if (progress)
           progress("join", pipeline->size(), num_scans);

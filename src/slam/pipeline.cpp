@@ -4,8 +4,14 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
+#include <pcl_parallel/registration/lum_solver.h>
+#include <pcl_parallel/slam/deskewer.h>
+#include <pcl_parallel/slam/matcher.h>
+#include <pcl_parallel/slam/motion_model.h>
 #include <pcl_parallel/slam/pipeline.h>
+#include <pcl_parallel/slam/pose_guess.h>
 #include <pcl_parallel/slam/preprocess.h>
+#include <pcl_parallel/slam/reducer.h>
 
 #include <pcl/common/time.h>
 #include <pcl/common/transforms.h>
@@ -88,6 +94,22 @@ loopClosureParameters(const Parameters& p, double r)
   return l;
 }
 
+/** The front end's stages, in the order a scan passes them. */
+struct Pipeline::Stages {
+  explicit Stages(const FrontEndParameters& f)
+      : motion(f.sweep_period, f.voxel_size)
+      , deskewer(f.deskew, f.sweep_clockwise, f.voxel_size, f.num_threads)
+      , reducer(f.voxel_size, f.source_voxel_size, f.num_threads)
+      , matcher(f)
+      , guess(f, matcher, reducer, motion)
+  {}
+  MotionModel motion;
+  Deskewer deskewer;
+  Reducer reducer;
+  Matcher matcher;
+  PoseGuess guess;
+};
+
 Pipeline::Pipeline(const Parameters& params)
     : params_(params)
 {}
@@ -106,7 +128,7 @@ Pipeline::start(double median_range)
 {
   front_end_params_ = slam::frontEndParameters(params_, median_range);
   loop_params_ = slam::loopClosureParameters(params_, median_range);
-  front_end_.reset(new FrontEnd(front_end_params_));
+  stages_.reset(new Stages(front_end_params_));
   loops_.reset(new LoopCloser(loop_params_));
 }
 
@@ -124,26 +146,69 @@ Pipeline::addScan(const Cloud& scan,
                   std::optional<double> stamp,
                   const std::vector<double>& point_times)
 {
-  const pcl::StopWatch start;
-  const std::size_t index = addTracked(track(scan, odometry, stamp, point_times));
-  reports_.back().seconds = start.getTimeSeconds();
-  return index;
+  for (ScanRecord& r : track(scan, odometry, stamp, point_times))
+    addTracked(std::move(r));
+  return tracked_ - 1;
 }
 
 std::size_t
-Pipeline::addTracked(MatchedScan scan)
+Pipeline::addTracked(ScanRecord scan)
 {
-  const Pose pose = scan.front_end.pose;
+  const Pose pose = scan.pose;
   return addToGraph(std::move(scan), pose);
 }
 
-MatchedScan
+std::vector<ScanRecord>
 Pipeline::track(const Cloud& scan,
                 const std::optional<Pose>& odometry,
                 std::optional<double> stamp,
                 const std::vector<double>& point_times)
 {
   const pcl::StopWatch start;
+  std::vector<float> sweep_times;
+  const Cloud::Ptr cropped = admit(scan, odometry, stamp, point_times, sweep_times);
+  times_.preprocess += start.getTimeSeconds();
+
+  // Front end: predict, deskew, reduce, guess, match (paper Sec. II; KISS-ICP Sec. III).
+  const pcl::StopWatch stage;
+  Stages& s = *stages_;
+  ScanRecord r;
+  r.index = first_index_ + tracked_;
+  r.report.points = scan.size();
+  const Pose before = s.motion.lastPose(); // after any loop correction
+  const MotionPrediction m = s.motion.predict(odometry, stamp);
+  r.prediction = r.pose = m.pose;
+  if (m.first)
+    s.deskewer.holdFirst(*cropped, sweep_times);
+  else if (s.deskewer.holdsFirst() && odometry) // the first step is known: deskew the first
+    keepFirstAgain(m.sweep);
+  r.scan = reduce(*cropped, sweep_times, m.sweep);
+  Cloud::Ptr source = s.reducer.source(r.scan);
+  if (!m.first && s.matcher.hasTarget() && !source->empty())
+    match(r, source, *cropped, sweep_times, m, odometry.has_value());
+  r.report.source_points = source->size();
+  if (s.deskewer.holdsFirst() && !m.first) { // both matched as they came, neither deskewed
+    const Pose sweep = s.motion.sweepOf(s.motion.stepTo(r.pose, m), m);
+    keepFirstAgain(sweep);
+    r.scan = reduce(*cropped, sweep_times, sweep);
+  }
+  s.motion.update(r.pose, m, stamp);
+  s.reducer.describe(r.scan);
+  s.matcher.keep(r.scan, r.pose, static_cast<std::uint32_t>(s.motion.scans()));
+  reportMatch(r, before);
+  times_.front_end += stage.getTimeSeconds();
+  r.report.seconds = start.getTimeSeconds();
+  ++tracked_;
+  return release(std::move(r));
+}
+
+Cloud::Ptr
+Pipeline::admit(const Cloud& scan,
+                const std::optional<Pose>& odometry,
+                std::optional<double> stamp,
+                const std::vector<double>& point_times,
+                std::vector<float>& sweep_times)
+{
   const std::size_t index = first_index_ + tracked_;
   if (odometry && !odometry->allFinite())
     throw std::invalid_argument("scan " + std::to_string(index) +
@@ -160,12 +225,7 @@ Pipeline::track(const Cloud& scan,
                                 ": a point time is not finite");
   has_odometry_ = odometry.has_value();
   last_stamp_ = stamp;
-
-  MatchedScan out;
-  ScanReport& report = out.report;
-  report.points = scan.size();
   // Sweep times over the whole scan as given, then cropped with their points.
-  std::vector<float> sweep_times;
   const std::vector<float> fractions = sweepTimes(point_times);
   const Cloud::Ptr cropped =
       fractions.empty()
@@ -178,28 +238,119 @@ Pipeline::track(const Cloud& scan,
                       params_.num_threads);
   requirePointsInRange(*cropped, index);
   requireScannerFrame(*cropped, "scan " + std::to_string(index), params_.num_threads);
-  if (!front_end_) // lengths from the first scan
+  if (!stages_) // lengths from the first scan
     this->start(medianRange(*cropped));
-  times_.preprocess += start.getTimeSeconds();
+  return cropped;
+}
 
-  // Front end: predict, deskew, reduce, match (paper Sec. II; KISS-ICP Sec. III).
-  const pcl::StopWatch stage;
-  const Pose before = front_end_->lastPose(); // after any loop correction
-  out.front_end = front_end_->track(*cropped, odometry, stamp, sweep_times);
-  const FrontEndResult& fe = out.front_end;
+ReducedScan
+Pipeline::reduce(const Cloud& scan,
+                 const std::vector<float>& sweep_times,
+                 const Pose& sweep) const
+{
+  return stages_->reducer.reduce(*stages_->deskewer.deskew(scan, sweep_times, sweep));
+}
+
+void
+Pipeline::match(ScanRecord& r,
+                Cloud::Ptr& source,
+                const Cloud& scan,
+                const std::vector<float>& sweep_times,
+                const MotionPrediction& m,
+                bool odometry)
+{
+  Stages& s = *stages_;
+  const Pose& at = s.motion.lastPose(); // the previous scan's
+  r.report.gate = s.matcher.gate();
+  const Pose start = s.guess.guess(source, r.scan, odometry, r);
+  const Pose& prior_mean = PoseGuess::priorMean(r, start);
+  std::optional<Pose> matched = s.matcher.match(source, start, prior_mean, at);
+  // Deskewed by the predicted step, a scan taken while the motion changed (a turn begun
+  // or ended) is skewed by the change: deskewed again by the matched step, matched again.
+  if (matched && s.deskewer.enabled() && !s.deskewer.holdsFirst()) {
+    const Pose sweep = s.motion.sweepOfMatch(*matched, m);
+    if (s.deskewer.needsAgain(m.sweep, sweep, *r.scan.reduced)) {
+      ReducedScan again = reduce(scan, sweep_times, sweep);
+      const Cloud::Ptr again_source = s.reducer.source(again);
+      if (const auto rematched = s.matcher.match(again_source, *matched, prior_mean, at)) {
+        matched = rematched;
+        r.scan = std::move(again);
+        source = again_source;
+        r.report.deskewed_again = true;
+      }
+      else // the first match again, from itself: its scan, pairs and Hessian are kept
+        matched = s.matcher.match(source, *matched, prior_mean, at);
+    }
+  }
+  r.report.converged = matched.has_value();
+  if (!matched)
+    return;
+  // Constant velocity compounds rounding, and odometry read from text carries its digits'
+  // error: the pose is kept a rotation.
+  r.pose = lum::orthonormalized(*matched);
+  s.matcher.measure(r, *source);
+}
+
+void
+Pipeline::keepFirstAgain(const Pose& sweep)
+{
+  Stages& s = *stages_;
+  ReducedScan first = s.reducer.reduce(*s.deskewer.releaseFirst(sweep));
+  s.reducer.describe(first);
+  s.matcher.clearMap(); // of the first scan alone, at its pose
+  s.matcher.keep(first, s.motion.lastPose(), 1);
+  if (held_) { // not when drained (finish) before
+    held_->report.reduced_points = first.reduced->size();
+    held_->scan = std::move(first);
+  }
+}
+
+void
+Pipeline::reportMatch(ScanRecord& r, const Pose& before) const
+{
   // The front end's own step: chained without the loop closures' corrections.
-  out.step = tracked_ == 0 ? fe.pose : Pose(before.inverse() * fe.pose);
-  report.reduced_points = fe.scan.reduced->size();
-  report.setMatch(fe);
-  report.correction = registration::motionDisplacement(fe.prediction.inverse() * fe.pose,
-                                                       loop_params_.median_range);
+  r.step = tracked_ == 0 ? r.pose : Pose(before.inverse() * r.pose);
+  r.report.reduced_points = r.scan.reduced->size();
+  const double range = loop_params_.median_range;
+  r.report.correction =
+      registration::motionDisplacement(r.prediction.inverse() * r.pose, range);
   if (tracked_ > 0)
-    report.predicted_step = registration::motionDisplacement(before.inverse() * fe.prediction,
-                                                             loop_params_.median_range);
-  times_.front_end += stage.getTimeSeconds();
-  report.seconds = start.getTimeSeconds();
-  ++tracked_;
+    r.report.predicted_step =
+        registration::motionDisplacement(before.inverse() * r.prediction, range);
+}
+
+std::vector<ScanRecord>
+Pipeline::release(ScanRecord r)
+{
+  std::vector<ScanRecord> out;
+  if (held_ && !stages_->deskewer.holdsFirst()) {
+    out.push_back(std::move(*held_));
+    held_.reset();
+  }
+  if (stages_->deskewer.holdsFirst())
+    held_ = std::move(r);
+  else
+    out.push_back(std::move(r));
   return out;
+}
+
+std::vector<ScanRecord>
+Pipeline::drain()
+{
+  std::vector<ScanRecord> out;
+  if (held_)
+    out.push_back(std::move(*held_));
+  held_.reset();
+  return out;
+}
+
+void
+Pipeline::correctFrontEnd(const Pose& pose)
+{
+  // The previous scan, kept in its own frame, moves with the last pose.
+  const Pose correction = pose * stages_->motion.lastPose().inverse();
+  stages_->motion.applyCorrection(correction);
+  stages_->matcher.applyCorrection(correction);
 }
 
 std::optional<double>
@@ -258,40 +409,33 @@ Pipeline::checkStamp(std::size_t index, const std::optional<double>& stamp) cons
 }
 
 std::size_t
-Pipeline::addMatched(MatchedScan scan)
+Pipeline::addMatched(ScanRecord scan)
 {
   if (!loops_)
     throw std::logic_error("Pipeline::addMatched: construct with the median range");
-  const Pose pose = size() == 0 ? scan.front_end.pose : Pose(poses().back() * scan.step);
+  const Pose pose = size() == 0 ? scan.pose : Pose(poses().back() * scan.step);
   return addToGraph(std::move(scan), pose);
 }
 
 std::size_t
-Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
+Pipeline::addToGraph(ScanRecord scan, const Pose& pose)
 {
   const pcl::StopWatch start;
   const std::size_t index = size();
   front_end_poses_.push_back(index == 0 ? scan.step
                                         : Pose(front_end_poses_.back() * scan.step));
   ScanReport& report = scan.report;
-  FrontEndResult& fe = scan.front_end;
 
   // The pose graph, loops by pose distance (Sec. VI-C), pLUM when a loop closes (Sec. V).
   pcl::StopWatch stage;
-  if (fe.first_scan) { // the first scan deskewed again (FrontEnd::track)
-    loops_->replaceFirstScan(fe.first_scan->reduced,
-                             std::move(fe.first_scan->normals),
-                             std::move(fe.first_scan->tree));
-    reports_.front().reduced_points = fe.first_scan->reduced->size();
-  }
-  loops_->addScan(fe.scan.reduced,
+  loops_->addScan(scan.scan.reduced,
                   pose,
-                  std::move(fe.scan.normals),
-                  fe.information,
-                  fe.information_pairs,
-                  fe.map_scans,
+                  std::move(scan.scan.normals),
+                  scan.information,
+                  scan.information_pairs,
+                  report.map_scans,
                   report.reduced_points,
-                  std::move(fe.scan.tree));
+                  std::move(scan.scan.tree));
   if (params_.close_loops) {
     report.loops = loops_->detect();
     const auto found = std::find_if(
@@ -312,7 +456,7 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
         ++relaxations_;
       }
       if (relax || found->distributed) // the front end continues from the moved pose
-        front_end_->setLastPose(loops_->poses().back());
+        correctFrontEnd(loops_->poses().back());
       times_.loop_closing += stage.getTimeSeconds();
     }
   }
@@ -324,6 +468,8 @@ Pipeline::addToGraph(MatchedScan scan, const Pose& pose)
 void
 Pipeline::finish()
 {
+  for (ScanRecord& r : drain())
+    addTracked(std::move(r));
   if (!loops_ || !params_.close_loops)
     return;
   const bool any_loop = std::any_of(

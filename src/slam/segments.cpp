@@ -57,7 +57,7 @@ sequenceMedianRange(ScanSource& read, const Parameters& params)
   return range;
 }
 
-std::vector<MatchedScan>
+std::vector<ScanRecord>
 matchSegment(const Segment& segment,
              const Parameters& params,
              double median_range,
@@ -66,26 +66,28 @@ matchSegment(const Segment& segment,
              StageTimes* times)
 {
   Pipeline front_end(params, median_range, segment.first);
-  std::vector<MatchedScan> own;
+  std::vector<ScanRecord> own;
   own.reserve(segment.end - segment.begin);
+  // The segment is mapped as the online pipeline maps a sequence: its own loops closed as
+  // they come, the front end continuing from the corrected poses.
+  const auto add = [&](std::vector<ScanRecord> records) {
+    for (ScanRecord& r : records) {
+      if (r.index >= segment.begin)
+        own.push_back(r);
+      front_end.addTracked(std::move(r));
+    }
+  };
   // The segment's next scan read while one is matched.
   ReadAhead ahead(std::cref(read), segment.end, params.num_threads);
   for (std::size_t i = segment.first; i < segment.end; ++i) {
     const SourceScan scan = ahead(i);
     if (!scan.cloud)
       throw std::invalid_argument("scan " + std::to_string(i) + " could not be read");
-    // The segment is mapped as the online pipeline maps a sequence: its own loops closed
-    // as they come, the front end continuing from the corrected poses.
-    MatchedScan m = front_end.track(*scan.cloud, scan.odometry, scan.stamp, scan.point_times);
-    if (i >= segment.begin) {
-      own.push_back(m);
-      if (segment.first < segment.begin) // the scan it deskewed again is the last segment's
-        own.back().front_end.first_scan.reset();
-    }
-    front_end.addTracked(std::move(m));
+    add(front_end.track(*scan.cloud, scan.odometry, scan.stamp, scan.point_times));
     if (matched)
       matched(i - segment.first + 1);
   }
+  add(front_end.drain());
   if (times)
     times->add(front_end.times());
   return own;
@@ -110,18 +112,18 @@ mapSegments(const Parameters& params,
   for (const Segment& s : segments)
     total += s.end - s.first;
   StageTimes times;
-  std::vector<MatchedScan> matched;
+  std::vector<ScanRecord> matched;
   matched.reserve(num_scans);
   for (const Segment& s : segments) {
     auto step = [&](std::size_t k) {
       if (progress)
         progress("match", done + k, total);
     };
-    for (MatchedScan& m : matchSegment(s, params, range, read, step, &times))
+    for (ScanRecord& m : matchSegment(s, params, range, read, step, &times))
       matched.push_back(std::move(m));
     done += s.end - s.first;
   }
-  for (MatchedScan& m : matched) {
+  for (ScanRecord& m : matched) {
     pipeline->addMatched(std::move(m));
     if (progress)
       progress("join", pipeline->size(), num_scans);

@@ -6,7 +6,8 @@
 
 #include <pcl_parallel/slam/front_end.h>
 #include <pcl_parallel/slam/loop_closure.h>
-#include <pcl_parallel/slam/preprocess.h>
+#include <pcl_parallel/slam/motion_model.h>
+#include <pcl_parallel/slam/scan_record.h>
 #include <pcl_parallel/slam/types.h>
 
 #include <functional>
@@ -76,52 +77,6 @@ frontEndParameters(const Parameters& p, double median_range);
 LoopClosureParameters
 loopClosureParameters(const Parameters& p, double median_range);
 
-/** What happened to one scan. */
-struct ScanReport {
-  std::size_t points = 0;         ///< read
-  std::size_t reduced_points = 0; ///< kept (after crop, deskew and reduction)
-  std::size_t source_points = 0;  ///< registered against the map
-  bool converged = true;          ///< pICP; false: the prediction was kept
-  double fitness = 0.0;           ///< pICP's mean squared pair distance, within the gate
-  double gate = 0.0;              ///< pICP's correspondence distance (adaptive)
-  /** How far pICP moved the scan from the motion prior (translation plus rotation at the
-   *  median range, as the adaptive gate measures it). */
-  double correction = 0.0;
-  /** How far the motion prior moved the scan from the previous one (measured alike): with
-   *  odometry, the odometry's step. */
-  double predicted_step = 0.0;
-  /** FrontEndResult::start_offset: the speed hypothesis pICP started from (0: the
-   *  prediction). */
-  double start_offset = 0.0;
-  double start_turn = 0.0;     ///< FrontEndResult::start_turn
-  bool pose_searched = false;  ///< FrontEndResult::pose_searched
-  bool deskewed_again = false; ///< FrontEndResult::deskewed_again
-  double start_heading = std::numeric_limits<double>::quiet_NaN(); ///< ... ::start_heading
-  double map_scans = 1.0;           ///< FrontEndResult::map_scans
-  double seconds = 0.0;             ///< all stages for this scan
-  std::vector<LoopCandidate> loops; ///< loop pairs tried
-  int lum_iterations = 0;           ///< pLUM run after this scan (0: none)
-  /** After finish(): LoopCloser::sequenceChi2() of this scan (-1: no constraint). */
-  double sequence_chi2 = -1.0;
-
-  /** Takes the match's figures from the front end's result: source points, convergence,
-   *  fitness, gate, the winning starts (one place for the pipeline and the MPI reader). */
-  void
-  setMatch(const FrontEndResult& fe)
-  {
-    source_points = fe.source_points;
-    converged = fe.converged;
-    fitness = fe.fitness;
-    gate = fe.gate;
-    start_offset = fe.start_offset;
-    start_turn = fe.start_turn;
-    pose_searched = fe.pose_searched;
-    deskewed_again = fe.deskewed_again;
-    start_heading = fe.start_heading;
-    map_scans = fe.map_scans;
-  }
-};
-
 /** How far pICP moved the scans from their odometry's steps, over how long the steps are:
  *  the median ScanReport::correction over the median ScanReport::predicted_step, over the
  *  first kOdometryDisagreementSteps steps (later, a wrong odometry has bent the map the
@@ -154,16 +109,6 @@ constexpr double kOdometryDisagreementLimit = 0.25;
 
 /** odometryDisagreement looks at this many steps from the first. */
 constexpr std::size_t kOdometryDisagreementSteps = 20;
-
-/** A scan after the front end (Pipeline::track), as the loop-closing half takes it
- *  (Pipeline::addMatched). */
-struct MatchedScan {
-  FrontEndResult front_end;
-  /** Its pose relative to the previous scan's, as the front end matched it (the first
-   *  scan's: its pose) */
-  Pose step = Pose::Identity();
-  ScanReport report;
-};
 
 /** Seconds spent per stage. */
 struct StageTimes {
@@ -216,35 +161,43 @@ public:
           std::optional<double> stamp = std::nullopt,
           const std::vector<double>& point_times = {});
 
-  /** addScan's first half: crops the scan and runs the front end on it (the pose graph
-   *  is not touched). A pipeline used for this alone matches a segment of a sequence
+  /** addScan's first half, the front end's stages: crops the scan, predicts its motion,
+   *  deskews, reduces, guesses and matches it (the pose graph is not touched). Returns
+   *  the scans this one made final, in order: itself, except that with deskewing the
+   *  first scan waits for the second (its deskewing needs the first step) and comes
+   *  with it. A pipeline used for this alone matches a segment of a sequence
    *  (segments.h). Throws as addScan. */
-  MatchedScan
+  std::vector<ScanRecord>
   track(const Cloud& scan,
         const std::optional<Pose>& odometry = std::nullopt,
         std::optional<double> stamp = std::nullopt,
         const std::vector<double>& point_times = {});
 
+  /** The scan track() still holds (the first, with deskewing, when no second came). */
+  std::vector<ScanRecord>
+  drain();
+
   /** addScan's second half for a scan this pipeline's track() matched: adds it to the
    *  pose graph at its front-end pose, detects loops, relaxes, and moves the front end to
-   *  a corrected pose (so addScan(s) is addTracked(track(s))). */
+   *  a corrected pose (so addScan(s) is addTracked for each of track(s)). */
   std::size_t
-  addTracked(MatchedScan scan);
+  addTracked(ScanRecord scan);
 
   /** addScan's second half for a scan another pipeline's front end matched: adds it to
    *  the pose graph at the previous scan's current pose times `scan.step` (the first
    *  scan at its front-end pose), detects loops, relaxes. Returns the scan's index. With
-   *  an exchange, a scan another process owns comes without points (front_end.scan.reduced
+   *  an exchange, a scan another process owns comes without points (scan.scan.reduced
    *  null, report.reduced_points its size), and the call is collective. */
   std::size_t
-  addMatched(MatchedScan scan);
+  addMatched(ScanRecord scan);
 
   /** Spreads the loop closer's scans over processes (LoopCloser::setExchange; e.g.
    *  mpi::RankExchange); requires the median-range constructor. */
   void
   setExchange(std::shared_ptr<ScanExchange> exchange);
 
-  /** Final pLUM over the whole graph (when loops were found). */
+  /** Adds the scan track() still holds (drain), then a final pLUM over the whole graph
+   *  (when loops were found). */
   void
   finish();
 
@@ -324,21 +277,55 @@ public:
   }
 
 private:
+  struct Stages;
   /** Resolves the lengths from the median range and creates the stages. */
   void
   start(double median_range);
   /** Throws std::invalid_argument for scan `index`'s stamp as addScan documents. */
   void
   checkStamp(std::size_t index, const std::optional<double>& stamp) const;
+  /** The scan checked and cropped, its points' sweep times cropped with it; starts the
+   *  stages on the first scan. Throws as addScan. */
+  Cloud::Ptr
+  admit(const Cloud& scan,
+        const std::optional<Pose>& odometry,
+        std::optional<double> stamp,
+        const std::vector<double>& point_times,
+        std::vector<float>& sweep_times);
+  /** The scan deskewed by `sweep` and reduced. */
+  ReducedScan
+  reduce(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
+  /** Guess and match (PoseGuess, Matcher); with deskewing, a scan whose matched step
+   *  deskews it differently is deskewed again and matched again. */
+  void
+  match(ScanRecord& r,
+        Cloud::Ptr& source,
+        const Cloud& scan,
+        const std::vector<float>& sweep_times,
+        const MotionPrediction& m,
+        bool odometry);
+  /** The held first scan deskewed by `sweep`: kept again as the map and previous scan. */
+  void
+  keepFirstAgain(const Pose& sweep);
+  /** The match's figures in r.report: step, reduced points, correction, predicted step. */
+  void
+  reportMatch(ScanRecord& r, const Pose& before) const;
+  /** The records track() returns for `r`: see track(). */
+  std::vector<ScanRecord>
+  release(ScanRecord r);
+  /** Moves the front end (last pose and map) to `pose` for its last scan (loop closing). */
+  void
+  correctFrontEnd(const Pose& pose);
   /** The graph half of addScan/addMatched for a scan at `pose`. */
   std::size_t
-  addToGraph(MatchedScan scan, const Pose& pose);
+  addToGraph(ScanRecord scan, const Pose& pose);
 
   Parameters params_;
   FrontEndParameters front_end_params_;
   LoopClosureParameters loop_params_;
-  std::unique_ptr<FrontEnd> front_end_;
+  std::unique_ptr<Stages> stages_;
   std::unique_ptr<LoopCloser> loops_;
+  std::optional<ScanRecord> held_; ///< the first scan, until the first step is known
   Poses front_end_poses_;
   std::vector<ScanReport> reports_;
   StageTimes times_;

@@ -65,7 +65,7 @@ using SegmentProgress =
  *  end matched them; each one's step joins it to its predecessor, the last scan of the
  *  previous segment for the first. `matched` is called after each scan with the scans
  *  matched so far; `times` gets the segment's stage times added. */
-std::vector<MatchedScan>
+std::vector<ScanRecord>
 matchSegment(const Segment& segment,
              const Parameters& params,
              double median_range,

@@ -1,0 +1,65 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#pragma once
+
+#include <pcl_parallel/slam/types.h>
+
+#include <vector>
+
+namespace pcl_parallel {
+namespace slam {
+
+/**
+ * \brief Undoes a spinning LiDAR's motion during its sweep (deskewSweep: by the points'
+ * sweep times where given, else by azimuth). The first scan comes before any motion is
+ * known: the deskewer keeps it as given until the first step is (docs/design.md, "The
+ * first scan"). Off (`enabled` false), a scan passes unchanged.
+ */
+class Deskewer {
+public:
+  /** `clockwise`: the head's turn seen from +z (sweepTime); `voxel_size`: the reduction's,
+   *  the unit of needsAgain's threshold. */
+  Deskewer(bool enabled, bool clockwise, double voxel_size, unsigned num_threads);
+
+  bool
+  enabled() const
+  {
+    return enabled_;
+  }
+
+  /** The scan in the scanner's frame at the sweep's end, its motion during the sweep
+   *  undone; a copy when deskewing is off. */
+  Cloud::Ptr
+  deskew(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
+
+  /** Keeps the sequence's first scan until the first step is known (when enabled). */
+  void
+  holdFirst(const Cloud& scan, const std::vector<float>& sweep_times);
+  bool
+  holdsFirst() const
+  {
+    return static_cast<bool>(first_);
+  }
+  /** The held first scan deskewed by `sweep`, no longer held. */
+  Cloud::Ptr
+  releaseFirst(const Pose& sweep);
+
+  /** Whether deskewing by `matched` instead of `predicted` moves the reduced scan's
+   *  farthest point by more than half a voxel: a scan taken while the motion changed (a
+   *  turn begun or ended) is then deskewed again by its matched step. */
+  bool
+  needsAgain(const Pose& predicted, const Pose& matched, const Cloud& reduced) const;
+
+private:
+  bool enabled_;
+  bool clockwise_;
+  double voxel_size_;
+  unsigned num_threads_;
+  Cloud::Ptr first_;               ///< the first scan as given, until the first step is known
+  std::vector<float> first_times_; ///< its points' sweep times, if given
+};
+
+} // namespace slam
+} // namespace pcl_parallel
