@@ -270,30 +270,19 @@ RankExchange::relax(ParallelLUM<slam::PointT>& lum)
       lum, comm_, reasons_, [this](std::size_t source, std::size_t) { return owner_(source); });
 }
 
-std::unique_ptr<slam::Pipeline>
-mapSegments(MPI_Comm comm,
-            const slam::Parameters& params,
-            std::size_t num_scans,
-            std::size_t segment_size,
-            std::size_t overlap,
-            const slam::ScanSource& source,
-            SegmentsReport* report,
-            const slam::SegmentProgress& progress)
+namespace {
+
+/** The segments and the automatic lengths' median range (from scan 0 on rank 0),
+ *  agreed by all ranks. */
+std::pair<std::vector<slam::Segment>, double>
+startSegments(MPI_Comm comm,
+              int rank,
+              std::size_t num_scans,
+              std::size_t segment_size,
+              std::size_t overlap,
+              slam::ScanSource& read,
+              const slam::Parameters& params)
 {
-  int rank = 0, size = 1;
-  MPI_Comm_rank(comm, &rank);
-  MPI_Comm_size(comm, &size);
-  SegmentsReport local;
-  SegmentsReport& out = report ? *report : local;
-  out = SegmentsReport();
-
-  // Same inputs everywhere, else the ranks would map different sequences.
-  requireSameOnAllRanks(comm,
-                        inputHash(params, num_scans, segment_size, overlap),
-                        "mpi::mapSegments: the options or the number of scans");
-
-  // The automatic lengths, from scan 0 on rank 0.
-  slam::ScanSource read = source;
   std::string error;
   std::vector<slam::Segment> segments;
   double range = 0.0;
@@ -309,17 +298,31 @@ mapSegments(MPI_Comm comm,
   }
   throwIfAnyFailed(comm, error);
   MPI_Bcast(&range, 1, MPI_DOUBLE, 0, comm);
+  return {segments, range};
+}
 
-  // Front ends: this rank's block of segments.
+/** This rank's block of segments [begin, end) through their front ends; errors agreed
+ *  by all ranks. */
+std::vector<std::vector<slam::ScanRecord>>
+matchOwnSegments(MPI_Comm comm,
+                 const std::vector<slam::Segment>& segments,
+                 std::size_t begin,
+                 std::size_t end,
+                 const slam::Parameters& params,
+                 double range,
+                 const slam::ScanSource& read,
+                 const slam::SegmentProgress& progress,
+                 slam::StageTimes& times,
+                 SegmentsReport& out)
+{
   const pcl::StopWatch start;
-  const auto [own_begin, own_end] = linkRange(segments.size(), rank, size);
   std::size_t total = 0, done = 0;
-  for (std::size_t s = own_begin; s < own_end; ++s)
+  for (std::size_t s = begin; s < end; ++s)
     total += segments[s].end - segments[s].first;
   std::vector<std::vector<slam::ScanRecord>> mine;
-  slam::StageTimes times;
+  std::string error;
   try {
-    for (std::size_t s = own_begin; s < own_end; ++s) {
+    for (std::size_t s = begin; s < end; ++s) {
       auto step = [&](std::size_t k) {
         if (progress)
           progress("match", done + k, total);
@@ -336,53 +339,105 @@ mapSegments(MPI_Comm comm,
   const pcl::StopWatch wait;
   throwIfAnyFailed(comm, error);
   out.wait_seconds = wait.getTimeSeconds();
-  out.segments = segments.size();
-  out.own_segments = own_end - own_begin;
+  return mine;
+}
 
-  // Loop closing over the whole sequence, the same graph on every rank: each segment's
-  // matched scans (steps, information, reports) from the rank that owns it, in order;
-  // their points stay there (RankExchange).
+/** Segment s's matched scans on every rank: the owner's own, broadcast to the others
+ *  (without their points). Adds the bytes this rank sent to `sent`. */
+std::vector<slam::ScanRecord>
+shareSegment(MPI_Comm comm,
+             int owner,
+             int rank,
+             int size,
+             std::vector<slam::ScanRecord>* own,
+             std::uint64_t& sent)
+{
+  std::vector<slam::ScanRecord> scans;
+  if (owner == rank) {
+    scans = std::move(*own);
+    if (size > 1) {
+      Writer w;
+      w.put<std::uint64_t>(scans.size());
+      for (const auto& m : scans)
+        writeMatched(w, m);
+      broadcastBytes(comm, owner, w.bytes());
+      sent += w.bytes().size() * static_cast<std::size_t>(size - 1);
+    }
+    return scans;
+  }
+  std::vector<char> bytes;
+  broadcastBytes(comm, owner, bytes);
+  Reader in(bytes);
+  scans.resize(in.get<std::uint64_t>());
+  for (auto& m : scans)
+    m = readMatched(in);
+  return scans;
+}
+
+/** Which rank keeps scan i: the rank whose own scans hold it. */
+std::function<int(std::size_t)>
+scanOwner(std::size_t num_scans, std::size_t segment_size, int size)
+{
   std::vector<std::size_t> ends; // of the own scans of ranks 0, 1, ... that have any
   for (int r = 0; r < size; ++r) {
     const auto [b, e] = scansOfRank(num_scans, segment_size, r, size);
     if (b < e)
       ends.push_back(e);
   }
-  const auto exchange = std::make_shared<RankExchange>(comm, [ends](std::size_t i) {
+  return [ends](std::size_t i) {
     return static_cast<int>(std::upper_bound(ends.begin(), ends.end(), i) - ends.begin());
-  });
+  };
+}
+
+} // namespace
+
+std::unique_ptr<slam::Pipeline>
+mapSegments(MPI_Comm comm,
+            const slam::Parameters& params,
+            std::size_t num_scans,
+            std::size_t segment_size,
+            std::size_t overlap,
+            const slam::ScanSource& source,
+            SegmentsReport* report,
+            const slam::SegmentProgress& progress)
+{
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  SegmentsReport local;
+  SegmentsReport& out = report ? *report : local;
+  out = SegmentsReport();
+  // Same inputs everywhere, else the ranks would map different sequences.
+  requireSameOnAllRanks(comm,
+                        inputHash(params, num_scans, segment_size, overlap),
+                        "mpi::mapSegments: the options or the number of scans");
+  slam::ScanSource read = source;
+  const auto [segments, range] =
+      startSegments(comm, rank, num_scans, segment_size, overlap, read, params);
+  const auto [own_begin, own_end] = linkRange(segments.size(), rank, size);
+  slam::StageTimes times;
+  std::vector<std::vector<slam::ScanRecord>> mine = matchOwnSegments(
+      comm, segments, own_begin, own_end, params, range, read, progress, times, out);
+  out.segments = segments.size();
+  out.own_segments = own_end - own_begin;
+
+  // Loop closing over the whole sequence, the same graph on every rank: each segment's
+  // matched scans (steps, information, reports) from the rank that owns it, in order;
+  // their points stay there (RankExchange).
+  const auto exchange =
+      std::make_shared<RankExchange>(comm, scanOwner(num_scans, segment_size, size));
   std::unique_ptr<slam::Pipeline> pipeline(new slam::Pipeline(params, range));
   pipeline->setExchange(exchange);
   std::uint64_t sent = 0; // by this rank
   for (int owner = 0; owner < size; ++owner) {
     const auto [begin, end] = linkRange(segments.size(), owner, size);
-    for (std::size_t s = begin; s < end; ++s) {
-      std::vector<slam::ScanRecord> scans;
-      if (owner == rank) {
-        scans = std::move(mine[s - begin]);
-        if (size > 1) {
-          Writer w;
-          w.put<std::uint64_t>(scans.size());
-          for (const auto& m : scans)
-            writeMatched(w, m);
-          broadcastBytes(comm, owner, w.bytes());
-          sent += w.bytes().size() * static_cast<std::size_t>(size - 1);
-        }
-      }
-      else {
-        std::vector<char> bytes;
-        broadcastBytes(comm, owner, bytes);
-        Reader in(bytes);
-        scans.resize(in.get<std::uint64_t>());
-        for (auto& m : scans)
-          m = readMatched(in);
-      }
-      for (slam::ScanRecord& m : scans) {
+    for (std::size_t s = begin; s < end; ++s)
+      for (slam::ScanRecord& m : shareSegment(
+               comm, owner, rank, size, owner == rank ? &mine[s - begin] : nullptr, sent)) {
         pipeline->addMatched(std::move(m));
         if (progress)
           progress("join", pipeline->size(), num_scans);
       }
-    }
   }
   pipeline->addTimes(times);
   // finish() relaxes once more: the report's bytes come from the exchange, which the

@@ -222,62 +222,53 @@ within(const Cloud& cloud, const Frame& frame, double reach)
   return out;
 }
 
-} // namespace
-
-std::vector<Pose>
-correlativeSearch(const Cloud& source,
-                  const Cloud& target,
-                  const Eigen::Vector3d& up,
-                  const CorrelativeSearchParameters& params)
+/** As far as the target reaches: its 90th percentile range, at least a cell; 0 where it
+ *  has no finite point. */
+double
+targetReach(const Cloud& target, const Frame& frame, double cell)
 {
-  if (!(params.cell > 0.0) || !std::isfinite(params.cell) || params.headings < 1 ||
-      !(params.radius >= 0.0) || !std::isfinite(params.radius) || params.max_points < 1 ||
-      !(up.norm() > 0.0))
-    throw std::invalid_argument("correlativeSearch: cell > 0, radius >= 0, headings >= 1, "
-                                "max_points >= 1 and a non-zero up axis needed");
-  const Frame frame(up);
-  double radius = params.radius;
-  if (radius == 0.0) { // as far as the target reaches: its 90th percentile range
-    std::vector<double> ranges;
-    ranges.reserve(target.size());
-    for (const auto& p : target)
-      if (const double r = frame.of(p).head<2>().norm(); std::isfinite(r))
-        ranges.push_back(r);
-    if (ranges.empty())
-      return {};
-    const auto at = ranges.begin() + static_cast<std::ptrdiff_t>(0.9 * (ranges.size() - 1));
-    std::nth_element(ranges.begin(), at, ranges.end());
-    radius = std::max(*at, params.cell);
-  }
-  // Points of either scan within twice the radius can meet; the grids reach as far.
-  const double coarse_cell = kCoarseCells * params.cell;
-  const int half_fine =
-      std::min(kMaxHalfCells, static_cast<int>(std::ceil(2.0 * radius / params.cell)));
-  const double reach = half_fine * params.cell;
-  const std::vector<Eigen::Vector3d> target_points = within(target, frame, reach);
-  std::vector<Eigen::Vector3d> points = within(source, frame, reach);
-  if (target_points.empty() || points.empty())
-    return {};
-  if (points.size() > params.max_points) { // every k-th: the scan is reduced, so spread
-    const std::size_t step = (points.size() + params.max_points - 1) / params.max_points;
-    std::vector<Eigen::Vector3d> every;
-    for (std::size_t i = 0; i < points.size(); i += step)
-      every.push_back(points[i]);
-    points.swap(every);
-  }
-  const LikelihoodField fine(target_points, params.cell, half_fine);
-  const LikelihoodField coarse(
-      target_points, coarse_cell, (half_fine + kCoarseCells - 1) / kCoarseCells);
+  std::vector<double> ranges;
+  ranges.reserve(target.size());
+  for (const auto& p : target)
+    if (const double r = frame.of(p).head<2>().norm(); std::isfinite(r))
+      ranges.push_back(r);
+  if (ranges.empty())
+    return 0.0;
+  const auto at = ranges.begin() + static_cast<std::ptrdiff_t>(0.9 * (ranges.size() - 1));
+  std::nth_element(ranges.begin(), at, ranges.end());
+  return std::max(*at, cell);
+}
 
-  // Coarse: every heading, every translation in coarse cells within the radius (the
-  // heights as they are: the coarse cells' dilation takes a step up or down).
+/** Every k-th point, at most `max_points`: the scan is reduced, so spread. */
+void
+thin(std::vector<Eigen::Vector3d>& points, std::size_t max_points)
+{
+  if (points.size() <= max_points)
+    return;
+  const std::size_t step = (points.size() + max_points - 1) / max_points;
+  std::vector<Eigen::Vector3d> every;
+  for (std::size_t i = 0; i < points.size(); i += step)
+    every.push_back(points[i]);
+  points.swap(every);
+}
+
+/** Coarse: every heading, every translation in coarse cells within the radius (the
+ *  heights as they are: the coarse cells' dilation takes a step up or down); the best
+ *  distinct peaks. */
+std::vector<Peak>
+coarsePeaks(const std::vector<Eigen::Vector3d>& points,
+            const LikelihoodField& coarse,
+            double coarse_cell,
+            double radius,
+            int headings,
+            unsigned threads)
+{
   const int n = std::min(kMaxCoarseSteps, static_cast<int>(std::ceil(radius / coarse_cell)));
   const int side = 2 * n + 1;
-  const double step = 2.0 * M_PI / params.headings;
-  std::vector<std::vector<Peak>> best(static_cast<std::size_t>(params.headings));
-  const unsigned threads = resolveNumberOfThreads(params.num_threads);
+  const double step = 2.0 * M_PI / headings;
+  std::vector<std::vector<Peak>> best(static_cast<std::size_t>(headings));
   parallelFor(
-      static_cast<std::size_t>(params.headings),
+      static_cast<std::size_t>(headings),
       threads,
       1,
       [&, n, side, step](std::size_t h0, std::size_t h1) {
@@ -302,15 +293,24 @@ correlativeSearch(const Cloud& source,
   std::vector<Peak> peaks;
   for (const auto& b : best) // in heading order: ties keep it
     peaks.insert(peaks.end(), b.begin(), b.end());
-  peaks = distinctPeaks(std::move(peaks), coarse_cell, step, kCoarsePeaks);
+  return distinctPeaks(std::move(peaks), coarse_cell, step, kCoarsePeaks);
+}
 
-  // Fine: around each coarse peak, heights too, by direct lookup.
+/** Fine: around each coarse peak, heights too, by direct lookup; `step` the coarse
+ *  headings' spacing. */
+std::vector<Peak>
+finePeaks(const std::vector<Eigen::Vector3d>& points,
+          const LikelihoodField& fine,
+          const std::vector<Peak>& peaks,
+          double cell,
+          double step,
+          unsigned threads)
+{
   std::vector<Peak> refined(peaks.size());
   parallelFor(peaks.size(), threads, 1, [&, step](std::size_t k0, std::size_t k1) {
     for (std::size_t k = k0; k < k1; ++k) {
       Peak best;
       const Eigen::Vector3d centre = peaks[k].translation;
-      const double cell = params.cell;
       for (int dh = -kFineHeadings; dh <= kFineHeadings; ++dh) {
         const double heading = peaks[k].heading + dh * step / (2 * kFineHeadings);
         const std::vector<Eigen::Vector3d> turned_points = turned(points, heading);
@@ -326,15 +326,61 @@ correlativeSearch(const Cloud& source,
       refined[k] = best;
     }
   });
+  return refined;
+}
+
+/** A peak as a pose in the scan's frame. */
+Pose
+toPose(const Peak& p, const Frame& frame)
+{
+  Pose pose = Pose::Identity();
+  pose.topLeftCorner<3, 3>() = Eigen::AngleAxisd(p.heading, frame.up).toRotationMatrix();
+  pose.topRightCorner<3, 1>() =
+      p.translation.x() * frame.u + p.translation.y() * frame.v + p.translation.z() * frame.up;
+  return pose;
+}
+
+} // namespace
+
+std::vector<Pose>
+correlativeSearch(const Cloud& source,
+                  const Cloud& target,
+                  const Eigen::Vector3d& up,
+                  const CorrelativeSearchParameters& params)
+{
+  if (!(params.cell > 0.0) || !std::isfinite(params.cell) || params.headings < 1 ||
+      !(params.radius >= 0.0) || !std::isfinite(params.radius) || params.max_points < 1 ||
+      !(up.norm() > 0.0))
+    throw std::invalid_argument("correlativeSearch: cell > 0, radius >= 0, headings >= 1, "
+                                "max_points >= 1 and a non-zero up axis needed");
+  const Frame frame(up);
+  const double radius =
+      params.radius == 0.0 ? targetReach(target, frame, params.cell) : params.radius;
+  if (radius == 0.0)
+    return {};
+  // Points of either scan within twice the radius can meet; the grids reach as far.
+  const double coarse_cell = kCoarseCells * params.cell;
+  const int half_fine =
+      std::min(kMaxHalfCells, static_cast<int>(std::ceil(2.0 * radius / params.cell)));
+  const double reach = half_fine * params.cell;
+  const std::vector<Eigen::Vector3d> target_points = within(target, frame, reach);
+  std::vector<Eigen::Vector3d> points = within(source, frame, reach);
+  if (target_points.empty() || points.empty())
+    return {};
+  thin(points, params.max_points);
+  const LikelihoodField fine(target_points, params.cell, half_fine);
+  const LikelihoodField coarse(
+      target_points, coarse_cell, (half_fine + kCoarseCells - 1) / kCoarseCells);
+  const unsigned threads = resolveNumberOfThreads(params.num_threads);
+  const double step = 2.0 * M_PI / params.headings;
+  const std::vector<Peak> peaks =
+      coarsePeaks(points, coarse, coarse_cell, radius, params.headings, threads);
   std::vector<Pose> out;
-  for (const Peak& p :
-       distinctPeaks(std::move(refined), 2.0 * params.cell, step / 2.0, params.candidates)) {
-    Pose pose = Pose::Identity();
-    pose.topLeftCorner<3, 3>() = Eigen::AngleAxisd(p.heading, frame.up).toRotationMatrix();
-    pose.topRightCorner<3, 1>() = p.translation.x() * frame.u + p.translation.y() * frame.v +
-                                  p.translation.z() * frame.up;
-    out.push_back(pose);
-  }
+  for (const Peak& p : distinctPeaks(finePeaks(points, fine, peaks, params.cell, step, threads),
+                                     2.0 * params.cell,
+                                     step / 2.0,
+                                     params.candidates))
+    out.push_back(toPose(p, frame));
   return out;
 }
 
