@@ -4,6 +4,7 @@
  */
 #include "test_data.h"
 
+#include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
@@ -17,6 +18,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
@@ -112,6 +114,89 @@ quoted(const char* s)
 }
 
 } // namespace
+
+// A writer that fails leaves neither the file nor a temporary; an old file stays intact.
+TEST_F(TempFiles, AtomicWritesLeaveTheOldFileOrTheNewOne)
+{
+  namespace fs = std::filesystem;
+  const fs::path dir = dir_;
+  const std::string path = (dir / "poses.txt").string();
+  EXPECT_THROW(writeAtomically(path,
+                               [](const std::string& tmp) {
+                                 std::ofstream(tmp) << "half";
+                                 throw std::runtime_error("disk full");
+                               }),
+               std::runtime_error);
+  EXPECT_TRUE(fs::is_empty(dir));
+  std::ofstream(path) << "old\n";
+  EXPECT_THROW(writeAtomically(path,
+                               [](const std::string& tmp) {
+                                 std::ofstream(tmp) << "new, half";
+                                 throw std::runtime_error("interrupted");
+                               }),
+               std::runtime_error);
+  std::ifstream in(path);
+  std::string content;
+  std::getline(in, content);
+  EXPECT_EQ(content, "old");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  writeAtomically(path, [](const std::string& tmp) { std::ofstream(tmp) << "new\n"; });
+  std::ifstream in2(path);
+  std::getline(in2, content);
+  EXPECT_EQ(content, "new");
+  // A failure names the file asked for, not its temporary; a WriteAborted (a signal)
+  // passes unchanged, and leaves no temporary either.
+  const std::string failed = messageOf<std::runtime_error>([&] {
+    writeAtomically(path, [](const std::string& tmp) {
+      throw std::runtime_error(tmp + ": cannot write the picture");
+    });
+  });
+  EXPECT_EQ(failed, path + ": cannot write the picture");
+  const std::string aborted = messageOf<WriteAborted>([&] {
+    writeAtomically(path, [](const std::string& tmp) {
+      std::ofstream(tmp) << "half";
+      throw WriteAborted("interrupted (SIGINT)");
+    });
+  });
+  EXPECT_EQ(aborted, "interrupted (SIGINT)");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] {
+                         writeStreamAtomically((dir / "no/such/dir/p.txt").string(),
+                                               [](std::ostream& out) { out << "x"; });
+                       }),
+                       "p.txt: cannot open for writing"));
+}
+
+// The maps are written by io/, not by PCL's writers (which fail silently or by SIGBUS on
+// a full disk): the PCD is byte for byte PCL's binary PCD, the PLY reads back in PCL.
+TEST_F(TempFiles, PcdAndPlyWritersAsPclWritesAndReadsThem)
+{
+  const std::filesystem::path dir = dir_;
+  pcl::PointCloud<pcl::PointXYZ> map;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-50.0f, 50.0f);
+  for (int i = 0; i < 70000; ++i) // more than one write chunk (65536 points)
+    map.emplace_back(u(rng), u(rng), u(rng));
+  const std::string ours = (dir / "map.pcd").string(), pcl = (dir / "pcl.pcd").string();
+  writePcdScan(ours, map);
+  ASSERT_EQ(pcl::io::savePCDFileBinary(pcl, map), 0);
+  auto bytes = [](const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_TRUE(bytes(ours) == bytes(pcl));
+  const std::string ply = (dir / "map.ply").string();
+  writePlyScan(ply, map);
+  pcl::PointCloud<pcl::PointXYZ> back;
+  ASSERT_EQ(pcl::io::loadPLYFile(ply, back), 0);
+  ASSERT_EQ(back.size(), map.size());
+  for (std::size_t i = 0; i < map.size(); ++i)
+    ASSERT_TRUE(back[i].getVector3fMap() == map[i].getVector3fMap()) << i;
+  writePcdScan(ours, pcl::PointCloud<pcl::PointXYZ>()); // an empty map is a valid file
+  ASSERT_EQ(pcl::io::loadPCDFile(ours, back), 0);
+  EXPECT_TRUE(back.empty());
+  EXPECT_EQ(loadPlyScan(ply)->size(), map.size()); // and by ours
+}
 
 TEST_F(TempFiles, UosScanSkipsHeaderAndFiltersRange)
 {

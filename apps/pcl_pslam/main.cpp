@@ -149,7 +149,7 @@ runCommand(int argc, char** argv, const pcl_pslam::Ranks& ranks)
       pcl_parallel::slam::SourceScan scan;
       const bool times = params.deskew || !looked;
       looked = true;
-      scan.cloud = pcl_pslam::readScan(in, k, times ? &scan.point_times : nullptr);
+      scan.cloud = pcl_parallel::io::readScan(in, k, times ? &scan.point_times : nullptr);
       if (!timed[k] && pcl_parallel::slam::spansSweep(scan.point_times)) {
         timed[k] = true;
         ++in.timed_scans;
