@@ -5,6 +5,7 @@
 #include "test_data.h"
 
 #include <pcl_parallel/io/atomic_write.h>
+#include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
@@ -196,6 +197,34 @@ TEST_F(TempFiles, PcdAndPlyWritersAsPclWritesAndReadsThem)
   ASSERT_EQ(pcl::io::loadPCDFile(ours, back), 0);
   EXPECT_TRUE(back.empty());
   EXPECT_EQ(loadPlyScan(ply)->size(), map.size()); // and by ours
+}
+
+// The scan directory: numbered names in their numbers' order, first/last in those numbers,
+// the caller's mistakes and bad data as two error types (the app's exit 2 and 1).
+TEST_F(TempFiles, ScanDirectoryNumbersSelectsAndTypesItsErrors)
+{
+  for (const char* name : {"scan10.xyz", "scan2.xyz", "scan7.xyz"})
+    write(name, "1 0 0\n0 1 0\n0 0 1\n2 2 2\n");
+  ScanDirectoryOptions o;
+  o.dir = dir_.string();
+  const ScanDirectory all = openScanDirectory(o);
+  EXPECT_EQ(all.numbers, (std::vector<int>{2, 7, 10}));
+  EXPECT_EQ(all.stamps, (std::vector<double>{2, 7, 10})); // the numbers, without times
+  EXPECT_FALSE(all.odometry);
+  EXPECT_EQ(all.format, "xyz");
+  EXPECT_EQ(readAllScans(all).size(), 3u);
+  o.first = 7;
+  EXPECT_EQ(openScanDirectory(o).numbers, (std::vector<int>{7, 10}));
+  o.first = 10;
+  EXPECT_TRUE(mentions(messageOf<ScanDirectoryUsageError>([&] { openScanDirectory(o); }),
+                       "1 of its 3 .xyz scans lie in the range -s 10"));
+  o.first = 0;
+  o.format = "pcd";
+  EXPECT_TRUE(mentions(messageOf<ScanDataError>([&] { openScanDirectory(o); }),
+                       "no scan files (.pcd)"));
+  o.dir = (dir_ / "missing").string();
+  EXPECT_TRUE(mentions(messageOf<ScanDirectoryUsageError>([&] { openScanDirectory(o); }),
+                       "missing: no such directory"));
 }
 
 TEST_F(TempFiles, UosScanSkipsHeaderAndFiltersRange)

@@ -2,8 +2,9 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * The pcl_pslam app shell: 3DTK command lines, output formats read back, atomic writes,
- * the picture's extent, and .frames on real 3DTK data against slam6D's own output.
+ * The pcl_pslam app shell: 3DTK command lines, the scan directory as the app opens it,
+ * output formats read back, every writer on a full disk, and .frames on real 3DTK data
+ * against slam6D's own output.
  */
 #include "input.h"
 #include "options.h"

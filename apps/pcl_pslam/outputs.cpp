@@ -79,12 +79,11 @@ writeScanFrames(const std::string& path,
 {
   namespace io = pcl_parallel::io;
   constexpr int kDigits = 12;
-  io::writeFrames(path,
-                  {{initial, io::kFramesInvalid},
-                   {icp, fixed ? io::kFramesIcpInactive : io::kFramesIcp},
-                   {final_pose, fixed ? io::kFramesIcpInactive : io::kFramesLum}},
-                  scale,
-                  kDigits);
+  const std::vector<io::Frame> frames = {
+      {initial, io::kFramesInvalid},
+      {icp, fixed ? io::kFramesIcpInactive : io::kFramesIcp},
+      {final_pose, fixed ? io::kFramesIcpInactive : io::kFramesLum}};
+  io::writeFrames(path, frames, scale, kDigits);
 }
 
 namespace {
@@ -534,6 +533,41 @@ scansJson(const Input& in, const Result& r)
   return scans;
 }
 
+/** The front end's matches: how many, failed, placed by the pose search, deskewed again. */
+nlohmann::json
+icpJson(const Result& r, std::size_t scans)
+{
+  const auto [searched, found] = poseSearches(r.reports);
+  return {
+      {"matches", scans - 1},
+      {"not_converged", r.icp_failures},
+      {"pose_searched", searched},
+      {"pose_search_won", found},
+      {"deskewed_again",
+       std::count_if(
+           r.reports.begin(),
+           r.reports.end(),
+           [](const pcl_parallel::slam::ScanReport& rep) { return rep.deskewed_again; })},
+      {"odometry_disagreement",
+       r.odometry_disagreement ? nlohmann::json(*r.odometry_disagreement) : nlohmann::json()}};
+}
+
+/** The errors against the simulation's truth, per row (truthErrors). */
+nlohmann::json
+truthJson(const Input& in, const Result& r)
+{
+  nlohmann::json truth;
+  for (const auto& row : truthErrors(in, r)) {
+    const auto& e = row.errors;
+    truth[row.key] = {{"ate_m", e.ate.translation.rmse},
+                      {"ate_deg", e.ate.rotation_deg.rmse},
+                      {"kitti_rpe_percent", e.kitti.translation_percent},
+                      {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
+                      {"frame_rpe_m", e.rpe.translation.rmse}};
+  }
+  return truth;
+}
+
 } // namespace
 
 std::vector<std::string>
@@ -588,19 +622,7 @@ writeOutputs(const Options& o,
   j["stages"] = stages;
   j["total_seconds"] = progress.elapsed();
   j["scans"] = scansJson(in, r);
-  const auto [searched, found] = poseSearches(r.reports);
-  j["icp"] = {
-      {"matches", n - 1},
-      {"not_converged", r.icp_failures},
-      {"pose_searched", searched},
-      {"pose_search_won", found},
-      {"deskewed_again",
-       std::count_if(
-           r.reports.begin(),
-           r.reports.end(),
-           [](const pcl_parallel::slam::ScanReport& rep) { return rep.deskewed_again; })},
-      {"odometry_disagreement",
-       r.odometry_disagreement ? nlohmann::json(*r.odometry_disagreement) : nlohmann::json()}};
+  j["icp"] = icpJson(r, n);
   nlohmann::json loop_list = nlohmann::json::array();
   for (const auto& [a, b] : loops)
     loop_list.push_back({a, b});
@@ -610,17 +632,8 @@ writeOutputs(const Options& o,
   j["map"] = {{"points", map->size()}, {"voxel_m", map_voxel}};
   if (!style.empty())
     j["picture_style"] = style;
-  if (!in.truth.empty()) {
-    nlohmann::json& truth = j["errors_against_truth"];
-    for (const auto& row : truthErrors(in, r)) {
-      const auto& e = row.errors;
-      truth[row.key] = {{"ate_m", e.ate.translation.rmse},
-                        {"ate_deg", e.ate.rotation_deg.rmse},
-                        {"kitti_rpe_percent", e.kitti.translation_percent},
-                        {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
-                        {"frame_rpe_m", e.rpe.translation.rmse}};
-    }
-  }
+  if (!in.truth.empty())
+    j["errors_against_truth"] = truthJson(in, r);
   j["outputs"] = written;
   pcl_parallel::io::writeStreamAtomically(join(o.out, "report.json"),
                                           [&](std::ostream& out) { out << j.dump(2) << '\n'; });
