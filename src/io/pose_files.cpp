@@ -11,18 +11,13 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <functional>
 #include <regex>
 #include <string_view>
 #include <system_error>
 #include <tuple>
-#include <unistd.h>
 
 namespace pcl_parallel {
 namespace io {
