@@ -12,7 +12,7 @@
 #   libflann-dev libeigen3-dev libboost-dev   PCL's public dependencies, named explicitly
 #   libgtest-dev                     the test suite
 #   libboost-program-options-dev     pcl_pslam's command line (subcommands, 3DTK option names)
-#   libcairo2-dev                    pcl_pslam's map.png: antialiased lines, text, scale bar
+#   libcairo2-dev                    render/ (map.png): antialiased lines, text, scale bar
 #   nlohmann-json3-dev               pcl_pslam's report.json (a JSON library, not printf)
 #   clang-14 libomp-14-dev libclang-rt-14-dev the ThreadSanitizer stage of scripts/test.sh:
 #                                    clang, LLVM's OpenMP runtime with the Archer tool

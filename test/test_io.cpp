@@ -4,6 +4,8 @@
  */
 #include "test_data.h"
 
+#include <pcl_parallel/io/atomic_write.h>
+#include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/uos.h>
@@ -17,6 +19,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
@@ -112,6 +115,117 @@ quoted(const char* s)
 }
 
 } // namespace
+
+// A writer that fails leaves neither the file nor a temporary; an old file stays intact.
+TEST_F(TempFiles, AtomicWritesLeaveTheOldFileOrTheNewOne)
+{
+  namespace fs = std::filesystem;
+  const fs::path dir = dir_;
+  const std::string path = (dir / "poses.txt").string();
+  EXPECT_THROW(writeAtomically(path,
+                               [](const std::string& tmp) {
+                                 std::ofstream(tmp) << "half";
+                                 throw std::runtime_error("disk full");
+                               }),
+               std::runtime_error);
+  EXPECT_TRUE(fs::is_empty(dir));
+  std::ofstream(path) << "old\n";
+  EXPECT_THROW(writeAtomically(path,
+                               [](const std::string& tmp) {
+                                 std::ofstream(tmp) << "new, half";
+                                 throw std::runtime_error("interrupted");
+                               }),
+               std::runtime_error);
+  std::ifstream in(path);
+  std::string content;
+  std::getline(in, content);
+  EXPECT_EQ(content, "old");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  writeAtomically(path, [](const std::string& tmp) { std::ofstream(tmp) << "new\n"; });
+  std::ifstream in2(path);
+  std::getline(in2, content);
+  EXPECT_EQ(content, "new");
+  // A failure names the file asked for, not its temporary; a WriteAborted (a signal)
+  // passes unchanged, and leaves no temporary either.
+  const std::string failed = messageOf<std::runtime_error>([&] {
+    writeAtomically(path, [](const std::string& tmp) {
+      throw std::runtime_error(tmp + ": cannot write the picture");
+    });
+  });
+  EXPECT_EQ(failed, path + ": cannot write the picture");
+  const std::string aborted = messageOf<WriteAborted>([&] {
+    writeAtomically(path, [](const std::string& tmp) {
+      std::ofstream(tmp) << "half";
+      throw WriteAborted("interrupted (SIGINT)");
+    });
+  });
+  EXPECT_EQ(aborted, "interrupted (SIGINT)");
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  EXPECT_TRUE(mentions(messageOf<std::runtime_error>([&] {
+                         writeStreamAtomically((dir / "no/such/dir/p.txt").string(),
+                                               [](std::ostream& out) { out << "x"; });
+                       }),
+                       "p.txt: cannot open for writing"));
+}
+
+// The maps are written by io/, not by PCL's writers (which fail silently or by SIGBUS on
+// a full disk): the PCD is byte for byte PCL's binary PCD, the PLY reads back in PCL.
+TEST_F(TempFiles, PcdAndPlyWritersAsPclWritesAndReadsThem)
+{
+  const std::filesystem::path dir = dir_;
+  pcl::PointCloud<pcl::PointXYZ> map;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(-50.0f, 50.0f);
+  for (int i = 0; i < 70000; ++i) // more than one write chunk (65536 points)
+    map.emplace_back(u(rng), u(rng), u(rng));
+  const std::string ours = (dir / "map.pcd").string(), pcl = (dir / "pcl.pcd").string();
+  writePcdScan(ours, map);
+  ASSERT_EQ(pcl::io::savePCDFileBinary(pcl, map), 0);
+  auto bytes = [](const std::string& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_TRUE(bytes(ours) == bytes(pcl));
+  const std::string ply = (dir / "map.ply").string();
+  writePlyScan(ply, map);
+  pcl::PointCloud<pcl::PointXYZ> back;
+  ASSERT_EQ(pcl::io::loadPLYFile(ply, back), 0);
+  ASSERT_EQ(back.size(), map.size());
+  for (std::size_t i = 0; i < map.size(); ++i)
+    ASSERT_TRUE(back[i].getVector3fMap() == map[i].getVector3fMap()) << i;
+  writePcdScan(ours, pcl::PointCloud<pcl::PointXYZ>()); // an empty map is a valid file
+  ASSERT_EQ(pcl::io::loadPCDFile(ours, back), 0);
+  EXPECT_TRUE(back.empty());
+  EXPECT_EQ(loadPlyScan(ply)->size(), map.size()); // and by ours
+}
+
+// The scan directory: numbered names in their numbers' order, first/last in those numbers,
+// the caller's mistakes and bad data as two error types (the app's exit 2 and 1).
+TEST_F(TempFiles, ScanDirectoryNumbersSelectsAndTypesItsErrors)
+{
+  for (const char* name : {"scan10.xyz", "scan2.xyz", "scan7.xyz"})
+    write(name, "1 0 0\n0 1 0\n0 0 1\n2 2 2\n");
+  ScanDirectoryOptions o;
+  o.dir = dir_.string();
+  const ScanDirectory all = openScanDirectory(o);
+  EXPECT_EQ(all.numbers, (std::vector<int>{2, 7, 10}));
+  EXPECT_EQ(all.stamps, (std::vector<double>{2, 7, 10})); // the numbers, without times
+  EXPECT_FALSE(all.odometry);
+  EXPECT_EQ(all.format, "xyz");
+  EXPECT_EQ(readAllScans(all).size(), 3u);
+  o.first = 7;
+  EXPECT_EQ(openScanDirectory(o).numbers, (std::vector<int>{7, 10}));
+  o.first = 10;
+  EXPECT_TRUE(mentions(messageOf<ScanDirectoryUsageError>([&] { openScanDirectory(o); }),
+                       "1 of its 3 .xyz scans lie in the range -s 10"));
+  o.first = 0;
+  o.format = "pcd";
+  EXPECT_TRUE(mentions(messageOf<ScanDataError>([&] { openScanDirectory(o); }),
+                       "no scan files (.pcd)"));
+  o.dir = (dir_ / "missing").string();
+  EXPECT_TRUE(mentions(messageOf<ScanDirectoryUsageError>([&] { openScanDirectory(o); }),
+                       "missing: no such directory"));
+}
 
 TEST_F(TempFiles, UosScanSkipsHeaderAndFiltersRange)
 {

@@ -2,25 +2,24 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * The pcl_pslam app shell: 3DTK command lines, output formats read back, atomic writes,
- * the picture's extent, and .frames on real 3DTK data against slam6D's own output.
+ * The pcl_pslam app shell: 3DTK command lines, the scan directory as the app opens it,
+ * output formats read back, every writer on a full disk, and .frames on real 3DTK data
+ * against slam6D's own output.
  */
 #include "input.h"
-#include "map_picture.h"
 #include "options.h"
 #include "outputs.h"
 #include "test_data.h"
 
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/io/pose_files.h>
+#include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/uos.h>
+#include <pcl_parallel/render/map_picture.h>
 #include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 #include <pcl_parallel/slam/preprocess.h>
-
-#include <pcl/io/pcd_io.h>
-#include <pcl/io/ply_io.h>
 
 #include <Eigen/Geometry>
 
@@ -210,7 +209,7 @@ TEST(PslamOutputs, FramesRoundTrip)
   const Eigen::Matrix4d icp = somePose(0.2, -0.05, 0.03, {1.5, -0.25, 3.125});
   const Eigen::Matrix4d final_pose = somePose(0.3, 0.1, -0.2, {-7.3, 0.04, 12.5});
   const std::string path = (dir / "scan001.frames").string();
-  pcl_pslam::writeFrames(path, initial, icp, final_pose, false, 0.01);
+  pcl_pslam::writeScanFrames(path, initial, icp, final_pose, false, 0.01);
   const Eigen::Matrix4d back = pcl_parallel::io::loadFramesFinalPose(path);
   Eigen::Matrix4d expected = final_pose;
   expected.topRightCorner<3, 1>() /= 0.01; // metres -> 3DTK's centimetres
@@ -249,69 +248,6 @@ TEST(PslamOutputs, TumRoundTrip)
     const Eigen::Matrix3d r = Eigen::Quaterniond(qw, qx, qy, qz).toRotationMatrix();
     EXPECT_LT((r - poses[i].topLeftCorner<3, 3>()).cwiseAbs().maxCoeff(), 1e-8);
   }
-  fs::remove_all(dir);
-}
-
-// A writer that fails leaves neither the file nor a temporary; an old file stays intact.
-TEST(PslamOutputs, AtomicWrites)
-{
-  const fs::path dir = scratch("atomic");
-  const std::string path = (dir / "poses.txt").string();
-  EXPECT_THROW(pcl_pslam::writeAtomically(path,
-                                          [](const std::string& tmp) {
-                                            std::ofstream(tmp) << "half";
-                                            throw std::runtime_error("disk full");
-                                          }),
-               std::runtime_error);
-  EXPECT_TRUE(fs::is_empty(dir));
-  std::ofstream(path) << "old\n";
-  EXPECT_THROW(pcl_pslam::writeAtomically(path,
-                                          [](const std::string& tmp) {
-                                            std::ofstream(tmp) << "new, half";
-                                            throw std::runtime_error("interrupted");
-                                          }),
-               std::runtime_error);
-  std::ifstream in(path);
-  std::string content;
-  std::getline(in, content);
-  EXPECT_EQ(content, "old");
-  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
-  pcl_pslam::writeAtomically(path,
-                             [](const std::string& tmp) { std::ofstream(tmp) << "new\n"; });
-  std::ifstream in2(path);
-  std::getline(in2, content);
-  EXPECT_EQ(content, "new");
-  fs::remove_all(dir);
-}
-
-// The maps are written by the app, not by PCL's writers (which fail silently or by SIGBUS
-// on a full disk): the PCD is byte for byte PCL's binary PCD, the PLY reads back in PCL.
-TEST(PslamOutputs, MapFilesAsPclWritesAndReadsThem)
-{
-  const fs::path dir = scratch("maps");
-  pcl_pslam::Cloud map;
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<float> u(-50.0f, 50.0f);
-  for (int i = 0; i < 70000; ++i) // more than one write chunk (65536 points)
-    map.emplace_back(u(rng), u(rng), u(rng));
-  const std::string ours = (dir / "map.pcd").string(), pcl = (dir / "pcl.pcd").string();
-  pcl_pslam::writeMapPcd(ours, map);
-  ASSERT_EQ(pcl::io::savePCDFileBinary(pcl, map), 0);
-  auto bytes = [](const std::string& p) {
-    std::ifstream in(p, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  };
-  EXPECT_TRUE(bytes(ours) == bytes(pcl));
-  const std::string ply = (dir / "map.ply").string();
-  pcl_pslam::writeMapPly(ply, map);
-  pcl_pslam::Cloud back;
-  ASSERT_EQ(pcl::io::loadPLYFile(ply, back), 0);
-  ASSERT_EQ(back.size(), map.size());
-  for (std::size_t i = 0; i < map.size(); ++i)
-    ASSERT_TRUE(back[i].getVector3fMap() == map[i].getVector3fMap()) << i;
-  pcl_pslam::writeMapPcd(ours, pcl_pslam::Cloud()); // an empty map is a valid file
-  ASSERT_EQ(pcl::io::loadPCDFile(ours, back), 0);
-  EXPECT_TRUE(back.empty());
   fs::remove_all(dir);
 }
 
@@ -439,21 +375,21 @@ TEST(PslamOutputs, FullDiskIsAnErrorNamingTheFileAndLeavesNoFile)
   for (int i = 0; i < 50; ++i)
     poses.push_back(somePose(0.1 * i, 0.01 * i, -0.02 * i, Eigen::Vector3d(i, 0.5 * i, 0)));
   const std::vector<double> stamps(poses.size(), 1.5);
-  pcl_pslam::PictureOptions po;
+  pcl_parallel::render::PictureOptions po;
   po.caption = {"full disk"};
   const std::pair<const char*, std::function<void(const std::string&)>> writers[] = {
       {"scan000.frames",
        [&](const std::string& p) {
-         pcl_pslam::writeFrames(p, poses[1], poses[2], poses[3], false, 0.01);
+         pcl_pslam::writeScanFrames(p, poses[1], poses[2], poses[3], false, 0.01);
        }},
       {"poses.txt", [&](const std::string& p) { pcl_parallel::io::writeKittiPoses(p, poses); }},
       {"poses_tum.txt",
        [&](const std::string& p) { pcl_parallel::io::writeTumTrajectory(p, poses, stamps); }},
-      {"map.pcd", [&](const std::string& p) { pcl_pslam::writeMapPcd(p, map); }},
-      {"map.ply", [&](const std::string& p) { pcl_pslam::writeMapPly(p, map); }},
+      {"map.pcd", [&](const std::string& p) { pcl_parallel::io::writePcdScan(p, map); }},
+      {"map.ply", [&](const std::string& p) { pcl_parallel::io::writePlyScan(p, map); }},
       {"map.png", [&](const std::string& p) {
-         pcl_pslam::writeAtomically(p, [&](const std::string& tmp) {
-           pcl_pslam::writeMapPicture(tmp, map, poses, po);
+         pcl_parallel::io::writeAtomically(p, [&](const std::string& tmp) {
+           pcl_parallel::render::writeMapPicture(tmp, map, poses, po);
          });
        }}};
   for (const auto& [name, write] : writers) {
@@ -607,7 +543,7 @@ TEST(PslamInput, UnreadableDirectoryAndScanFileAreErrorsNamingThem)
   o.dir = dir.string();
   auto errorOf = [&] {
     try {
-      pcl_pslam::readAllScans(pcl_pslam::openDirectory(o));
+      pcl_parallel::io::readAllScans(pcl_pslam::openDirectory(o));
     }
     catch (const pcl_pslam::DataError& e) {
       return std::string(e.what());
@@ -621,90 +557,6 @@ TEST(PslamInput, UnreadableDirectoryAndScanFileAreErrorsNamingThem)
   EXPECT_NE(errorOf().find(dir.string() + ": cannot list the directory"), std::string::npos)
       << errorOf();
   fs::permissions(dir, fs::perms::owner_all);
-  fs::remove_all(dir);
-}
-
-// The picture's extent covers the trajectory and the points around it, and neither one
-// far return nor a sprinkle of them (min/max would take them all in) moves it.
-TEST(PslamPicture, ExtentIsRobustToFarReturns)
-{
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> room(-5.0, 25.0);
-  std::vector<Eigen::Vector2d> trajectory, points;
-  for (int i = 0; i <= 20; ++i)
-    trajectory.emplace_back(i, 0.5 * i); // (0,0) -> (20,10)
-  for (int i = 0; i < 20000; ++i)
-    points.emplace_back(room(rng), room(rng) - 10.0);
-  const auto base = pcl_pslam::robustExtent(points, trajectory);
-  auto covers = [](const pcl_pslam::Extent& e, const Eigen::Vector2d& p) {
-    return p.x() >= e.lo.x() && p.y() >= e.lo.y() && p.x() <= e.hi.x() && p.y() <= e.hi.y();
-  };
-  for (const auto& t : trajectory)
-    EXPECT_TRUE(covers(base, t));
-  // The room: [-5, 25] x [-15, 15], its extent within a margin of that.
-  EXPECT_NEAR(base.lo.x(), -5.0, 2.5);
-  EXPECT_NEAR(base.hi.x(), 25.0, 2.5);
-  EXPECT_NEAR(base.lo.y(), -15.0, 2.5);
-  EXPECT_NEAR(base.hi.y(), 15.0, 2.5);
-
-  auto with_one = points;
-  with_one.emplace_back(3000.0, -5000.0);
-  const auto one = pcl_pslam::robustExtent(with_one, trajectory);
-  EXPECT_LT((one.lo - base.lo).norm() + (one.hi - base.hi).norm(), 1e-3);
-
-  auto with_many = points; // 0.4% far returns in every direction, some within the radius
-  std::uniform_real_distribution<double> far(-2000.0, 2000.0);
-  for (int i = 0; i < 80; ++i)
-    with_many.emplace_back(far(rng), far(rng));
-  for (int i = 0; i < 20; ++i) // just inside the 30 m radius, all on one side
-    with_many.emplace_back(10.0 + 0.1 * i, 38.0);
-  const auto many = pcl_pslam::robustExtent(with_many, trajectory);
-  EXPECT_LT((many.hi - base.hi).cwiseAbs().maxCoeff(), 1.0);
-  EXPECT_LT((many.lo - base.lo).cwiseAbs().maxCoeff(), 1.0);
-
-  // No points at all: the trajectory (with margin) still gives a picture.
-  const auto bare = pcl_pslam::robustExtent({}, trajectory);
-  for (const auto& t : trajectory)
-    EXPECT_TRUE(covers(bare, t));
-}
-
-// A room (floor, ceiling, walls) reads as a floor plan; open ground with a few trees as a
-// height map; both pictures are PNGs at least as wide as the caption needs.
-TEST(PslamPicture, StyleAndFile)
-{
-  pcl_pslam::Cloud room, field;
-  for (double x = -5; x <= 5; x += 0.1)
-    for (double y = -4; y <= 4; y += 0.1) {
-      room.emplace_back(x, y, -1.0f); // floor 1 m below the scanner, ceiling 1.5 m above
-      room.emplace_back(x, y, 1.5f);
-      field.emplace_back(x * 4, y * 4, -1.8f);
-    }
-  for (double z = -1; z <= 1.5; z += 0.1)
-    for (double t = -4; t <= 4; t += 0.1) {
-      room.emplace_back(-5.0f, t, z), room.emplace_back(5.0f, t, z);
-      field.emplace_back(8.0f, 6.0f + 0.1 * t, z + 1.0); // a tree trunk
-    }
-  pcl_pslam::Poses path;
-  for (int i = 0; i < 8; ++i) {
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    m(0, 3) = -3.5 + i;
-    path.push_back(m);
-  }
-  EXPECT_EQ(pcl_pslam::chooseStyle(room, path, 2), "floorplan");
-  EXPECT_EQ(pcl_pslam::chooseStyle(field, path, 2), "height");
-  const fs::path dir = scratch("picture");
-  pcl_pslam::PictureOptions po;
-  po.caption = {"test"};
-  po.loops = {{0, 7}};
-  for (const auto* cloud : {&room, &field}) {
-    const std::string path_png = (dir / "map.png").string();
-    const std::string style = pcl_pslam::writeMapPicture(path_png, *cloud, path, po);
-    EXPECT_EQ(style, cloud == &room ? "floorplan" : "height");
-    std::ifstream in(path_png, std::ios::binary);
-    char magic[8] = {};
-    in.read(magic, 8);
-    EXPECT_EQ(std::string(magic + 1, 3), "PNG");
-  }
   fs::remove_all(dir);
 }
 
@@ -742,12 +594,12 @@ framesAgainstSlamSixD(std::vector<const char*> args)
   EXPECT_TRUE(in.frames_3dtk);
   pcl_pslam::Parameters p = pcl_pslam::toParameters(o, in.scale);
   p.odometry = in.odometry;
-  const pcl_pslam::Result r = pcl_pslam::run(pcl_pslam::readAllScans(in), in.initial, p);
+  const pcl_pslam::Result r = pcl_pslam::run(pcl_parallel::io::readAllScans(in), in.initial, p);
   std::vector<std::pair<double, double>> errors;
   for (std::size_t i = 0; i < in.size(); ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "scan%03zu.frames", i);
-    pcl_pslam::writeFrames(
+    pcl_pslam::writeScanFrames(
         (out / name).string(), in.initial[i], r.icp[i], r.final[i], i == 0, in.scale);
     errors.push_back(fromSlamSixD(out / name, data));
   }
@@ -843,7 +695,7 @@ TEST(PslamApp, StopAndGoWithoutPosesKeepsTheMatchThatContradictsLess)
   pcl_pslam::Parameters p = pcl_pslam::toParameters(o, in.scale);
   p.up = Eigen::Vector3d::Unit(in.up); // as the app sets it: y for 3DTK's frame
   p.odometry = in.odometry;
-  const pcl_pslam::Result r = pcl_pslam::run(pcl_pslam::readAllScans(in), in.initial, p);
+  const pcl_pslam::Result r = pcl_pslam::run(pcl_parallel::io::readAllScans(in), in.initial, p);
   const auto truth = pcl_parallel::io::loadKittiPoses((dir / "ground_truth.txt").string());
   ASSERT_EQ(r.icp.size(), truth.size());
   for (std::size_t i = 1; i < truth.size(); ++i) {

@@ -148,7 +148,7 @@ scanReader(pcl_pslam::Input& in, bool deskew)
     pcl_parallel::slam::SourceScan scan;
     const bool times = deskew || !*looked;
     *looked = true;
-    scan.cloud = pcl_pslam::readScan(in, k, times ? &scan.point_times : nullptr);
+    scan.cloud = pcl_parallel::io::readScan(in, k, times ? &scan.point_times : nullptr);
     if (!(*timed)[k] && pcl_parallel::slam::spansSweep(scan.point_times)) {
       (*timed)[k] = true;
       ++in.timed_scans;

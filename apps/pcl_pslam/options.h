@@ -9,6 +9,8 @@
 
 #include "slam_pipeline.h"
 
+#include <pcl_parallel/io/scan_directory.h>
+
 #include <limits>
 #include <optional>
 #include <stdexcept>
@@ -22,10 +24,9 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/** Bad data (a scan, a poses file, ...): one line naming the file, exit 1. */
-struct DataError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
+/** Bad data (a scan, a poses file, ...): one line naming the file, exit 1. The scan
+ *  directory's reader throws it. */
+using DataError = pcl_parallel::io::ScanDataError;
 
 /** What the command line asks for. Lengths the user gives are in the files' units
  *  (3DTK: the units of the scan data, e.g. cm for uos) and are scaled with the data

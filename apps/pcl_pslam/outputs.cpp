@@ -2,14 +2,15 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "map_picture.h"
 #include "outputs.h"
 
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/render/map_picture.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/pcl_config.h>
@@ -18,17 +19,13 @@
 #include <boost/version.hpp>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <unistd.h>
 
 #ifndef PCL_PSLAM_VERSION
@@ -40,34 +37,6 @@ namespace fs = std::filesystem;
 namespace pcl_pslam {
 
 namespace {
-
-/** The reason of the last failed system call, for a message. */
-std::string
-reason()
-{
-  return errno ? std::string(" (") + std::strerror(errno) + ")" : std::string();
-}
-
-/** Opens a file for writing; throws (writeAtomically names the file). */
-std::ofstream
-openText(const std::string& path, std::ios::openmode mode = std::ios::out)
-{
-  errno = 0;
-  std::ofstream out(path, mode);
-  if (!out)
-    throw std::runtime_error("cannot open for writing" + reason());
-  return out;
-}
-
-/** Closes and checks: a full disk shows at the latest when the buffer is written out
- *  (errno: of the failed write, since openText cleared it). */
-void
-closeText(std::ofstream& out)
-{
-  out.close();
-  if (!out)
-    throw std::runtime_error("write error" + reason());
-}
 
 std::string
 join(const std::string& dir, const std::string& name)
@@ -101,119 +70,20 @@ prepareOutputDirectory(const std::string& dir)
 }
 
 void
-writeAtomically(const std::string& path, const std::function<void(const std::string&)>& write)
+writeScanFrames(const std::string& path,
+                const Eigen::Matrix4d& initial,
+                const Eigen::Matrix4d& icp,
+                const Eigen::Matrix4d& final_pose,
+                bool fixed,
+                double scale)
 {
-  const fs::path p(path);
-  const std::string tmp =
-      (p.parent_path() / ("." + p.filename().string() + ".tmp" + std::to_string(::getpid())))
-          .string();
-  auto removeTmp = [&] {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-  };
-  try {
-    write(tmp);
-    fs::rename(tmp, path); // atomic within one file system (POSIX rename)
-  }
-  catch (const Interrupted&) {
-    removeTmp();
-    throw;
-  }
-  catch (const std::exception& e) { // named by the file asked for, not its temporary
-    removeTmp();
-    std::string what = e.what();
-    if (what.rfind(tmp + ": ", 0) == 0)
-      what.erase(0, tmp.size() + 2);
-    throw std::runtime_error(path + ": " + what);
-  }
-  catch (...) {
-    removeTmp();
-    throw;
-  }
-}
-
-namespace {
-
-/** A header, then x y z of every point as packed float32 in host order, atomically. */
-void
-writeXyzFile(const std::string& path, const std::string& header, const Cloud& map)
-{
-  writeAtomically(path, [&](const std::string& tmp) {
-    std::ofstream out = openText(tmp, std::ios::out | std::ios::binary);
-    out << header;
-    std::vector<float> xyz;
-    constexpr std::size_t kChunk = 3 << 16;
-    xyz.reserve(std::min(3 * map.size(), kChunk));
-    for (std::size_t i = 0; i < map.size(); ++i) {
-      xyz.insert(xyz.end(), {map[i].x, map[i].y, map[i].z});
-      if (xyz.size() >= kChunk || i + 1 == map.size()) {
-        out.write(reinterpret_cast<const char*>(xyz.data()),
-                  static_cast<std::streamsize>(xyz.size() * sizeof(float)));
-        xyz.clear();
-      }
-    }
-    closeText(out);
-  });
-}
-
-} // namespace
-
-// The maps are written here rather than by pcl::io::savePCDFileBinary / savePLYFileBinary:
-// PCL 1.13's PLY writer reports success for a file cut short by a full disk, its PCD
-// writer fills an mmap (a full disk is a SIGBUS where fallocate is unsupported) and its
-// exceptions do not name the file. Formats: PCD v0.7 (pointclouds.org, "The PCD file
-// format"), PLY 1.0 (Turk, "The PLY polygon file format"), as PCL reads them.
-void
-writeMapPcd(const std::string& path, const Cloud& map)
-{
-  std::ostringstream h;
-  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\n"
-       "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH "
-    << map.size() << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << map.size()
-    << "\nDATA binary\n";
-  writeXyzFile(path, h.str(), map);
-}
-
-void
-writeMapPly(const std::string& path, const Cloud& map)
-{
-  const std::uint16_t one = 1;
-  const bool little = *reinterpret_cast<const unsigned char*>(&one) == 1;
-  std::ostringstream h;
-  h << "ply\nformat " << (little ? "binary_little_endian" : "binary_big_endian")
-    << " 1.0\ncomment pcl_pslam map\nelement vertex " << map.size()
-    << "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
-  writeXyzFile(path, h.str(), map);
-}
-
-std::string
-framesLine(const Eigen::Matrix4d& pose, double scale, int type_code)
-{
-  Eigen::Matrix4d m = pose;
-  m.topRightCorner<3, 1>() /= scale;
-  std::ostringstream s;
-  s << std::setprecision(12);
-  for (int i = 0; i < 16; ++i)
-    s << m(i % 4, i / 4) << ' '; // column-major, as OpenGL and 3DTK
-  s << type_code;
-  return s.str();
-}
-
-void
-writeFrames(const std::string& path,
-            const Eigen::Matrix4d& initial,
-            const Eigen::Matrix4d& icp,
-            const Eigen::Matrix4d& final_pose,
-            bool fixed,
-            double scale)
-{
-  writeAtomically(path, [&](const std::string& tmp) {
-    std::ofstream out = openText(tmp);
-    out << framesLine(initial, scale, kFramesInvalid) << '\n'
-        << framesLine(icp, scale, fixed ? kFramesIcpInactive : kFramesIcp) << '\n'
-        << framesLine(final_pose, scale, fixed ? kFramesIcpInactive : kFramesLum) << '\n';
-    closeText(out);
-  });
+  namespace io = pcl_parallel::io;
+  constexpr int kDigits = 12;
+  const std::vector<io::Frame> frames = {
+      {initial, io::kFramesInvalid},
+      {icp, fixed ? io::kFramesIcpInactive : io::kFramesIcp},
+      {final_pose, fixed ? io::kFramesIcpInactive : io::kFramesLum}};
+  io::writeFrames(path, frames, scale, kDigits);
 }
 
 namespace {
@@ -349,9 +219,9 @@ writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporte
       [&](int done, int total) { progress.update("map", done, total); },
       r.own_begin,
       r.own_end);
-  writeMapPcd(join(o.out, mapTileName(r.rank, ".pcd")), *map);
+  pcl_parallel::io::writePcdScan(join(o.out, mapTileName(r.rank, ".pcd")), *map);
   if (o.ply)
-    writeMapPly(join(o.out, mapTileName(r.rank, ".ply")), *map);
+    pcl_parallel::io::writePlyScan(join(o.out, mapTileName(r.rank, ".ply")), *map);
 }
 
 namespace {
@@ -430,7 +300,8 @@ writePoseFiles(const Options& o,
   for (std::size_t i = 0; i < in.size(); ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "scan%03d.frames", in.numbers[i]);
-    writeFrames(join(o.out, name), in.initial[i], r.icp[i], r.final[i], i == 0, frames_scale);
+    writeScanFrames(
+        join(o.out, name), in.initial[i], r.icp[i], r.final[i], i == 0, frames_scale);
     progress.update("write", 0, 1); // a signal stops between two complete files
   }
   written.push_back("scanNNN.frames");
@@ -472,11 +343,11 @@ writeMap(const Options& o,
     progress.update("map", done, total);
   });
   progress.update("save", 0, 1);
-  writeMapPcd(join(o.out, "map.pcd"), *map);
+  pcl_parallel::io::writePcdScan(join(o.out, "map.pcd"), *map);
   written.push_back("map.pcd");
   if (o.ply) {
     progress.update("save", 0, 1);
-    writeMapPly(join(o.out, "map.ply"), *map);
+    pcl_parallel::io::writePlyScan(join(o.out, "map.ply"), *map);
     written.push_back("map.ply");
   }
   progress.update("save", 1, 1);
@@ -495,7 +366,7 @@ writePicture(const Options& o,
              std::vector<std::string>& written)
 {
   progress.update("picture", 0, 1);
-  PictureOptions po;
+  pcl_parallel::render::PictureOptions po;
   po.up = in.up;
   po.style = o.style;
   po.cell = map_voxel > 0.0 ? map_voxel : 0.05;
@@ -526,8 +397,8 @@ writePicture(const Options& o,
   }
   po.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
   std::string style;
-  writeAtomically(join(o.out, "map.png"), [&](const std::string& tmp) {
-    style = writeMapPicture(tmp, map, r.final, po);
+  pcl_parallel::io::writeAtomically(join(o.out, "map.png"), [&](const std::string& tmp) {
+    style = pcl_parallel::render::writeMapPicture(tmp, map, r.final, po);
   });
   written.push_back("map.png");
   progress.update("picture", 1, 1);
@@ -543,7 +414,7 @@ versionsJson()
            std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) +
                "." + std::to_string(EIGEN_MINOR_VERSION)},
           {"boost", BOOST_LIB_VERSION},
-          {"cairo", cairoVersion()},
+          {"cairo", pcl_parallel::render::cairoVersion()},
           {"nlohmann_json",
            std::to_string(NLOHMANN_JSON_VERSION_MAJOR) + "." +
                std::to_string(NLOHMANN_JSON_VERSION_MINOR) + "." +
@@ -662,6 +533,41 @@ scansJson(const Input& in, const Result& r)
   return scans;
 }
 
+/** The front end's matches: how many, failed, placed by the pose search, deskewed again. */
+nlohmann::json
+icpJson(const Result& r, std::size_t scans)
+{
+  const auto [searched, found] = poseSearches(r.reports);
+  return {
+      {"matches", scans - 1},
+      {"not_converged", r.icp_failures},
+      {"pose_searched", searched},
+      {"pose_search_won", found},
+      {"deskewed_again",
+       std::count_if(
+           r.reports.begin(),
+           r.reports.end(),
+           [](const pcl_parallel::slam::ScanReport& rep) { return rep.deskewed_again; })},
+      {"odometry_disagreement",
+       r.odometry_disagreement ? nlohmann::json(*r.odometry_disagreement) : nlohmann::json()}};
+}
+
+/** The errors against the simulation's truth, per row (truthErrors). */
+nlohmann::json
+truthJson(const Input& in, const Result& r)
+{
+  nlohmann::json truth;
+  for (const auto& row : truthErrors(in, r)) {
+    const auto& e = row.errors;
+    truth[row.key] = {{"ate_m", e.ate.translation.rmse},
+                      {"ate_deg", e.ate.rotation_deg.rmse},
+                      {"kitti_rpe_percent", e.kitti.translation_percent},
+                      {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
+                      {"frame_rpe_m", e.rpe.translation.rmse}};
+  }
+  return truth;
+}
+
 } // namespace
 
 std::vector<std::string>
@@ -716,19 +622,7 @@ writeOutputs(const Options& o,
   j["stages"] = stages;
   j["total_seconds"] = progress.elapsed();
   j["scans"] = scansJson(in, r);
-  const auto [searched, found] = poseSearches(r.reports);
-  j["icp"] = {
-      {"matches", n - 1},
-      {"not_converged", r.icp_failures},
-      {"pose_searched", searched},
-      {"pose_search_won", found},
-      {"deskewed_again",
-       std::count_if(
-           r.reports.begin(),
-           r.reports.end(),
-           [](const pcl_parallel::slam::ScanReport& rep) { return rep.deskewed_again; })},
-      {"odometry_disagreement",
-       r.odometry_disagreement ? nlohmann::json(*r.odometry_disagreement) : nlohmann::json()}};
+  j["icp"] = icpJson(r, n);
   nlohmann::json loop_list = nlohmann::json::array();
   for (const auto& [a, b] : loops)
     loop_list.push_back({a, b});
@@ -738,23 +632,11 @@ writeOutputs(const Options& o,
   j["map"] = {{"points", map->size()}, {"voxel_m", map_voxel}};
   if (!style.empty())
     j["picture_style"] = style;
-  if (!in.truth.empty()) {
-    nlohmann::json& truth = j["errors_against_truth"];
-    for (const auto& row : truthErrors(in, r)) {
-      const auto& e = row.errors;
-      truth[row.key] = {{"ate_m", e.ate.translation.rmse},
-                        {"ate_deg", e.ate.rotation_deg.rmse},
-                        {"kitti_rpe_percent", e.kitti.translation_percent},
-                        {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
-                        {"frame_rpe_m", e.rpe.translation.rmse}};
-    }
-  }
+  if (!in.truth.empty())
+    j["errors_against_truth"] = truthJson(in, r);
   j["outputs"] = written;
-  writeAtomically(join(o.out, "report.json"), [&](const std::string& tmp) {
-    std::ofstream out = openText(tmp);
-    out << j.dump(2) << '\n';
-    closeText(out);
-  });
+  pcl_parallel::io::writeStreamAtomically(join(o.out, "report.json"),
+                                          [&](std::ostream& out) { out << j.dump(2) << '\n'; });
   written.push_back("report.json");
   return written;
 }

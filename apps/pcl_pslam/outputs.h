@@ -4,7 +4,7 @@
  *
  * pcl_pslam's outputs: 3DTK .frames, KITTI and TUM poses, the map (PCD, PLY), map.png and
  * report.json. Every file is written to a temporary name in its directory and renamed, so
- * it is either complete or absent, whatever stops the run.
+ * it is either complete or absent, whatever stops the run (io::writeAtomically).
  */
 #pragma once
 
@@ -26,37 +26,16 @@ namespace pcl_pslam {
 bool
 prepareOutputDirectory(const std::string& dir);
 
-/** Calls write(tmp) with a temporary path beside `path`, then renames it to `path`; on any
- *  exception the temporary file is removed and the exception passed on, a std::exception
- *  (other than Interrupted) as std::runtime_error "PATH: what" naming `path`. */
+/** scanNNN.frames as slam6D writes it (io::writeFrames, 12 significant digits,
+ *  translations divided by `scale`): the initial pose (INVALID, as slam6D's first line),
+ *  after ICP (ICP), final (LUM); the first scan, held fixed, ICPINACTIVE. */
 void
-writeAtomically(const std::string& path, const std::function<void(const std::string&)>& write);
-
-/** The map as a binary PCD / PLY (x y z float32), atomically; a failed write (a full
- *  disk) throws std::runtime_error naming `path` and leaves no file. */
-void
-writeMapPcd(const std::string& path, const Cloud& map);
-void
-writeMapPly(const std::string& path, const Cloud& map);
-
-/** A pose as 3DTK stores it in .frames: the 4x4 column-major (OpenGL order), translation
- *  divided by `scale` (file units = metres / scale). Inverse of io::loadFramesFinalPose
- *  followed by multiplying the translation by `scale`. */
-std::string
-framesLine(const Eigen::Matrix4d& pose, double scale, int type_code);
-
-/** 3DTK's frame type codes (slam6D: 0 INVALID, 1 ICP, 2 ICPINACTIVE, 3 LUM). */
-enum FramesType { kFramesInvalid = 0, kFramesIcp = 1, kFramesIcpInactive = 2, kFramesLum = 3 };
-
-/** scanNNN.frames: the initial pose (INVALID, as slam6D's first line), after ICP (ICP),
- *  final (LUM); the first scan, held fixed, ICPINACTIVE. Last line final. */
-void
-writeFrames(const std::string& path,
-            const Eigen::Matrix4d& initial,
-            const Eigen::Matrix4d& icp,
-            const Eigen::Matrix4d& final_pose,
-            bool fixed,
-            double scale);
+writeScanFrames(const std::string& path,
+                const Eigen::Matrix4d& initial,
+                const Eigen::Matrix4d& icp,
+                const Eigen::Matrix4d& final_pose,
+                bool fixed,
+                double scale);
 
 /** The merged map: every scan of `in`, read again at full resolution (a few at once),
  *  deskewed with o.deskew by the motion at its pose (slam::sweepMotionAt) and moved by

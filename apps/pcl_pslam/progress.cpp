@@ -55,7 +55,8 @@ onSignal(int s)
 } // namespace
 
 Interrupted::Interrupted(int s)
-    : std::runtime_error(s == SIGTERM ? "terminated (SIGTERM)" : "interrupted (SIGINT)")
+    : pcl_parallel::io::WriteAborted(s == SIGTERM ? "terminated (SIGTERM)"
+                                                  : "interrupted (SIGINT)")
     , signal(s)
 {}
 

@@ -10,6 +10,8 @@
  */
 #pragma once
 
+#include <pcl_parallel/io/atomic_write.h>
+
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -19,7 +21,9 @@
 
 namespace pcl_pslam {
 
-struct Interrupted : std::runtime_error {
+/** A signal: io::writeAtomically passes it on unchanged (a WriteAborted), so the message
+ *  stays the signal's, not the file's. */
+struct Interrupted : pcl_parallel::io::WriteAborted {
   explicit Interrupted(int signal);
   int signal; ///< SIGINT or SIGTERM; exit status 128 + signal
 };

@@ -14,13 +14,16 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <new>
@@ -55,6 +58,17 @@ openOrThrow(const std::string& path, std::ios::openmode mode = std::ios::in)
   if (!in)
     fail(path, 0, "cannot open file for reading");
   return in;
+}
+
+/** The extension of `path` with its dot, in ASCII lower case (".pcd"). */
+inline std::string
+lowerCaseExtension(const std::string& path)
+{
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
+  return ext;
 }
 
 /** White space in the text formats (a '\r' is what is left of a Windows line end). */
@@ -287,6 +301,13 @@ timeField(const std::vector<Field>& fields, Single single)
   return kNoField;
 }
 
+/** A header, then x y z of every point as packed float32 in host order, atomically (the
+ *  binary PCD and PLY writers; defined in pcd.cpp). */
+void
+writeXyzFile(const std::string& path,
+             const std::string& header,
+             const pcl::PointCloud<pcl::PointXYZ>& cloud);
+
 /** Appends scan points that pass the one range filter of every reader: finite coordinates
  *  and a range sqrt(x²+y²+z²) from the scanner origin within [min_range, max_range].
  *  The range is computed in double before the point is narrowed to float, so a reader of
@@ -327,7 +348,7 @@ public:
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
       return;
     const double r = std::sqrt(x * x + y * y + z * z); // inf beyond 1e154: dropped or failed
-    if (r == 0.0 || r < min_range_ || r > max_range_) // at the origin: a no-return
+    if (r == 0.0 || r < min_range_ || r > max_range_)  // at the origin: a no-return
       return;
     constexpr double kFloatMax = std::numeric_limits<float>::max();
     if (std::abs(x) > kFloatMax || std::abs(y) > kFloatMax || std::abs(z) > kFloatMax)

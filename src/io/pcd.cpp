@@ -11,6 +11,7 @@
  */
 #include "detail.h"
 
+#include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/scan_io.h>
 
 #include <pcl/io/lzf.h>
@@ -20,6 +21,7 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -81,93 +83,96 @@ parseCount(std::string_view field, std::size_t& value)
   return true;
 }
 
-/** Reads and checks the header: keywords once each, FIELDS before SIZE, TYPE and COUNT,
- *  one value per field on each, known types, x, y and z present as single floats, and a
- *  point count that agrees with WIDTH x HEIGHT. */
-PcdHeader
-readPcdHeader(const std::string& path, std::ifstream& in)
-{
-  PcdHeader h;
+/** What the header lines said beyond the fields: the counts, and which keywords came. */
+struct PcdHeaderLines {
   std::vector<std::string_view> seen;
   std::size_t width = 0, height = 1, points = 0;
   bool has_width = false, has_points = false, has_data = false;
-  std::string line;
-  while (!has_data && std::getline(in, line)) {
-    const std::size_t line_no = ++h.lines;
-    Fields fields(line);
-    std::string_view key, value;
-    if (!fields.next(key) || key[0] == '#')
-      continue;
-    const std::string_view keyword = key == "COLUMNS" ? "FIELDS" : key;
-    if (std::find(kKeywords.begin(), kKeywords.end(), keyword) == kKeywords.end())
-      fail(path, line_no, "PCD header: unknown line " + detail::quoted(line));
-    if (std::find(seen.begin(), seen.end(), keyword) != seen.end())
-      fail(path, line_no, "PCD header: a second " + std::string(keyword) + " line");
-    const bool per_field = keyword == "SIZE" || keyword == "TYPE" || keyword == "COUNT";
-    if (per_field && h.fields.empty())
-      fail(path, line_no, "PCD header: " + std::string(keyword) + " before FIELDS");
-    seen.push_back(*std::find(kKeywords.begin(), kKeywords.end(), keyword));
-    std::vector<std::string_view> values;
-    while (fields.next(value))
-      values.push_back(value);
-    const auto bad = [&](const std::string& what) {
-      fail(path, line_no, "PCD header: " + what + " in " + detail::quoted(line));
-    };
-    if (keyword == "FIELDS") {
-      if (values.empty())
-        bad("no field names");
-      for (std::string_view name : values)
-        h.fields.push_back(PcdField{std::string(name), {}, 1, 0});
-    }
-    else if (per_field) {
-      if (values.size() != h.fields.size())
-        bad(std::to_string(values.size()) + " values for " + std::to_string(h.fields.size()) +
-            " fields");
-      for (std::size_t i = 0; i < values.size(); ++i) {
-        PcdField& f = h.fields[i];
-        if (keyword == "TYPE" && values[i].size() == 1)
-          f.type.kind = values[i][0];
-        else if (keyword == "TYPE" ||
-                 !parseCount(values[i], keyword == "SIZE" ? f.type.size : f.count))
-          bad("value " + detail::quoted(values[i]) + " is not a " +
-              (keyword == "TYPE" ? "type (I, U, F)" : "count"));
-      }
-    }
-    else if (keyword == "WIDTH" || keyword == "HEIGHT" || keyword == "POINTS") {
-      std::size_t& target = keyword == "WIDTH" ? width : keyword == "HEIGHT" ? height : points;
-      if (values.size() != 1 || !parseCount(values[0], target))
-        bad("expected one count");
-      has_width |= keyword == "WIDTH";
-      has_points |= keyword == "POINTS";
-    }
-    else if (keyword == "DATA") {
-      const std::string_view d = values.empty() ? std::string_view() : values[0];
-      if (values.size() != 1 || (d != "ascii" && d != "binary" && d != "binary_compressed"))
-        bad("expected ascii, binary or binary_compressed");
-      h.data = d == "ascii"    ? PcdData::Ascii
-               : d == "binary" ? PcdData::Binary
-                               : PcdData::Compressed;
-      has_data = true;
-    }
+};
+
+/** SIZE, TYPE or COUNT: one value per field, a type (I, U, F) or a count; `bad` fails. */
+template <typename Bad>
+void
+readPerFieldValues(std::string_view keyword,
+                   const std::vector<std::string_view>& values,
+                   PcdHeader& h,
+                   const Bad& bad)
+{
+  if (values.size() != h.fields.size())
+    bad(std::to_string(values.size()) + " values for " + std::to_string(h.fields.size()) +
+        " fields");
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    PcdField& f = h.fields[i];
+    if (keyword == "TYPE" && values[i].size() == 1)
+      f.type.kind = values[i][0];
+    else if (keyword == "TYPE" ||
+             !parseCount(values[i], keyword == "SIZE" ? f.type.size : f.count))
+      bad("value " + detail::quoted(values[i]) + " is not a " +
+          (keyword == "TYPE" ? "type (I, U, F)" : "count"));
   }
-  if (in.bad())
-    fail(path, h.lines, "read error");
-  if (!has_data)
-    fail(path, 0, "PCD header without a DATA line (not a PCD file, or a truncated one)");
-  if (h.fields.empty())
-    fail(path, 0, "PCD header without FIELDS");
-  if (!has_width && !has_points)
-    fail(path, 0, "PCD header without WIDTH or POINTS: the point count is unknown");
-  if (!has_width)
-    width = points / std::max<std::size_t>(height, 1); // PCD v0.5: POINTS alone
-  if (height != 0 && width > SIZE_MAX / height)
-    fail(path, 0, "PCD header: WIDTH x HEIGHT overflows");
-  h.points = width * height;
-  if (has_points && points != h.points)
-    fail(path,
-         0,
-         "PCD header: POINTS " + std::to_string(points) + " but WIDTH x HEIGHT " +
-             std::to_string(h.points));
+}
+
+/** One header line: keywords once each, FIELDS before SIZE, TYPE and COUNT, one value
+ *  per field on each, one count on WIDTH, HEIGHT and POINTS, a known DATA layout. */
+void
+readPcdHeaderLine(const std::string& path,
+                  const std::string& line,
+                  std::size_t line_no,
+                  PcdHeader& h,
+                  PcdHeaderLines& s)
+{
+  Fields fields(line);
+  std::string_view key, value;
+  if (!fields.next(key) || key[0] == '#')
+    return;
+  const std::string_view keyword = key == "COLUMNS" ? "FIELDS" : key;
+  if (std::find(kKeywords.begin(), kKeywords.end(), keyword) == kKeywords.end())
+    fail(path, line_no, "PCD header: unknown line " + detail::quoted(line));
+  if (std::find(s.seen.begin(), s.seen.end(), keyword) != s.seen.end())
+    fail(path, line_no, "PCD header: a second " + std::string(keyword) + " line");
+  const bool per_field = keyword == "SIZE" || keyword == "TYPE" || keyword == "COUNT";
+  if (per_field && h.fields.empty())
+    fail(path, line_no, "PCD header: " + std::string(keyword) + " before FIELDS");
+  s.seen.push_back(*std::find(kKeywords.begin(), kKeywords.end(), keyword));
+  std::vector<std::string_view> values;
+  while (fields.next(value))
+    values.push_back(value);
+  const auto bad = [&](const std::string& what) {
+    fail(path, line_no, "PCD header: " + what + " in " + detail::quoted(line));
+  };
+  if (keyword == "FIELDS") {
+    if (values.empty())
+      bad("no field names");
+    for (std::string_view name : values)
+      h.fields.push_back(PcdField{std::string(name), {}, 1, 0});
+  }
+  else if (per_field)
+    readPerFieldValues(keyword, values, h, bad);
+  else if (keyword == "WIDTH" || keyword == "HEIGHT" || keyword == "POINTS") {
+    std::size_t& target = keyword == "WIDTH"    ? s.width
+                          : keyword == "HEIGHT" ? s.height
+                                                : s.points;
+    if (values.size() != 1 || !parseCount(values[0], target))
+      bad("expected one count");
+    s.has_width |= keyword == "WIDTH";
+    s.has_points |= keyword == "POINTS";
+  }
+  else if (keyword == "DATA") {
+    const std::string_view d = values.empty() ? std::string_view() : values[0];
+    if (values.size() != 1 || (d != "ascii" && d != "binary" && d != "binary_compressed"))
+      bad("expected ascii, binary or binary_compressed");
+    h.data = d == "ascii"    ? PcdData::Ascii
+             : d == "binary" ? PcdData::Binary
+                             : PcdData::Compressed;
+    s.has_data = true;
+  }
+}
+
+/** The fields' layout (offsets, the point's size) and x, y and z: present once each, as
+ *  single floats. */
+void
+layOutPcdFields(const std::string& path, PcdHeader& h)
+{
   for (PcdField& f : h.fields) {
     if (!f.type.valid() || f.count == 0 || f.count > kMaxCount)
       fail(path,
@@ -191,6 +196,37 @@ readPcdHeader(const std::string& path, std::ifstream& in)
     h.xyz[a] = static_cast<std::size_t>(f - h.fields.begin());
   }
   h.time = detail::timeField(h.fields, [](const PcdField& f) { return f.count == 1; });
+}
+
+/** Reads and checks the header (readPcdHeaderLine, layOutPcdFields) and a point count
+ *  that agrees with WIDTH x HEIGHT. */
+PcdHeader
+readPcdHeader(const std::string& path, std::ifstream& in)
+{
+  PcdHeader h;
+  PcdHeaderLines s;
+  std::string line;
+  while (!s.has_data && std::getline(in, line))
+    readPcdHeaderLine(path, line, ++h.lines, h, s);
+  if (in.bad())
+    fail(path, h.lines, "read error");
+  if (!s.has_data)
+    fail(path, 0, "PCD header without a DATA line (not a PCD file, or a truncated one)");
+  if (h.fields.empty())
+    fail(path, 0, "PCD header without FIELDS");
+  if (!s.has_width && !s.has_points)
+    fail(path, 0, "PCD header without WIDTH or POINTS: the point count is unknown");
+  if (!s.has_width)
+    s.width = s.points / std::max<std::size_t>(s.height, 1); // PCD v0.5: POINTS alone
+  if (s.height != 0 && s.width > SIZE_MAX / s.height)
+    fail(path, 0, "PCD header: WIDTH x HEIGHT overflows");
+  h.points = s.width * s.height;
+  if (s.has_points && s.points != h.points)
+    fail(path,
+         0,
+         "PCD header: POINTS " + std::to_string(s.points) + " but WIDTH x HEIGHT " +
+             std::to_string(h.points));
+  layOutPcdFields(path, h);
   if (in.eof()) { // DATA was the last line, without a line end: an empty body
     in.clear();
     in.seekg(0, std::ios::end);
@@ -336,6 +372,43 @@ loadPcdScan(const std::string& path,
   else
     readBinary(path, in, h, cloud);
   return cloud.finish();
+}
+
+namespace detail {
+
+void
+writeXyzFile(const std::string& path,
+             const std::string& header,
+             const pcl::PointCloud<pcl::PointXYZ>& cloud)
+{
+  writeStreamAtomically(path, [&](std::ostream& out) {
+    out << header;
+    std::vector<float> xyz;
+    constexpr std::size_t kChunk = 3 << 16;
+    xyz.reserve(std::min(3 * cloud.size(), kChunk));
+    for (std::size_t i = 0; i < cloud.size(); ++i) {
+      xyz.insert(xyz.end(), {cloud[i].x, cloud[i].y, cloud[i].z});
+      if (xyz.size() >= kChunk || i + 1 == cloud.size()) {
+        out.write(reinterpret_cast<const char*>(xyz.data()),
+                  static_cast<std::streamsize>(xyz.size() * sizeof(float)));
+        xyz.clear();
+      }
+    }
+  });
+}
+
+} // namespace detail
+
+// PCD v0.7 (pointclouds.org, "The PCD file format"), the header as PCL writes it.
+void
+writePcdScan(const std::string& path, const pcl::PointCloud<pcl::PointXYZ>& cloud)
+{
+  std::ostringstream h;
+  h << "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z\n"
+       "SIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH "
+    << cloud.size() << "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " << cloud.size()
+    << "\nDATA binary\n";
+  detail::writeXyzFile(path, h.str(), cloud);
 }
 
 } // namespace io

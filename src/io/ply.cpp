@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -85,90 +86,76 @@ plyType(std::string_view name, BinaryType& type)
   return false;
 }
 
-/** Reads and checks the header up to end_header: the magic line, one format line, elements
- *  with counts the file size can hold (an element with properties takes at least a byte,
- *  and one without them is bounded alike), properties of known types, and a vertex element
- *  with x, y and z as single floats. */
-PlyHeader
-readPlyHeader(const std::string& path, std::ifstream& in, std::uintmax_t file_size)
+/** One header line after the magic: one format line, elements with counts the file size
+ *  can hold (an element with properties takes at least a byte, and one without them is
+ *  bounded alike), properties of known types. Returns true at end_header. */
+bool
+readPlyHeaderLine(const std::string& path,
+                  const std::string& line,
+                  std::size_t line_no,
+                  std::uintmax_t file_size,
+                  PlyHeader& h,
+                  bool& has_format)
 {
-  PlyHeader h;
-  std::string line;
-  bool has_format = false, ended = false;
-  while (!ended && std::getline(in, line)) {
-    const std::size_t line_no = ++h.lines;
-    if (!line.empty() && line.back() == '\r')
-      line.pop_back();
-    if (line_no == 1) {
-      if (line != "ply")
-        fail(path,
-             1,
-             "not a PLY file: the first line is " + detail::quoted(line) + ", not \"ply\"");
-      continue;
-    }
-    Fields fields(line);
-    std::string_view key;
-    std::vector<std::string_view> v;
-    if (!fields.next(key))
-      continue;
-    if (key == "comment" || key == "obj_info")
-      continue;
-    for (std::string_view value; fields.next(value);)
-      v.push_back(value);
-    const auto bad = [&](const std::string& what) {
-      fail(path, line_no, "PLY header: " + what + " in " + detail::quoted(line));
-    };
-    if (key == "format") {
-      if (has_format || v.size() != 2 || v[1] != "1.0")
-        bad("expected one \"format <encoding> 1.0\"");
-      if (v[0] == "ascii")
-        h.format = PlyFormat::Ascii;
-      else if (v[0] == "binary_little_endian")
-        h.format = PlyFormat::LittleEndian;
-      else if (v[0] == "binary_big_endian")
-        h.format = PlyFormat::BigEndian;
-      else
-        bad("unknown encoding");
-      has_format = true;
-    }
-    else if (key == "element") {
-      double count = 0;
-      if (v.size() != 2 || !parseNumber(v[1], count) || !(count >= 0) ||
-          count != std::floor(count))
-        bad("expected \"element <name> <count>\"");
-      if (count > static_cast<double>(file_size))
-        fail(path,
-             line_no,
-             "PLY header claims " + std::string(v[1]) + " elements, more than the file's " +
-                 std::to_string(file_size) + " bytes");
-      h.elements.push_back(PlyElement{std::string(v[0]), static_cast<std::size_t>(count), {}});
-    }
-    else if (key == "property") {
-      if (h.elements.empty())
-        bad("a property before any element");
-      PlyProperty p;
-      const bool list = !v.empty() && v[0] == "list";
-      if (list ? v.size() != 4 || !plyType(v[1], p.count_type) || p.count_type.kind == 'F' ||
-                     !plyType(v[2], p.type)
-               : v.size() != 2 || !plyType(v[0], p.type))
-        bad("expected \"property <type> <name>\" or \"property list <type> <type> <name>\"");
-      p.list = list;
-      p.name = std::string(v.back());
-      h.elements.back().properties.push_back(p);
-    }
-    else if (key == "end_header")
-      ended = true;
+  Fields fields(line);
+  std::string_view key;
+  std::vector<std::string_view> v;
+  if (!fields.next(key) || key == "comment" || key == "obj_info")
+    return false;
+  for (std::string_view value; fields.next(value);)
+    v.push_back(value);
+  const auto bad = [&](const std::string& what) {
+    fail(path, line_no, "PLY header: " + what + " in " + detail::quoted(line));
+  };
+  if (key == "format") {
+    if (has_format || v.size() != 2 || v[1] != "1.0")
+      bad("expected one \"format <encoding> 1.0\"");
+    if (v[0] == "ascii")
+      h.format = PlyFormat::Ascii;
+    else if (v[0] == "binary_little_endian")
+      h.format = PlyFormat::LittleEndian;
+    else if (v[0] == "binary_big_endian")
+      h.format = PlyFormat::BigEndian;
     else
-      bad("unknown keyword");
+      bad("unknown encoding");
+    has_format = true;
   }
-  if (in.bad())
-    fail(path, h.lines, "read error");
-  if (h.lines == 0)
-    fail(path, 0, "not a PLY file: empty");
-  if (!ended)
-    fail(path, 0, "PLY header without end_header (not a PLY file, or a truncated one)");
-  if (!has_format)
-    fail(path, 0, "PLY header without a format line");
+  else if (key == "element") {
+    double count = 0;
+    if (v.size() != 2 || !parseNumber(v[1], count) || !(count >= 0) ||
+        count != std::floor(count))
+      bad("expected \"element <name> <count>\"");
+    if (count > static_cast<double>(file_size))
+      fail(path,
+           line_no,
+           "PLY header claims " + std::string(v[1]) + " elements, more than the file's " +
+               std::to_string(file_size) + " bytes");
+    h.elements.push_back(PlyElement{std::string(v[0]), static_cast<std::size_t>(count), {}});
+  }
+  else if (key == "property") {
+    if (h.elements.empty())
+      bad("a property before any element");
+    PlyProperty p;
+    const bool list = !v.empty() && v[0] == "list";
+    if (list ? v.size() != 4 || !plyType(v[1], p.count_type) || p.count_type.kind == 'F' ||
+                   !plyType(v[2], p.type)
+             : v.size() != 2 || !plyType(v[0], p.type))
+      bad("expected \"property <type> <name>\" or \"property list <type> <type> <name>\"");
+    p.list = list;
+    p.name = std::string(v.back());
+    h.elements.back().properties.push_back(p);
+  }
+  else if (key == "end_header")
+    return true;
+  else
+    bad("unknown keyword");
+  return false;
+}
+
+/** The vertex element, with x, y and z as single floats, and its time property. */
+void
+findPlyVertex(const std::string& path, PlyHeader& h)
+{
   const auto vertex = std::find_if(h.elements.begin(),
                                    h.elements.end(),
                                    [](const PlyElement& e) { return e.name == "vertex"; });
@@ -187,6 +174,36 @@ readPlyHeader(const std::string& path, std::ifstream& in, std::uintmax_t file_si
     h.xyz[a] = static_cast<std::size_t>(p - props.begin());
   }
   h.time = detail::timeField(vertex->properties, [](const PlyProperty& p) { return !p.list; });
+}
+
+/** Reads and checks the header up to end_header: the magic line, then
+ *  readPlyHeaderLine's checks, and a vertex element (findPlyVertex). */
+PlyHeader
+readPlyHeader(const std::string& path, std::ifstream& in, std::uintmax_t file_size)
+{
+  PlyHeader h;
+  std::string line;
+  bool has_format = false, ended = false;
+  while (!ended && std::getline(in, line)) {
+    const std::size_t line_no = ++h.lines;
+    if (!line.empty() && line.back() == '\r')
+      line.pop_back();
+    if (line_no == 1 && line != "ply")
+      fail(path,
+           1,
+           "not a PLY file: the first line is " + detail::quoted(line) + ", not \"ply\"");
+    if (line_no > 1)
+      ended = readPlyHeaderLine(path, line, line_no, file_size, h, has_format);
+  }
+  if (in.bad())
+    fail(path, h.lines, "read error");
+  if (h.lines == 0)
+    fail(path, 0, "not a PLY file: empty");
+  if (!ended)
+    fail(path, 0, "PLY header without end_header (not a PLY file, or a truncated one)");
+  if (!has_format)
+    fail(path, 0, "PLY header without a format line");
+  findPlyVertex(path, h);
   return h;
 }
 
@@ -320,6 +337,19 @@ loadPlyScan(const std::string& path,
   else
     readBinary(path, in, h, cloud);
   return cloud.finish();
+}
+
+// PLY 1.0 (Turk, "The PLY polygon file format"), as PCL reads it.
+void
+writePlyScan(const std::string& path, const pcl::PointCloud<pcl::PointXYZ>& cloud)
+{
+  const std::uint16_t one = 1;
+  const bool little = *reinterpret_cast<const unsigned char*>(&one) == 1;
+  std::ostringstream h;
+  h << "ply\nformat " << (little ? "binary_little_endian" : "binary_big_endian")
+    << " 1.0\ncomment pcl_pslam map\nelement vertex " << cloud.size()
+    << "\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  detail::writeXyzFile(path, h.str(), cloud);
 }
 
 } // namespace io

@@ -4,24 +4,20 @@
  */
 #include "detail.h"
 
+#include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 
 #include <Eigen/Geometry>
 
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <functional>
 #include <regex>
 #include <string_view>
 #include <system_error>
 #include <tuple>
-#include <unistd.h>
 
 namespace pcl_parallel {
 namespace io {
@@ -88,44 +84,16 @@ isComment(const std::string& line)
   return pos != std::string::npos && line[pos] == '#';
 }
 
-/** Shortest decimal form that reads back to the same double (std::to_chars). */
+/** Shortest decimal form that reads back to the same double (std::to_chars), or with
+ *  `digits` > 0 that many significant digits as printf's %.*g in the C locale. */
 void
-writeNumber(std::ostream& out, double v)
+writeNumber(std::ostream& out, double v, int digits = 0)
 {
-  char buf[32];
-  const auto res = std::to_chars(buf, buf + sizeof(buf), v);
+  char buf[40];
+  const auto res =
+      digits > 0 ? std::to_chars(buf, buf + sizeof(buf), v, std::chars_format::general, digits)
+                 : std::to_chars(buf, buf + sizeof(buf), v);
   out.write(buf, res.ptr - buf);
-}
-
-/** Writes through a temporary file in the target's directory, then renames it over the
- *  target (atomic on POSIX), so readers never see a half-written file. */
-void
-writeAtomically(const std::string& path, const std::function<void(std::ostream&)>& body)
-{
-  const fs::path target(path);
-  const fs::path tmp = target.parent_path() /
-                       ("." + target.filename().string() + ".tmp" + std::to_string(::getpid()));
-  {
-    errno = 0; // then the failed write's
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out)
-      fail(path, 0, "cannot open for writing (" + tmp.string() + ")");
-    body(out);
-    out.close(); // a full disk shows at the latest when the buffer is written out
-    if (!out) {
-      const std::string reason = errno ? std::string(" (") + std::strerror(errno) + ")" : "";
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      fail(path, 0, "write error" + reason);
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    std::error_code ignored;
-    fs::remove(tmp, ignored);
-    fail(path, 0, "cannot rename the written file into place: " + ec.message());
-  }
 }
 
 void
@@ -170,7 +138,7 @@ void
 writeKittiPoses(const std::string& path, const std::vector<Eigen::Matrix4d>& poses)
 {
   requireFinite(path, poses);
-  writeAtomically(path, [&](std::ostream& out) {
+  writeStreamAtomically(path, [&](std::ostream& out) {
     for (const auto& p : poses)
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 4; ++c) {
@@ -231,7 +199,7 @@ writeTumTrajectory(const std::string& path,
                                 std::to_string(timestamps.size()) + " timestamps for " +
                                 std::to_string(poses.size()) + " poses");
   requireFinite(path, poses);
-  writeAtomically(path, [&](std::ostream& out) {
+  writeStreamAtomically(path, [&](std::ostream& out) {
     out << "# timestamp tx ty tz qx qy qz qw\n";
     for (std::size_t i = 0; i < poses.size(); ++i) {
       const Eigen::Matrix3d r = poses[i].topLeftCorner<3, 3>();
@@ -274,22 +242,40 @@ loadFrames(const std::string& path, double unit)
 }
 
 void
+writeFrames(const std::string& path, const std::vector<Frame>& frames, double unit, int digits)
+{
+  std::vector<Eigen::Matrix4d> poses;
+  for (const auto& f : frames)
+    poses.push_back(f.pose);
+  requireFinite(path, poses);
+  writeStreamAtomically(path, [&](std::ostream& out) {
+    for (const auto& f : frames) {
+      for (int i = 0; i < 16; ++i) { // column-major, as OpenGL and 3DTK
+        const int r = i % 4, c = i / 4;
+        writeNumber(out, c == 3 && r < 3 ? f.pose(r, c) / unit : f.pose(r, c), digits);
+        out << ' ';
+      }
+      out << f.type << '\n';
+    }
+  });
+}
+
+void
 writeFrames(const std::string& path,
             const std::vector<Eigen::Matrix4d>& history,
             double unit,
             int type)
 {
-  requireFinite(path, history);
-  writeAtomically(path, [&](std::ostream& out) {
-    for (const auto& p : history) {
-      for (int i = 0; i < 16; ++i) {
-        const int r = i % 4, c = i / 4;
-        writeNumber(out, c == 3 && r < 3 ? p(r, c) / unit : p(r, c));
-        out << ' ';
-      }
-      out << type << '\n';
-    }
-  });
+  std::vector<Frame> frames;
+  for (const auto& pose : history)
+    frames.push_back({pose, type});
+  writeFrames(path, frames, unit, 0);
+}
+
+Eigen::Matrix4d
+loadFramesFinalPose(const std::string& path)
+{
+  return loadFrames(path, 1.0).back();
 }
 
 std::vector<Eigen::Matrix4d>
@@ -343,10 +329,7 @@ detectPoseFileFormat(const std::string& path)
   requireExisting(path);
   if (fs::is_directory(path))
     return PoseFileFormat::Frames;
-  std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
-    return static_cast<char>(std::tolower(c));
-  });
+  const std::string ext = detail::lowerCaseExtension(path);
   if (ext == ".frames")
     fail(
         path, 0, "a .frames file holds one scan's poses; pass the directory of scanNNN.frames");

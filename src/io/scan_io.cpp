@@ -69,20 +69,10 @@ constexpr Extension kExtensions[] = {{".3d", Format::Uos},
                                      {".pcd", Format::Pcd},
                                      {".ply", Format::Ply}};
 
-std::string
-lowerCaseExtension(const std::string& path)
-{
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
-    return static_cast<char>(std::tolower(c));
-  });
-  return ext;
-}
-
 const Extension*
 findExtension(const std::string& path)
 {
-  const std::string ext = lowerCaseExtension(path);
+  const std::string ext = detail::lowerCaseExtension(path);
   for (const Extension& e : kExtensions)
     if (ext == e.name)
       return &e;
@@ -229,7 +219,7 @@ loadScan(const std::string& path,
       supported += std::string(supported.empty() ? "" : " ") + e.name;
     throw std::invalid_argument(
         "pcl_parallel::io::loadScan: " + path + ": unsupported extension " +
-        inQuotes(lowerCaseExtension(path)) + " (supported: " + supported + ")");
+        inQuotes(detail::lowerCaseExtension(path)) + " (supported: " + supported + ")");
   }
   requireRegularFile(path);
   return detail::guardAllocation(path, [&] {

@@ -18,7 +18,6 @@ namespace io {
 namespace {
 
 using detail::fail;
-using detail::quoted;
 
 /** 3DTK's optional uos header, "W x H" (the scan's grid size): two integers and an 'x',
  *  with or without spaces. */
@@ -60,9 +59,9 @@ loadUosScan(const std::string& path, double min_range, double max_range)
       return;
     double v[3];
     if (detail::parseNumbers(line, v, 3) != 3)
-      fail(path, line_no, "expected three numbers \"x y z\", got " + quoted(line));
+      fail(path, line_no, "expected three numbers \"x y z\", got " + detail::quoted(line));
     if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
-      fail(path, line_no, "non-finite coordinate in " + quoted(line));
+      fail(path, line_no, "non-finite coordinate in " + detail::quoted(line));
     ++points;
     cloud.add(v[0], v[1], v[2], line_no);
   });
@@ -92,7 +91,7 @@ loadUosPose(const std::string& path)
       if (k == 6)
         fail(path, line_no, "more than 6 numbers (x y z, then θx θy θz in degrees)");
       if (!detail::parseNumber(field, v[k]) || !std::isfinite(v[k]))
-        fail(path, line_no, "not a finite number: " + quoted(field));
+        fail(path, line_no, "not a finite number: " + detail::quoted(field));
       ++k;
     }
   });
@@ -105,41 +104,6 @@ loadUosPose(const std::string& path)
   pose.topLeftCorner<3, 3>() =
       eulerToRotation3dtk(v[3] * kDegToRad, v[4] * kDegToRad, v[5] * kDegToRad);
   pose.topRightCorner<3, 1>() = Eigen::Vector3d(v[0], v[1], v[2]);
-  return pose;
-}
-
-Eigen::Matrix4d
-loadFramesFinalPose(const std::string& path)
-{
-  // Every line is checked (a garbled line in the middle is an error too); the last counts.
-  Eigen::Matrix4d pose;
-  std::size_t frames = 0;
-  detail::forEachLine(path, [&](const std::string& line, std::size_t line_no) {
-    double v[17];
-    std::size_t k = 0;
-    detail::Fields fields(line);
-    std::string_view field;
-    while (fields.next(field)) {
-      if (k == 17 || !detail::parseNumber(field, v[k]))
-        fail(path,
-             line_no,
-             "expected 16 numbers (a column-major 4x4 matrix) and a type code, got " +
-                 quoted(line));
-      ++k;
-    }
-    if (k < 16)
-      fail(path, line_no, "expected 16 numbers and a type code, got " + std::to_string(k));
-    for (std::size_t i = 0; i < k; ++i) // the type code too, as loadFrames
-      if (!std::isfinite(v[i]))
-        fail(path, line_no, "non-finite value in frame");
-    for (int i = 0; i < 16; ++i)
-      pose(i % 4, i / 4) = v[i];
-    if (!detail::homogeneousLastRow(pose)) // a rigid transformation
-      fail(path, line_no, "columns 4, 8, 12, 16 (the last row) are not 0 0 0 1");
-    ++frames;
-  });
-  if (frames == 0)
-    fail(path, 0, "no frames (an empty .frames file)");
   return pose;
 }
 

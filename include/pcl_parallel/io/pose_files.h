@@ -67,12 +67,30 @@ writeTumTrajectory(const std::string& path,
 
 /** Reads every line of one 3DTK .frames file (one scan's pose history, 16 numbers of the
  *  4x4 matrix in column-major order, then a type code; the last line is the final pose).
- *  With unit = 1 the last element equals loadFramesFinalPose(path). */
+ *  Every line is checked (a garbled line in the middle is an error too). */
 std::vector<Eigen::Matrix4d>
 loadFrames(const std::string& path, double unit = kFramesUnit);
 
-/** Writes one .frames file: one line per pose of the history (the last is the final one),
- *  each with the given type code. */
+/** The final pose of a .frames file in the file's units: loadFrames(path, 1.0).back(). */
+Eigen::Matrix4d
+loadFramesFinalPose(const std::string& path);
+
+/** One line of a .frames file: a pose and its type code. */
+struct Frame {
+  Eigen::Matrix4d pose;
+  int type = kFramesIcp;
+};
+
+/** Writes one .frames file, one line per frame (the last is the final pose), translations
+ *  divided by `unit`. Numbers in the shortest form that reads back exactly, or with
+ *  `digits` > 0 that many significant digits (printf's %.*g in the C locale). */
+void
+writeFrames(const std::string& path,
+            const std::vector<Frame>& frames,
+            double unit = kFramesUnit,
+            int digits = 0);
+
+/** writeFrames with every pose of the history under one type code. */
 void
 writeFrames(const std::string& path,
             const std::vector<Eigen::Matrix4d>& history,

@@ -95,6 +95,20 @@ loadPlyScan(const std::string& path,
             double max_range = std::numeric_limits<double>::infinity(),
             std::vector<double>* point_times = nullptr);
 
+/** Writes x y z of every point as a binary PCD v0.7 (float32, host order), byte for byte
+ *  what pcl::io::savePCDFileBinary writes for a PointXYZ cloud, atomically
+ *  (writeAtomically); a failed write (a full disk) throws std::runtime_error naming
+ *  `path` and leaves no file. PCL's writer fills an mmap (a full disk is a SIGBUS where
+ *  fallocate is unsupported) and its exceptions do not name the file. */
+void
+writePcdScan(const std::string& path, const pcl::PointCloud<pcl::PointXYZ>& cloud);
+
+/** Writes x y z of every point as a binary PLY 1.0 in host byte order, atomically, as
+ *  writePcdScan; loadPlyScan and PCL read it back. PCL 1.13's PLY writer reports success
+ *  for a file cut short by a full disk. */
+void
+writePlyScan(const std::string& path, const pcl::PointCloud<pcl::PointXYZ>& cloud);
+
 /** Reads a KITTI odometry poses file (poses/NN.txt): one pose a line, 12 numbers, the
  *  first three rows of [R|t] in row-major order, p_world = R·p + t (the left camera's
  *  frame at the first scan is the world frame; the poses are of that camera, so a

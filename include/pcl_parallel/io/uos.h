@@ -4,6 +4,8 @@
  */
 #pragma once
 
+#include <pcl_parallel/io/pose_files.h> // loadFramesFinalPose: 3DTK's .frames
+
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
@@ -36,13 +38,6 @@ loadUosScan(const std::string& path,
  *  exactly 6 finite numbers. */
 Eigen::Matrix4d
 loadUosPose(const std::string& path);
-
-/** Reads the final pose of a 3DTK .frames file (last line: 16 numbers, column-major,
- *  then a type code). Every line must hold 16 or 17 numbers, the first 16 finite.
- *  Throws std::runtime_error naming the file and line when unreadable, malformed or
- *  empty. */
-Eigen::Matrix4d
-loadFramesFinalPose(const std::string& path);
 
 /** 3DTK's Euler convention: R = Rx(rx)·Ry(ry)·Rz(rz), angles in radians. */
 Eigen::Matrix3d

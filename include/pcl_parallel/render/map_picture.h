@@ -2,14 +2,15 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * map.png: a top view of the map a person can judge at a glance, drawn with Cairo
+ * A map's picture: a top view of the map a person can judge at a glance, drawn with Cairo
  * (antialiased lines, text): the extent from where the points around the trajectory
  * really are, points coloured by height above the trajectory (or floor-plan style), the
  * trajectory, loop-closure links, a scale bar and a caption.
  */
 #pragma once
 
-#include "slam_pipeline.h"
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
 
 #include <Eigen/Core>
 
@@ -18,7 +19,11 @@
 #include <utility>
 #include <vector>
 
-namespace pcl_pslam {
+namespace pcl_parallel {
+namespace render {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using Poses = std::vector<Eigen::Matrix4d>;
 
 struct Extent {
   Eigen::Vector2d lo, hi;
@@ -65,4 +70,5 @@ chooseStyle(const Cloud& map, const Poses& trajectory, int up, unsigned num_thre
 std::string
 cairoVersion();
 
-} // namespace pcl_pslam
+} // namespace render
+} // namespace pcl_parallel

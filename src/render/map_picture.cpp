@@ -2,9 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "map_picture.h"
-
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/render/map_picture.h>
 
 #include <algorithm>
 #include <array>
@@ -15,7 +14,8 @@
 #include <stdexcept>
 #include <unordered_map>
 
-namespace pcl_pslam {
+namespace pcl_parallel {
+namespace render {
 
 namespace {
 
@@ -629,4 +629,5 @@ writeMapPicture(const std::string& path,
   return style;
 }
 
-} // namespace pcl_pslam
+} // namespace render
+} // namespace pcl_parallel
