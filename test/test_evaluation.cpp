@@ -10,6 +10,7 @@
 
 #include <pcl_parallel/evaluation/alignment.h>
 #include <pcl_parallel/evaluation/pose_error.h>
+#include <pcl_parallel/evaluation/report.h>
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
@@ -392,6 +393,41 @@ TEST(Association, NearestTimestampWithinMaxDiffLikeEvo)
 }
 
 // ---------------------------------------------------------------- pose files
+
+// Two trajectories paired as `pcl_pslam evaluate` pairs them: by time stamp where both
+// have them (the nearest within max_diff), else by index, the same length unless truncated.
+TEST(Pairing, ByTimestampElseByIndex)
+{
+  auto at = [](double x) {
+    Eigen::Matrix4d p = Eigen::Matrix4d::Identity();
+    p(0, 3) = x;
+    return p;
+  };
+  pio::Trajectory est, truth;
+  est.poses = {at(0), at(1), at(2)};
+  est.timestamps = {0.0, 1.0, 2.0};
+  truth.poses = {at(10), at(11)};
+  truth.timestamps = {1.004, 2.2};
+  const auto timed = ev::pairTrajectories(est, "e", truth, "t", 0.01, false);
+  ASSERT_EQ(timed.estimate.size(), 1u); // 2.0 and 2.2 lie 0.2 s apart
+  EXPECT_EQ(timed.estimate[0](0, 3), 1.0);
+  EXPECT_EQ(timed.truth[0](0, 3), 10.0);
+  EXPECT_THROW(ev::pairTrajectories(est, "e", truth, "t", 1e-4, false), std::runtime_error);
+
+  truth.timestamps.clear(); // by index: 3 against 2 poses
+  try {
+    ev::pairTrajectories(est, "est.txt", truth, "truth.txt", 0.01, false);
+    FAIL() << "lengths differ";
+  }
+  catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("est.txt"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("truth.txt"), std::string::npos) << e.what();
+  }
+  const auto cut = ev::pairTrajectories(est, "e", truth, "t", 0.01, true);
+  ASSERT_EQ(cut.estimate.size(), 2u);
+  EXPECT_EQ(cut.estimate[1](0, 3), 1.0);
+  EXPECT_EQ(cut.truth[1](0, 3), 11.0);
+}
 
 TEST(PoseFiles, KittiRoundTripIsExact)
 {

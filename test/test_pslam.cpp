@@ -43,7 +43,7 @@ TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
   std::string final_stage;
   const pcl_pslam::Result r = pcl_pslam::run(set.scans,
                                              set.odometry,
-                                             pcl_pslam::Parameters(),
+                                             pcl_parallel::slam::Parameters(),
                                              [&](const std::string& stage, int done, int) {
                                                last[stage] = done;
                                                final_stage = stage;

@@ -93,8 +93,8 @@ TEST(PslamOptions, SlamSixDCommandLineInFileUnits)
   EXPECT_EQ(p.icp_iterations, 100);
   EXPECT_EQ(p.lum_iterations, 50);
   // Unset lengths keep the metre defaults whatever the files' units.
-  EXPECT_DOUBLE_EQ(p.lum_final_distance, pcl_pslam::Parameters().lum_final_distance);
-  EXPECT_DOUBLE_EQ(p.icp_final, pcl_pslam::Parameters().icp_final);
+  EXPECT_DOUBLE_EQ(p.lum_final_distance, pcl_parallel::slam::Parameters().lum_final_distance);
+  EXPECT_DOUBLE_EQ(p.icp_final, pcl_parallel::slam::Parameters().icp_final);
   EXPECT_DOUBLE_EQ(
       pcl_pslam::toParameters(parse({"run", "--icp-final", "20", "d"}), 0.01).icp_final, 0.2);
   // 3DTK's long names and the app's own are the same options.
@@ -592,9 +592,9 @@ framesAgainstSlamSixD(std::vector<const char*> args)
   const pcl_pslam::Input in = pcl_pslam::openDirectory(o);
   EXPECT_EQ(in.size(), 3u);
   EXPECT_TRUE(in.frames_3dtk);
-  pcl_pslam::Parameters p = pcl_pslam::toParameters(o, in.scale);
-  p.odometry = in.odometry;
-  const pcl_pslam::Result r = pcl_pslam::run(pcl_parallel::io::readAllScans(in), in.initial, p);
+  const pcl_parallel::slam::Parameters p = pcl_pslam::toParameters(o, in.scale);
+  const pcl_pslam::Result r = pcl_pslam::run(
+      pcl_parallel::io::readAllScans(in), in.odometry ? in.initial : pcl_pslam::Poses(), p);
   std::vector<std::pair<double, double>> errors;
   for (std::size_t i = 0; i < in.size(); ++i) {
     char name[32];
@@ -692,10 +692,10 @@ TEST(PslamApp, StopAndGoWithoutPosesKeepsTheMatchThatContradictsLess)
   const auto o = parse({"run", dir.c_str(), "--no-loops", "-t", "2"});
   const pcl_pslam::Input in = pcl_pslam::openDirectory(o);
   ASSERT_FALSE(in.odometry);
-  pcl_pslam::Parameters p = pcl_pslam::toParameters(o, in.scale);
+  pcl_parallel::slam::Parameters p = pcl_pslam::toParameters(o, in.scale);
   p.up = Eigen::Vector3d::Unit(in.up); // as the app sets it: y for 3DTK's frame
-  p.odometry = in.odometry;
-  const pcl_pslam::Result r = pcl_pslam::run(pcl_parallel::io::readAllScans(in), in.initial, p);
+  const pcl_pslam::Result r = pcl_pslam::run(
+      pcl_parallel::io::readAllScans(in), in.odometry ? in.initial : pcl_pslam::Poses(), p);
   const auto truth = pcl_parallel::io::loadKittiPoses((dir / "ground_truth.txt").string());
   ASSERT_EQ(r.icp.size(), truth.size());
   for (std::size_t i = 1; i < truth.size(); ++i) {

@@ -327,7 +327,7 @@ TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
 /** Keyframes three sweeps apart through kitti's first corner, without odometry: the yaw
  *  rate goes 5 -> 12 -> 28 degrees a keyframe, so constant velocity deskews a sweep in the
  *  turn by less than half its turn. Deskewed again by its matched step (at the step's
- *  end, FrontEnd::track), the front end comes near the same keyframes deskewed by the
+ *  end, Pipeline::track), the front end comes near the same keyframes deskewed by the
  *  truth's own velocity (sweepMotionAt on the true poses) and matched without deskewing:
  *  worst step translation within 1.25x theirs, RMS step rotation within 2x, ATE within
  *  1.5x. Deskewed by the prediction alone: 0.42 m / 2.30 deg worst, 0.50 deg RMS, ATE
@@ -898,7 +898,7 @@ TEST(Pipeline, SequenceConstraintsKeepTheFrontEndsSteps)
 /** A 16-beam scanner (the kitti preset's first 62 sweeps with 16 beams, as a VLP-16):
  *  pLUM's link between two such sparse sweeps ends ~0.2 deg off in roll and pitch even
  *  from the truth, while the front end matches each sweep against a map that fuses ~20
- *  of them. Weighted by the scans behind it (FrontEndResult::map_scans), each front-end
+ *  of them. Weighted by the scans behind it (ScanReport::map_scans), each front-end
  *  step holds: loop closing (links at the first corner) ends no worse than the front end
  *  and leaves no step worse than the front end did beyond 5 mm / 0.1 deg. Each step
  *  weighed as one link under a Cauchy kernel, it ended at 24.4 cm / 1.67 deg (front end
@@ -1129,21 +1129,36 @@ TEST(Pipeline, OdometryDisagreementTellsAnotherFrame)
   EXPECT_FALSE(slam::odometryDisagreement(defaultRun().reports, 1e3).has_value());
 }
 
-// The first scan is replaced while it is alone (points and the tree pLUM searches), and
-// only then: once a second scan is linked to it, its points are measured.
-TEST(LoopCloser, ReplacesTheFirstScanWhileAlone)
+// With deskewing, the first scan waits for the first step (it came before any motion was
+// known) and enters the pose graph once, deskewed by that step; a lone first scan enters
+// at finish().
+TEST(Pipeline, FirstScanEntersTheGraphOnceDeskewedByTheFirstStep)
 {
   const auto& set = corridorSet();
-  slam::LoopCloser loops;
-  EXPECT_THROW(loops.replaceFirstScan(set.scans[1]), std::logic_error);
-  loops.addScan(set.scans[0], set.truth[0]);
-  loops.replaceFirstScan(set.scans[1]);
-  EXPECT_EQ(loops.scan(0), set.scans[1]);
-  EXPECT_THROW(loops.replaceFirstScan(nullptr), std::invalid_argument);
-  loops.addScan(set.scans[1], set.truth[0]); // identical: pLUM keeps them where they are
-  EXPECT_THROW(loops.replaceFirstScan(set.scans[0]), std::logic_error);
-  loops.relax(3);
-  EXPECT_LT(evaluation::poseError(loops.poses()[0], loops.poses()[1]).distance, 1e-6);
+  slam::Parameters p;
+  p.deskew = true;
+  p.close_loops = false;
+  slam::Pipeline pipeline(p);
+  pipeline.addScan(*set.scans[0], set.truth[0]);
+  EXPECT_EQ(pipeline.size(), 0u);
+  pipeline.addScan(*set.scans[1], set.truth[1]);
+  ASSERT_EQ(pipeline.size(), 2u);
+  // The odometry's step, whole (no stamps, no sweep period).
+  const Pose step = set.truth[0].inverse() * set.truth[1];
+  const Cloud::Ptr cropped = slam::cropRange(*set.scans[0], p.min_range, p.max_range);
+  const Cloud::Ptr expected =
+      filters::voxelCentroid(*slam::deskewSweep(*cropped, {}, step, p.sweep_clockwise, 0),
+                             pipeline.frontEndParameters().voxel_size);
+  const Cloud::ConstPtr kept = pipeline.reducedScan(0);
+  ASSERT_EQ(kept->size(), expected->size());
+  for (std::size_t i = 0; i < kept->size(); ++i)
+    ASSERT_EQ(kept->points[i].getVector3fMap(), expected->points[i].getVector3fMap()) << i;
+  EXPECT_EQ(pipeline.reports()[0].reduced_points, expected->size());
+
+  slam::Pipeline alone(p);
+  alone.addScan(*set.scans[0], set.truth[0]);
+  alone.finish();
+  EXPECT_EQ(alone.size(), 1u);
 }
 
 // A scanner turning in place (30 deg per scan) is near every earlier scan and sees again

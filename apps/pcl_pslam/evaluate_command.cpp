@@ -4,6 +4,7 @@
  */
 #include "evaluate_command.h"
 
+#include <pcl_parallel/evaluation/report.h>
 #include <pcl_parallel/io/pose_files.h>
 
 #include <boost/program_options.hpp>
@@ -85,81 +86,6 @@ ateJson(const ev::AbsoluteError& a)
           {"rotation_deg", statsJson(a.rotation_deg)}};
 }
 
-void
-statsRow(std::ostream& out, const std::string& name, const ev::Statistics& s)
-{
-  out << "  " << std::left << std::setw(20) << name << std::right;
-  for (double v : {s.rmse, s.mean, s.median, s.std, s.min, s.max})
-    out << std::setw(10) << v;
-  out << '\n';
-}
-
-void
-statsHeader(std::ostream& out, const std::string& title)
-{
-  out << std::left << std::setw(22) << title << std::right;
-  for (const char* c : {"rmse", "mean", "median", "std", "min", "max"})
-    out << std::setw(10) << c;
-  out << '\n';
-}
-
-std::string
-describe(const std::string& path, const pio::Trajectory& t)
-{
-  return path + " (" + pio::toString(t.format) + ", " + std::to_string(t.poses.size()) +
-         " poses" + (t.timestamps.empty() ? "" : ", timestamps") + ")";
-}
-
-/** The estimate's and the truth's poses paired: by timestamp where both files have them
- *  (evo's association within max_diff), else by index; and how, in words. */
-struct Paired {
-  ev::Poses estimate, truth;
-  std::string association;
-};
-
-Paired
-pairTrajectories(const pio::Trajectory& est,
-                 const std::string& estimate_path,
-                 const pio::Trajectory& truth,
-                 const std::string& truth_path,
-                 double max_diff,
-                 bool truncate)
-{
-  Paired p;
-  if (!est.timestamps.empty() && !truth.timestamps.empty()) {
-    const auto pairs = ev::associateByTimestamp(est.timestamps, truth.timestamps, max_diff);
-    if (pairs.empty())
-      throw std::runtime_error("no timestamps of " + estimate_path + " and " + truth_path +
-                               " lie within --max-diff " + std::to_string(max_diff) + " s");
-    for (const auto& [i, j] : pairs) {
-      p.estimate.push_back(est.poses[i]);
-      p.truth.push_back(truth.poses[j]);
-    }
-    p.association = "by timestamp (max diff " + std::to_string(max_diff) +
-                    " s): " + std::to_string(pairs.size()) + " pairs of " +
-                    std::to_string(std::min(est.poses.size(), truth.poses.size())) +
-                    " possible";
-    return p;
-  }
-  const std::size_t n = std::min(est.poses.size(), truth.poses.size());
-  if (est.poses.size() != truth.poses.size() && !truncate)
-    throw std::runtime_error("pairing by index (not both files have timestamps), but " +
-                             estimate_path + " has " + std::to_string(est.poses.size()) +
-                             " poses and " + truth_path + " " +
-                             std::to_string(truth.poses.size()) +
-                             " (--truncate compares the first " + std::to_string(n) + ")");
-  p.estimate.assign(est.poses.begin(), est.poses.begin() + static_cast<std::ptrdiff_t>(n));
-  p.truth.assign(truth.poses.begin(), truth.poses.begin() + static_cast<std::ptrdiff_t>(n));
-  p.association =
-      "by index" +
-      std::string(est.poses.size() != truth.poses.size()
-                      ? " (truncated to the first " + std::to_string(n) + ")"
-                      : "") +
-      (est.timestamps.empty() && truth.timestamps.empty() ? ": neither file has timestamps"
-                                                          : ": only one file has timestamps");
-  return p;
-}
-
 } // namespace
 
 json
@@ -198,150 +124,151 @@ evaluationToJson(const ev::TrajectoryEvaluation& e)
           {"rpe_kitti", kitti}};
 }
 
-void
-printEvaluation(std::ostream& out, const ev::TrajectoryEvaluation& e)
-{
-  const std::ios::fmtflags flags = out.flags();
-  const std::streamsize precision = out.precision();
-  out << std::fixed << std::setprecision(4);
-  statsHeader(out, "ATE (" + ev::toString(e.ate.alignment) + " alignment)");
-  statsRow(out, "translation [m]", e.ate.translation);
-  statsRow(out, "rotation [deg]", e.ate.rotation_deg);
-  if (e.ate.alignment == ev::Alignment::Sim3)
-    out << "  scale " << e.ate.similarity.scale << '\n';
-  if (e.ate.alignment != ev::Alignment::None) {
-    statsHeader(out, "ATE (no alignment)");
-    statsRow(out, "translation [m]", e.ate_unaligned.translation);
-    statsRow(out, "rotation [deg]", e.ate_unaligned.rotation_deg);
-  }
-  statsHeader(out, "RPE (delta " + std::to_string(e.rpe.delta) + " frame)");
-  statsRow(out, "translation [m]", e.rpe.translation);
-  statsRow(out, "rotation [deg]", e.rpe.rotation_deg);
-  statsRow(out, "point distance [m]", e.rpe.point_distance);
-  out << "KITTI RPE (step " << e.kitti.step << " frames)";
-  if (!e.kitti.valid()) {
-    out << ": no segment fits the ground truth's path\n";
-  }
-  else {
-    out << ": translation " << e.kitti.translation_percent << " %, rotation "
-        << e.kitti.rotation_deg_per_m << " deg/m over " << e.kitti.segments.size()
-        << " segments\n";
-    for (const auto& l : e.kitti.per_length) {
-      out << "  " << std::setw(10) << l.length << " m  " << std::setw(4) << l.segments
-          << " segments";
-      if (l.segments > 0)
-        out << std::setw(10) << l.translation_percent << " %" << std::setw(10)
-            << l.rotation_deg_per_m << " deg/m";
-      out << '\n';
-    }
-  }
-  out.flags(flags);
-  out.precision(precision);
-}
+namespace {
 
-int
-evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err)
-{
+/** What `evaluate` is told. */
+struct EvaluateArguments {
   std::string estimate_path, truth_path, align = "se3", lengths_text = "auto";
   std::size_t step = 10, delta = 1;
   double max_diff = 0.01, frames_unit = pio::kFramesUnit;
   bool as_json = false, truncate = false;
+};
+
+/** `evaluate`'s options, bound to `a`. */
+po::options_description
+evaluateOptions(EvaluateArguments& a)
+{
   po::options_description options("options");
   options.add_options()("help,h", "this text")(
-      "json", po::bool_switch(&as_json), "print JSON instead of a table")(
+      "json", po::bool_switch(&a.as_json), "print JSON instead of a table")(
       "align",
-      po::value(&align)->default_value(align),
+      po::value(&a.align)->default_value(a.align),
       "alignment before the ATE: none, se3 (rigid, evo_ape --align) or sim3 (with scale, "
       "--correct_scale; also rescales the RPE)")(
       "lengths",
-      po::value(&lengths_text)->default_value(lengths_text),
+      po::value(&a.lengths_text)->default_value(a.lengths_text),
       "KITTI RPE segment lengths in metres, comma-separated; kitti = the devkit's "
       "100,...,800; auto = the devkit's when the ground truth's path is longer than 800 m, "
       "else 10%,...,80% of its length")("step",
-                                        po::value(&step)->default_value(step),
+                                        po::value(&a.step)->default_value(a.step),
                                         "KITTI RPE: frames between segment starts")(
-      "delta", po::value(&delta)->default_value(delta), "per-frame RPE: frames between pairs")(
+      "delta",
+      po::value(&a.delta)->default_value(a.delta),
+      "per-frame RPE: frames between pairs")(
       "max-diff",
-      po::value(&max_diff)->default_value(max_diff),
+      po::value(&a.max_diff)->default_value(a.max_diff),
       "largest timestamp difference (s) of an associated pair (evo's --t_max_diff)")(
       "frames-unit",
-      po::value(&frames_unit)->default_value(frames_unit),
+      po::value(&a.frames_unit)->default_value(a.frames_unit),
       "metres per unit of .frames translations (3DTK: centimetres, 0.01)")(
       "truncate",
-      po::bool_switch(&truncate),
+      po::bool_switch(&a.truncate),
       "pairing by index: compare the first min(n, m) poses when the counts differ (else an "
       "error)");
+  return options;
+}
+
+/** Parses and checks `args` into `a` and `eo`; false where --help was answered. Throws
+ *  po::error or UsageError. */
+bool
+parseEvaluateArguments(const std::vector<std::string>& args,
+                       EvaluateArguments& a,
+                       ev::EvaluationOptions& eo,
+                       std::ostream& out)
+{
+  const po::options_description options = evaluateOptions(a);
   po::options_description hidden;
-  hidden.add_options()("estimate", po::value(&estimate_path))("ground-truth",
-                                                              po::value(&truth_path));
+  hidden.add_options()("estimate", po::value(&a.estimate_path))("ground-truth",
+                                                                po::value(&a.truth_path));
   po::options_description all;
   all.add(options).add(hidden);
   po::positional_options_description positional;
   positional.add("estimate", 1).add("ground-truth", 1);
+  po::variables_map vm;
+  po::store(po::command_line_parser(args).options(all).positional(positional).run(), vm);
+  if (vm.count("help")) {
+    out << kUsage << '\n' << options;
+    return false;
+  }
+  po::notify(vm);
+  if (a.estimate_path.empty() || a.truth_path.empty())
+    throw UsageError("needs ESTIMATE and GROUND_TRUTH");
+  try {
+    eo.alignment = ev::alignmentFromString(a.align);
+  }
+  catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--align: ") + e.what());
+  }
+  eo.kitti_lengths = parseLengths(a.lengths_text);
+  if (a.step == 0 || a.delta == 0)
+    throw UsageError("--step and --delta must be at least 1");
+  if (!(a.max_diff >= 0.0) || !(a.frames_unit > 0.0))
+    throw UsageError("--max-diff must be >= 0 and --frames-unit > 0");
+  eo.kitti_step = a.step;
+  eo.rpe_delta = a.delta;
+  return true;
+}
 
+/** The evaluation as a table or as JSON. */
+void
+printResult(std::ostream& out,
+            const EvaluateArguments& a,
+            const pio::Trajectory& est,
+            const pio::Trajectory& truth,
+            const std::string& association,
+            const ev::TrajectoryEvaluation& result)
+{
+  if (a.as_json) {
+    auto file = [](const std::string& path, const pio::Trajectory& tr) {
+      return json{{"path", path},
+                  {"format", pio::toString(tr.format)},
+                  {"poses", tr.poses.size()},
+                  {"timestamps", !tr.timestamps.empty()}};
+    };
+    json j = evaluationToJson(result);
+    j["estimate"] = file(a.estimate_path, est);
+    j["ground_truth"] = file(a.truth_path, truth);
+    j["association"] = association;
+    out << j.dump(2) << '\n';
+    return;
+  }
+  out << "estimate      " << ev::describe(a.estimate_path, est) << '\n'
+      << "ground truth  " << ev::describe(a.truth_path, truth) << '\n'
+      << "paired        " << association << '\n'
+      << "path length   " << std::fixed << std::setprecision(3) << result.reference_path_length
+      << " m (ground truth)\n"
+      << std::defaultfloat << '\n';
+  ev::printEvaluation(out, result);
+}
+
+} // namespace
+
+int
+evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err)
+{
+  EvaluateArguments a;
   ev::EvaluationOptions eo;
   try {
-    po::variables_map vm;
-    po::store(po::command_line_parser(args).options(all).positional(positional).run(), vm);
-    if (vm.count("help")) {
-      out << kUsage << '\n' << options;
+    if (!parseEvaluateArguments(args, a, eo, out))
       return 0;
-    }
-    po::notify(vm);
-    if (estimate_path.empty() || truth_path.empty())
-      throw UsageError("needs ESTIMATE and GROUND_TRUTH");
-    try {
-      eo.alignment = ev::alignmentFromString(align);
-    }
-    catch (const std::invalid_argument& e) {
-      throw UsageError(std::string("--align: ") + e.what());
-    }
-    eo.kitti_lengths = parseLengths(lengths_text);
-    if (step == 0 || delta == 0)
-      throw UsageError("--step and --delta must be at least 1");
-    if (!(max_diff >= 0.0) || !(frames_unit > 0.0))
-      throw UsageError("--max-diff must be >= 0 and --frames-unit > 0");
-    eo.kitti_step = step;
-    eo.rpe_delta = delta;
   }
   catch (const std::exception& e) { // po::error or UsageError
     err << "pcl_pslam evaluate: " << e.what() << " (pcl_pslam evaluate --help)\n";
     return 2;
   }
-
   try {
-    const pio::Trajectory est = pio::loadTrajectory(estimate_path, frames_unit);
-    const pio::Trajectory truth = pio::loadTrajectory(truth_path, frames_unit);
-    ev::requireRigidMotions(est.poses, estimate_path); // named by file, before pairing
-    ev::requireRigidMotions(truth.poses, truth_path);
-    const Paired paired =
-        pairTrajectories(est, estimate_path, truth, truth_path, max_diff, truncate);
-    const ev::Poses& e = paired.estimate;
-    const ev::Poses& t = paired.truth;
-    const std::string& association = paired.association;
-    const ev::TrajectoryEvaluation result = ev::evaluateTrajectory(e, t, eo);
-    if (as_json) {
-      auto file = [](const std::string& path, const pio::Trajectory& tr) {
-        return json{{"path", path},
-                    {"format", pio::toString(tr.format)},
-                    {"poses", tr.poses.size()},
-                    {"timestamps", !tr.timestamps.empty()}};
-      };
-      json j = evaluationToJson(result);
-      j["estimate"] = file(estimate_path, est);
-      j["ground_truth"] = file(truth_path, truth);
-      j["association"] = association;
-      out << j.dump(2) << '\n';
-    }
-    else {
-      out << "estimate      " << describe(estimate_path, est) << '\n'
-          << "ground truth  " << describe(truth_path, truth) << '\n'
-          << "paired        " << association << '\n'
-          << "path length   " << std::fixed << std::setprecision(3)
-          << result.reference_path_length << " m (ground truth)\n"
-          << std::defaultfloat << '\n';
-      printEvaluation(out, result);
-    }
+    const pio::Trajectory est = pio::loadTrajectory(a.estimate_path, a.frames_unit);
+    const pio::Trajectory truth = pio::loadTrajectory(a.truth_path, a.frames_unit);
+    ev::requireRigidMotions(est.poses, a.estimate_path); // named by file, before pairing
+    ev::requireRigidMotions(truth.poses, a.truth_path);
+    const ev::PairedTrajectories paired =
+        ev::pairTrajectories(est, a.estimate_path, truth, a.truth_path, a.max_diff, a.truncate);
+    printResult(out,
+                a,
+                est,
+                truth,
+                paired.association,
+                ev::evaluateTrajectory(paired.estimate, paired.truth, eo));
     return 0;
   }
   catch (const std::exception& ex) {

@@ -24,10 +24,6 @@ namespace pcl_pslam {
 int
 evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
-/** The human table of an evaluation (what `evaluate` prints after its header). */
-void
-printEvaluation(std::ostream& out, const pcl_parallel::evaluation::TrajectoryEvaluation& ev);
-
 /** The evaluation as JSON (the "ate", "ate_unaligned", "rpe_frame", "rpe_kitti" members of
  *  `evaluate --json`), e.g. for a run report. */
 nlohmann::json

@@ -119,19 +119,15 @@ openInput(pcl_pslam::Options& o,
 }
 
 /** The pipeline's parameters for the options and the input. */
-pcl_pslam::Parameters
-runParameters(const pcl_pslam::Options& o, const pcl_pslam::Input& in, const Session& ranks)
+pcl_parallel::slam::Parameters
+runParameters(const pcl_pslam::Options& o, const pcl_pslam::Input& in)
 {
-  pcl_pslam::Parameters params = pcl_pslam::toParameters(o, in.scale);
-  params.odometry = in.odometry;
+  pcl_parallel::slam::Parameters params = pcl_pslam::toParameters(o, in.scale);
   params.up = Eigen::Vector3d::Unit(in.up);
-  if (in.has_stamps)
-    params.stamps = in.stamps;
-  else if (params.sweep_period > 0.0)
+  if (!in.has_stamps && params.sweep_period > 0.0)
     throw pcl_pslam::UsageError("--sweep-period needs the scans' time stamps: no --times "
                                 "and no times.txt in " +
                                 o.dir + " or its parent");
-  params.mpi = ranks.size() > 1;
   return params;
 }
 
@@ -171,13 +167,15 @@ mapAndWrite(pcl_pslam::Options& o,
 {
   RemoveDirectory cleanup;
   pcl_pslam::Input in = openInput(o, ranks, progress, cleanup);
-  const pcl_pslam::Parameters params = runParameters(o, in, ranks);
+  const pcl_parallel::slam::Parameters params = runParameters(o, in);
   // Streamed: each scan is read when the pipeline takes it, and dropped after.
   const pcl_pslam::Result r =
       pcl_pslam::run(scanReader(in, params.deskew),
                      in.size(),
-                     in.initial,
+                     in.odometry ? in.initial : pcl_pslam::Poses(),
+                     in.has_stamps ? in.stamps : std::vector<double>(),
                      params,
+                     pcl_pslam::toMappingOptions(o, ranks.size()),
                      [&](const std::string& stage, int done, int total) {
                        progress.update(stage, done, total);
                      });
@@ -186,15 +184,15 @@ mapAndWrite(pcl_pslam::Options& o,
   for (const auto& report : r.reports)
     points += report.points;
   const std::string read_time = std::to_string(in.read_seconds).substr(0, 4) + " s";
-  if (r.ranks == 1)
+  if (r.spread.ranks == 1)
     if (const std::string note = pcl_pslam::deskewNote(in, params.deskew); !note.empty())
       progress.note(note);
-  progress.note(
-      std::to_string(points) + " points read" +
-      (r.ranks > 1 ? " by " + std::to_string(r.ranks) + " ranks (rank 0's in " + read_time + ")"
-                   : " in " + read_time));
+  progress.note(std::to_string(points) + " points read" +
+                (r.spread.ranks > 1 ? " by " + std::to_string(r.spread.ranks) +
+                                          " ranks (rank 0's in " + read_time + ")"
+                                    : " in " + read_time));
   pcl_pslam::setWritingOutputs(true);
-  if (r.ranks > 1) { // every rank its part of the map, then rank 0 the rest
+  if (r.spread.ranks > 1) { // every rank its part of the map, then rank 0 the rest
     ranks.agree([&] { pcl_pslam::writeMapTile(o, in, r, progress); });
     if (ranks.rank() != 0)
       return;
@@ -269,9 +267,9 @@ runCommand(int argc, char** argv, const Session& ranks)
 
 /** Each scan allocates and frees buffers of a few MB (its points, voxel keys, trees).
  *  glibc's default returns them to the kernel and faults them in again for the next scan,
- *  on the thread that first touches them: about a tenth of a KITTI-sized run's CPU time
- *  (docs/design.md, "Serial work per scan"). Kept below 32 MiB (glibc's own cap for its
- *  sliding mmap threshold) and up to 128 MiB free at the heap top, they are reused. */
+ *  on the thread that first touches them (docs/design.md, "Serial work per scan"). Kept below
+ * 32 MiB (glibc's own cap for its sliding mmap threshold) and up to 128 MiB free at the heap
+ * top, they are reused. */
 void
 keepScanBuffers()
 {

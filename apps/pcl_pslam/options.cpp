@@ -243,26 +243,12 @@ helpText(const std::string& command)
   return s.str();
 }
 
-Options
-parseCommandLine(int argc, const char* const* argv)
-{
-  Options o;
-  if (argc < 2)
-    throw UsageError("no command (demo, run, simulate, evaluate; --help for the options)");
-  o.command = argv[1];
-  if (o.command == "--help" || o.command == "-h" || o.command == "help") {
-    o.command.clear();
-    o.help = true;
-    return o;
-  }
-  if (o.command == "simulate" || o.command == "evaluate") { // their parsers take the rest
-    o.rest.assign(argv + 2, argv + argc);
-    return o;
-  }
-  if (o.command != "run" && o.command != "demo")
-    throw UsageError("unknown command '" + o.command +
-                     "' (demo, run, simulate, evaluate; --help for the options)");
+namespace {
 
+/** The options of `run` / `demo` after the command, parsed into `o` (Boost). */
+po::variables_map
+parseOptions(Options& o, int argc, const char* const* argv)
+{
   Descriptions d(o);
   po::options_description all;
   all.add(d.pipeline).add(d.output).add(d.general);
@@ -288,11 +274,13 @@ parseCommandLine(int argc, const char* const* argv)
       what = o.command == "run" ? "run takes one directory" : "demo takes no directory";
     throw UsageError(o.command + ": " + what);
   }
-  if (o.help)
-    return o;
+  return vm;
+}
 
-  if (o.command == "run" && o.dir.empty())
-    throw UsageError("run: no scan directory given");
+/** Checks and converts the input options (format, selection, ranges, units, sweeps). */
+void
+checkInputOptions(Options& o, const po::variables_map& vm)
+{
   if (vm.count("format")) {
     const std::string f = canonicalFormat(o.format);
     if (f.empty())
@@ -325,6 +313,12 @@ parseCommandLine(int argc, const char* const* argv)
     if (!o.deskew)
       throw UsageError("--sweep-period needs --deskew");
   }
+}
+
+/** Checks and converts the pipeline's options (lengths, iterations, loops, threads). */
+void
+checkPipelineOptions(Options& o, const po::variables_map& vm)
+{
   if (vm.count("reduce"))
     o.voxel = positive(vm, "reduce", true);
   if (vm.count("dist"))
@@ -363,19 +357,57 @@ parseCommandLine(int argc, const char* const* argv)
   if (o.segment_overlap < 1 || o.segment_overlap > 100000) // also a negative one, wrapped
     throw UsageError("--segment-overlap needs a scan count >= 1 (a segment joins the one "
                      "before through it)");
+}
+
+/** Checks the output options. */
+void
+checkOutputOptions(Options& o, const po::variables_map& vm)
+{
   o.picture = vm.count("no-picture") == 0;
   o.style = lowerCase(o.style);
   if (o.style != "auto" && o.style != "height" && o.style != "floorplan")
     throw UsageError("--style needs auto, height or floorplan, got '" + o.style + "'");
   if (o.out.empty())
     throw UsageError("--out: empty directory name");
+}
+
+} // namespace
+
+Options
+parseCommandLine(int argc, const char* const* argv)
+{
+  Options o;
+  if (argc < 2)
+    throw UsageError("no command (demo, run, simulate, evaluate; --help for the options)");
+  o.command = argv[1];
+  if (o.command == "--help" || o.command == "-h" || o.command == "help") {
+    o.command.clear();
+    o.help = true;
+    return o;
+  }
+  if (o.command == "simulate" || o.command == "evaluate") { // their parsers take the rest
+    o.rest.assign(argv + 2, argv + argc);
+    return o;
+  }
+  if (o.command != "run" && o.command != "demo")
+    throw UsageError("unknown command '" + o.command +
+                     "' (demo, run, simulate, evaluate; --help for the options)");
+
+  const po::variables_map vm = parseOptions(o, argc, argv);
+  if (o.help)
+    return o;
+  if (o.command == "run" && o.dir.empty())
+    throw UsageError("run: no scan directory given");
+  checkInputOptions(o, vm);
+  checkPipelineOptions(o, vm);
+  checkOutputOptions(o, vm);
   return o;
 }
 
-Parameters
+pcl_parallel::slam::Parameters
 toParameters(const Options& o, double scale)
 {
-  Parameters p;
+  pcl_parallel::slam::Parameters p;
   auto length = [scale](const std::optional<double>& v, double fallback) {
     return v ? *v * scale : fallback;
   };
@@ -406,9 +438,20 @@ toParameters(const Options& o, double scale)
   p.pose_search = !o.no_pose_search;
   p.elch = o.elch != 0;
   p.sequence_constraints = !o.no_sequence_constraints;
-  p.segment_size = o.segment_size.value_or(0);
-  p.segment_overlap = o.segment_overlap;
   return p;
+}
+
+pcl_parallel::slam::MappingOptions
+toMappingOptions(const Options& o, int ranks)
+{
+  namespace slam = pcl_parallel::slam;
+  slam::MappingOptions m;
+  m.segment_size = o.segment_size.value_or(0);
+  m.segment_overlap = o.segment_overlap;
+  m.backend = ranks > 1            ? slam::MappingBackend::kRanks
+              : m.segment_size > 0 ? slam::MappingBackend::kSegments
+                                   : slam::MappingBackend::kOnline;
+  return m;
 }
 
 double

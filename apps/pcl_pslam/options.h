@@ -89,8 +89,13 @@ helpText(const std::string& command);
 
 /** The pipeline's parameters, lengths converted to metres: given lengths times `scale`
  *  (the factor that took the files' coordinates to metres), defaults as they are. */
-Parameters
+pcl_parallel::slam::Parameters
 toParameters(const Options& o, double scale);
+
+/** How the sequence is spread: over the ranks when there are several, else in segments
+ *  with --segment-size, else online. */
+pcl_parallel::slam::MappingOptions
+toMappingOptions(const Options& o, int ranks);
 
 /** Map voxel size in metres (map_voxel scaled, else the reduction voxel, else 0.1 m when
  *  the reduction voxel is automatic). */

@@ -118,12 +118,6 @@ private:
   std::vector<double> stamps_; ///< the scans' time stamps, or none
 };
 
-/** The map pass prepares at most this many scans at once, and at most about this many
- *  points (~80 bytes each while grouped): a terrestrial scanner's scans of tens of millions
- *  of points go one at a time, each on every thread. */
-constexpr unsigned kMapBatch = 16;
-constexpr std::size_t kMapPointsInFlight = 4000000;
-
 } // namespace
 
 Cloud::Ptr
@@ -135,71 +129,15 @@ buildMap(const Options& o,
          std::size_t begin,
          std::size_t end)
 {
-  end = std::min(end, in.size());
-  const int n = static_cast<int>(end > begin ? end - begin : 0);
   const MapScans scans(o, in, poses);
-  if (!(voxel_size > 0.0)) { // every point, as asked
-    Cloud::Ptr map(new Cloud);
-    for (int k = 0; k < n; ++k) {
-      Cloud moved;
-      pcl::transformPointCloud(*scans.read(begin + k, o.threads), moved, poses[begin + k]);
-      *map += moved;
-      if (step)
-        step(k + 1, n);
-    }
-    return map;
-  }
-  // Reading, deskewing and grouping a scan is most of the work and needs no map, and the
-  // file reading is serial: a batch of scans is prepared at once, one per thread, then
-  // added in order, so every voxel's sum runs as in a scan-by-scan pass. The batch is
-  // sized by the largest scan read so far; the first scan goes alone.
-  pcl_parallel::filters::VoxelCentroidMap map(voxel_size, o.threads);
-  const unsigned threads = pcl_parallel::resolveNumberOfThreads(o.threads);
-  std::size_t largest = 0;
-  for (int first = 0; first < n;) {
-    const std::size_t fit = largest > 0 ? kMapPointsInFlight / largest : 1;
-    const int count =
-        static_cast<int>(std::min<std::size_t>({std::max<std::size_t>(fit, 1),
-                                                std::min(threads, kMapBatch),
-                                                static_cast<std::size_t>(n - first)}));
-    std::vector<pcl_parallel::filters::VoxelCentroidMap::Grouped> grouped(count);
-    std::vector<std::size_t> points(count, 0);
-    std::vector<std::exception_ptr> errors(count);
-    const auto prepare = [&](int i, unsigned inner) {
-      const std::size_t k = begin + static_cast<std::size_t>(first + i);
-      const Cloud::Ptr scan = scans.read(k, inner);
-      points[i] = scan->size();
-      grouped[i] = map.group(*scan, poses[k], inner);
-    };
-    if (count == 1)
-      prepare(0, threads);
-    else {
-      pcl_parallel::parallelFor(static_cast<std::size_t>(count),
-                                static_cast<unsigned>(count),
-                                1,
-                                [&](std::size_t i0, std::size_t i1) {
-                                  for (std::size_t i = i0; i < i1; ++i)
-                                    try {
-                                      prepare(static_cast<int>(i), 1);
-                                    }
-                                    // rethrown below, the first scan's first: as a serial
-                                    // pass would
-                                    catch (...) {
-                                      errors[i] = std::current_exception();
-                                    }
-                                });
-    }
-    for (int i = 0; i < count; ++i) {
-      if (errors[i])
-        std::rethrow_exception(errors[i]);
-      map.add(std::move(grouped[i]));
-      largest = std::max(largest, points[i]);
-      if (step)
-        step(first + i + 1, n);
-    }
-    first += count;
-  }
-  return map.centroids();
+  return pcl_parallel::slam::assembleMap(
+      [&](std::size_t k, unsigned threads) { return scans.read(k, threads); },
+      poses,
+      begin,
+      std::min(end, in.size()),
+      voxel_size,
+      o.threads,
+      step);
 }
 
 std::string
@@ -217,11 +155,11 @@ writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporte
       r.final,
       mapVoxel(o, in.scale),
       [&](int done, int total) { progress.update("map", done, total); },
-      r.own_begin,
-      r.own_end);
-  pcl_parallel::io::writePcdScan(join(o.out, mapTileName(r.rank, ".pcd")), *map);
+      r.spread.own_begin,
+      r.spread.own_end);
+  pcl_parallel::io::writePcdScan(join(o.out, mapTileName(r.spread.rank, ".pcd")), *map);
   if (o.ply)
-    pcl_parallel::io::writePlyScan(join(o.out, mapTileName(r.rank, ".ply")), *map);
+    pcl_parallel::io::writePlyScan(join(o.out, mapTileName(r.spread.rank, ".ply")), *map);
 }
 
 namespace {
@@ -327,15 +265,16 @@ writeMap(const Options& o,
          std::vector<std::string>& written)
 {
   Cloud::Ptr map(new Cloud);
-  if (r.ranks > 1) { // the tiles every rank wrote (writeMapTile)
-    for (int k = 0; k < r.ranks; ++k) {
-      progress.update("tiles", k, r.ranks);
+  if (r.spread.ranks > 1) { // the tiles every rank wrote (writeMapTile)
+    for (int k = 0; k < r.spread.ranks; ++k) {
+      progress.update("tiles", k, r.spread.ranks);
       *map += *pcl_parallel::io::loadPcdScan(join(o.out, mapTileName(k, ".pcd")));
     }
-    written.push_back(mapTileName(0, ".pcd") + ".." + mapTileName(r.ranks - 1, ".pcd"));
+    written.push_back(mapTileName(0, ".pcd") + ".." + mapTileName(r.spread.ranks - 1, ".pcd"));
     if (o.ply)
-      written.push_back(mapTileName(0, ".ply") + ".." + mapTileName(r.ranks - 1, ".ply"));
-    progress.update("tiles", r.ranks, r.ranks);
+      written.push_back(mapTileName(0, ".ply") + ".." +
+                        mapTileName(r.spread.ranks - 1, ".ply"));
+    progress.update("tiles", r.spread.ranks, r.spread.ranks);
     return map;
   }
   progress.update("map", 0, 1);
@@ -435,7 +374,8 @@ inputJson(const Options& o, const Input& in, const Result& r)
       {"poses_file", o.poses_file},
       {"timestamps", in.has_stamps},
       {"scans_with_point_times", // counted where read (rank 0 alone under MPI), with --deskew
-       r.ranks > 1 || !o.deskew ? nlohmann::json(nullptr) : nlohmann::json(in.timed_scans)},
+       r.spread.ranks > 1 || !o.deskew ? nlohmann::json(nullptr)
+                                       : nlohmann::json(in.timed_scans)},
       {"first", o.first},
       {"last", o.last},
       {"min_range", o.min_range},
@@ -445,7 +385,7 @@ inputJson(const Options& o, const Input& in, const Result& r)
 
 /** The parameters as the pipeline resolved them (automatic lengths from the data). */
 nlohmann::json
-parametersJson(const Parameters& params, const Result& r, double map_voxel)
+parametersJson(const pcl_parallel::slam::Parameters& params, const Result& r, double map_voxel)
 {
   const auto& fe = r.front_end;
   const auto& lc = r.loop_closure;
@@ -579,7 +519,7 @@ writeOutputs(const Options& o,
 {
   std::vector<std::string> written;
   const std::size_t n = in.size();
-  const Parameters params = toParameters(o, in.scale);
+  const pcl_parallel::slam::Parameters params = toParameters(o, in.scale);
   std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
   for (const auto& [i, j] : r.links)
     if ((i > j ? i - j : j - i) > 1)
@@ -606,15 +546,15 @@ writeOutputs(const Options& o,
                            {"loop_detection", r.times.loop_detection},
                            {"loop_closing", r.times.loop_closing}};
   j["bytes_kept_per_scan"] = r.bytes_per_scan;
-  if (r.segments > 0)
-    j["segments"] = {{"segments", r.segments},
-                     {"segment_size", r.segment_size},
-                     {"overlap", params.segment_overlap},
-                     {"ranks", r.ranks},
-                     {"rank0_wait_seconds", r.wait_seconds},
-                     {"bytes_shared", r.bytes_shared},
-                     {"scans_sent", r.scans_sent},
-                     {"max_kept_scans", r.max_kept_scans}};
+  if (r.spread.segments > 0)
+    j["segments"] = {{"segments", r.spread.segments},
+                     {"segment_size", r.spread.segment_size},
+                     {"overlap", r.mapping.segment_overlap},
+                     {"ranks", r.spread.ranks},
+                     {"rank0_wait_seconds", r.spread.wait_seconds},
+                     {"bytes_shared", r.spread.bytes_shared},
+                     {"scans_sent", r.spread.scans_sent},
+                     {"max_kept_scans", r.spread.max_kept_scans}};
   j["relaxations"] = r.relaxations;
   nlohmann::json stages = nlohmann::json::array();
   for (const auto& s : progress.stages())
@@ -704,8 +644,9 @@ printSummary(const Options& o,
     const auto& t = r.times;
     std::printf("%s: front end %.2f s, loop detection %.2f s, loop closing %.2f s "
                 "(%d pLUM run%s); %.1f ms per scan; %zu bytes kept per scan\n",
-                r.ranks > 1 ? "rank 0's stage times (its segments, then the whole sequence)"
-                            : "stage times",
+                r.spread.ranks > 1
+                    ? "rank 0's stage times (its segments, then the whole sequence)"
+                    : "stage times",
                 t.preprocess + t.front_end,
                 t.loop_detection,
                 t.loop_closing,

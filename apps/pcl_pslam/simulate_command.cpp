@@ -13,41 +13,109 @@
 #include <chrono>
 #include <cstdint>
 #include <iterator>
+#include <string>
 #include <utility>
 
 namespace pcl_pslam {
 
 namespace po = boost::program_options;
 
-int
-simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err)
-{
+namespace {
+
+using pcl_parallel::sim::ScanSetFormat;
+
+/** What `simulate` is told. */
+struct SimulateArguments {
   std::string preset, dir, format = "auto";
   std::uint32_t seed = 1;
   unsigned threads = 0;
   int beams = 0;
+};
+
+const char* const kUsage =
+    "usage: pcl_pslam simulate --preset NAME [--seed N] [--format F] [--beams N] OUT_DIR\n";
+
+/** `simulate`'s options, bound to `a`. */
+po::options_description
+simulateOptions(SimulateArguments& a)
+{
   po::options_description visible("simulate options");
   visible.add_options()("preset,p",
-                        po::value(&preset)->value_name("NAME"),
+                        po::value(&a.preset)->value_name("NAME"),
                         "office, hannover, riegl or kitti (see --list)")(
-      "seed", po::value(&seed)->default_value(1), "random seed; the same seed, the same files")(
+      "seed",
+      po::value(&a.seed)->default_value(1),
+      "random seed; the same seed, the same files")(
       "format,f",
-      po::value(&format)->value_name("F")->default_value("auto"),
+      po::value(&a.format)->value_name("F")->default_value("auto"),
       "auto (uos for stop-and-go presets, kitti for kitti), uos, kitti (NNNNNN.bin), or pcd "
       "(NNNNNN.pcd with each point's time in a uint32 field t, ns from the sweep's start, as "
       "Ouster's driver writes it)")(
       "beams",
-      po::value(&beams)->default_value(0),
+      po::value(&a.beams)->default_value(0),
       "beams (rows) of the scanner over the preset's field of view, e.g. 16 with kitti for a "
       "VLP-16-like sparse lidar; 0 = the preset's")(
-      "threads,t", po::value(&threads)->default_value(0), "threads, 0 = all cores")(
+      "threads,t", po::value(&a.threads)->default_value(0), "threads, 0 = all cores")(
       "list", "the presets, one line each")("help,h", "this text");
+  return visible;
+}
+
+/** The checked preset and format, or a message for a usage error. */
+std::string
+checkSimulateArguments(const SimulateArguments& a, ScanSetFormat& format)
+{
+  if (a.preset.empty() || a.dir.empty())
+    return std::string("needs --preset NAME and OUT_DIR\n") + kUsage;
+  const auto names = pcl_parallel::sim::presetNames();
+  if (std::find(names.begin(), names.end(), a.preset) == names.end())
+    return "unknown preset '" + a.preset + "' (see --list)\n";
+  const std::pair<const char*, ScanSetFormat> formats[] = {{"auto", ScanSetFormat::Auto},
+                                                           {"uos", ScanSetFormat::Uos},
+                                                           {"kitti", ScanSetFormat::Kitti},
+                                                           {"pcd", ScanSetFormat::Pcd}};
+  const auto chosen = std::find_if(std::begin(formats), std::end(formats), [&](const auto& f) {
+    return a.format == f.first;
+  });
+  if (chosen == std::end(formats))
+    return "unknown --format '" + a.format + "' (auto, uos, kitti, pcd)\n";
+  if (a.beams < 0 || a.beams == 1)
+    return "--beams must be 0 (the preset's) or at least 2, got " + std::to_string(a.beams) +
+           '\n';
+  format = chosen->second;
+  return {};
+}
+
+/** Simulates and writes the set; a line about it on `out`. */
+void
+simulateAndWrite(const SimulateArguments& a, ScanSetFormat format, std::ostream& out)
+{
+  const auto start = std::chrono::steady_clock::now();
+  pcl_parallel::sim::PresetOptions options;
+  options.seed = a.seed;
+  options.num_threads = a.threads;
+  options.beams = a.beams;
+  const auto set = pcl_parallel::sim::simulatePreset(a.preset, options);
+  pcl_parallel::sim::writeScanSet(set, a.dir, format);
+  std::size_t points = 0;
+  for (const auto& s : set.scans)
+    points += s->size();
+  out << "simulate: " << a.preset << " (seed " << a.seed << "): " << set.scans.size()
+      << " scans, " << points << " points, written to " << a.dir << " in "
+      << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+      << " s\n";
+}
+
+} // namespace
+
+int
+simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err)
+{
+  SimulateArguments a;
+  const po::options_description visible = simulateOptions(a);
   po::options_description all;
-  all.add(visible).add_options()("dir", po::value(&dir));
+  all.add(visible).add_options()("dir", po::value(&a.dir));
   po::positional_options_description positional;
   positional.add("dir", 1);
-  const std::string usage =
-      "usage: pcl_pslam simulate --preset NAME [--seed N] [--format F] [--beams N] OUT_DIR\n";
   po::variables_map vm;
   try {
     po::store(po::command_line_parser(args).options(all).positional(positional).run(), vm);
@@ -58,7 +126,7 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
     return 2;
   }
   if (vm.count("help")) {
-    out << usage
+    out << kUsage
         << "\nWrites the scans (uos scanNNN.3d + .pose for stop-and-go presets, "
            "KITTI NNNNNN.bin + odometry.txt + times.txt for kitti; --format to choose) and "
            "ground_truth.txt (KITTI poses) into OUT_DIR, which `pcl_pslam run "
@@ -71,46 +139,13 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
       out << name << ": " << pcl_parallel::sim::presetDescription(name) << '\n';
     return 0;
   }
-  if (preset.empty() || dir.empty()) {
-    err << "pcl_pslam simulate: needs --preset NAME and OUT_DIR\n" << usage;
-    return 2;
-  }
-  const auto names = pcl_parallel::sim::presetNames();
-  if (std::find(names.begin(), names.end(), preset) == names.end()) {
-    err << "pcl_pslam simulate: unknown preset '" << preset << "' (see --list)\n";
-    return 2;
-  }
-  using pcl_parallel::sim::ScanSetFormat;
-  const std::pair<const char*, ScanSetFormat> formats[] = {{"auto", ScanSetFormat::Auto},
-                                                           {"uos", ScanSetFormat::Uos},
-                                                           {"kitti", ScanSetFormat::Kitti},
-                                                           {"pcd", ScanSetFormat::Pcd}};
-  const auto chosen = std::find_if(
-      std::begin(formats), std::end(formats), [&](const auto& f) { return format == f.first; });
-  if (chosen == std::end(formats)) {
-    err << "pcl_pslam simulate: unknown --format '" << format << "' (auto, uos, kitti, pcd)\n";
-    return 2;
-  }
-  if (beams < 0 || beams == 1) {
-    err << "pcl_pslam simulate: --beams must be 0 (the preset's) or at least 2, got " << beams
-        << '\n';
+  ScanSetFormat format = ScanSetFormat::Auto;
+  if (const std::string problem = checkSimulateArguments(a, format); !problem.empty()) {
+    err << "pcl_pslam simulate: " << problem;
     return 2;
   }
   try {
-    const auto start = std::chrono::steady_clock::now();
-    pcl_parallel::sim::PresetOptions options;
-    options.seed = seed;
-    options.num_threads = threads;
-    options.beams = beams;
-    const auto set = pcl_parallel::sim::simulatePreset(preset, options);
-    pcl_parallel::sim::writeScanSet(set, dir, chosen->second);
-    std::size_t points = 0;
-    for (const auto& s : set.scans)
-      points += s->size();
-    out << "simulate: " << preset << " (seed " << seed << "): " << set.scans.size()
-        << " scans, " << points << " points, written to " << dir << " in "
-        << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
-        << " s\n";
+    simulateAndWrite(a, format, out);
   }
   catch (const std::exception& e) {
     err << "pcl_pslam simulate: " << e.what() << '\n';

@@ -130,25 +130,6 @@ LoopCloser::setScan(std::size_t v,
 }
 
 void
-LoopCloser::replaceFirstScan(const Cloud::ConstPtr& scan,
-                             std::vector<Eigen::Vector3f> normals,
-                             std::shared_ptr<const KdTreeIndex> tree)
-{
-  if (scans_.size() != 1)
-    throw std::logic_error("LoopCloser::replaceFirstScan: " + std::to_string(scans_.size()) +
-                           " scans, not one");
-  if (!owns(0))
-    return;
-  if (!scan)
-    throw std::invalid_argument("LoopCloser::replaceFirstScan: no points");
-  impl_->points -= scans_[0]->size();
-  impl_->kept_points -= scans_[0]->size();
-  impl_->points += scan->size();
-  setScan(0, scan, std::move(normals), std::move(tree));
-  scans_[0] = scan;
-}
-
-void
 LoopCloser::share(std::size_t i, int to)
 {
   const int from = owner(i);

@@ -89,7 +89,7 @@ align(Icp& icp,
   return icp.hasConverged() ? Pose(icp.getFinalTransformationDouble()) : matched;
 }
 
-/** The effective number of scans behind a map match (FrontEndResult::map_scans): each
+/** The effective number of scans behind a map match (ScanReport::map_scans): each
  *  source point at `pose` counts for the scan of its nearest map point within `gate`. */
 double
 effectiveScans(const Cloud& source,

@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/lum_solver.h>
 #include <pcl_parallel/slam/deskewer.h>
@@ -18,6 +19,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -510,22 +512,103 @@ Pipeline::reducedScan(std::size_t i) const
 Cloud::Ptr
 Pipeline::map(double voxel_size) const
 {
-  if (!(voxel_size > 0.0)) { // every kept point, moved
-    Cloud::Ptr all(new Cloud);
-    for (std::size_t i = 0; i < size(); ++i) {
-      if (!loops_->scan(i))
-        continue; // another process's
+  const MapScanSource kept = [this](std::size_t i, unsigned) { return loops_->scan(i); };
+  return assembleMap(kept, poses(), 0, size(), voxel_size, params_.num_threads);
+}
+
+namespace {
+
+/** The map pass prepares at most this many scans at once, and at most about this many
+ *  points (~80 bytes each while grouped): a terrestrial scanner's scans of tens of millions
+ *  of points go one at a time, each on every thread. */
+constexpr unsigned kMapBatch = 16;
+constexpr std::size_t kMapPointsInFlight = 4000000;
+
+/** Every point of the scans, moved. */
+Cloud::Ptr
+allPoints(const MapScanSource& read,
+          const Poses& poses,
+          std::size_t begin,
+          std::size_t end,
+          unsigned num_threads,
+          const std::function<void(int, int)>& step)
+{
+  Cloud::Ptr map(new Cloud);
+  const int n = static_cast<int>(end - begin);
+  for (int k = 0; k < n; ++k) {
+    if (const Cloud::ConstPtr scan = read(begin + k, num_threads)) {
       Cloud moved;
-      pcl::transformPointCloud(*loops_->scan(i), moved, poses()[i]);
-      *all += moved;
+      pcl::transformPointCloud(*scan, moved, poses[begin + k]);
+      *map += moved;
     }
-    return all;
+    if (step)
+      step(k + 1, n);
   }
-  // Scan by scan into the voxels: no copy of all points (as the app's second pass).
-  filters::VoxelCentroidMap map(voxel_size, params_.num_threads);
-  for (std::size_t i = 0; i < size(); ++i)
-    if (loops_->scan(i))
-      map.add(*loops_->scan(i), poses()[i]);
+  return map;
+}
+
+} // namespace
+
+Cloud::Ptr
+assembleMap(const MapScanSource& read,
+            const Poses& poses,
+            std::size_t begin,
+            std::size_t end,
+            double voxel_size,
+            unsigned num_threads,
+            const std::function<void(int, int)>& step)
+{
+  end = std::max(begin, std::min(end, poses.size()));
+  if (!(voxel_size > 0.0)) // every point, as asked
+    return allPoints(read, poses, begin, end, num_threads, step);
+  // A batch of scans is prepared at once, one per thread, then added in order, so every
+  // voxel's sum runs as in a scan-by-scan pass. The batch is sized by the largest scan
+  // read so far; the first scan goes alone.
+  filters::VoxelCentroidMap map(voxel_size, num_threads);
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+  const int n = static_cast<int>(end - begin);
+  std::size_t largest = 0;
+  for (int first = 0; first < n;) {
+    const std::size_t fit = largest > 0 ? kMapPointsInFlight / largest : 1;
+    const int count =
+        static_cast<int>(std::min<std::size_t>({std::max<std::size_t>(fit, 1),
+                                                std::min(threads, kMapBatch),
+                                                static_cast<std::size_t>(n - first)}));
+    std::vector<filters::VoxelCentroidMap::Grouped> grouped(count);
+    std::vector<std::size_t> points(count, 0);
+    std::vector<std::exception_ptr> errors(count);
+    const auto prepare = [&](std::size_t i, unsigned inner) {
+      const std::size_t k = begin + first + i;
+      if (const Cloud::ConstPtr scan = read(k, inner)) {
+        points[i] = scan->size();
+        grouped[i] = map.group(*scan, poses[k], inner);
+      }
+    };
+    if (count == 1)
+      prepare(0, threads);
+    else
+      parallelFor(static_cast<std::size_t>(count),
+                  static_cast<unsigned>(count),
+                  1,
+                  [&](std::size_t i0, std::size_t i1) {
+                    for (std::size_t i = i0; i < i1; ++i)
+                      try {
+                        prepare(i, 1);
+                      }
+                      catch (...) { // rethrown below, the first scan's first: as a serial pass
+                        errors[i] = std::current_exception();
+                      }
+                  });
+    for (int i = 0; i < count; ++i) {
+      if (errors[i])
+        std::rethrow_exception(errors[i]);
+      map.add(std::move(grouped[i]));
+      largest = std::max(largest, points[i]);
+      if (step)
+        step(first + i + 1, n);
+    }
+    first += count;
+  }
   return map.centroids();
 }
 

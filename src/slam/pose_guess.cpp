@@ -157,9 +157,7 @@ PoseGuess::bestHypothesis(const Cloud::ConstPtr& source,
   const double gate = matcher_.gate(), same = sameSolution();
   const Pose& at = motion_.lastPose(); // the previous scan's pose
   // Fitness over the pairs within sqrt(gate): PCL's max_range is a squared distance, and
-  // the gate (metres) goes in as it. That radius depends on the units (1-2.9 m for gates
-  // of 1-8.25 m); the unit-free radii and fits tried instead each lost the drive or a
-  // corridor set (docs/design.md, "Speed hypotheses").
+  // the gate (metres) goes in as it (docs/design.md, "Speed hypotheses", says why).
   double best = own ? matcher_.previousFitness(gate) : std::numeric_limits<double>::infinity();
   std::optional<Pose> winner;
   const Pose to_previous = at.inverse(); // rivals are compared in its frame

@@ -120,8 +120,8 @@ requirePointsInRange(const Cloud& cropped, std::size_t index)
 void
 requireScannerFrame(const Cloud& scan, const std::string& context, unsigned num_threads)
 {
-  // A scanner sits inside what it sees, or a few spreads from it (fastlio's forward-looking
-  // Livox: 2); 100 spreads is a field of view under 2 degrees.
+  // A scanner sits inside what it sees, or a few spreads from it (a forward-looking
+  // solid-state LiDAR); 100 spreads is a field of view under 2 degrees.
   constexpr double kMaxSpreads = 100.0;
   if (scan.empty())
     return;

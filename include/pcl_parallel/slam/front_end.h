@@ -80,7 +80,7 @@ struct FrontEndParameters {
    *  reduced points and carries them in the map (fast; right for scanners that
    *  sample surfaces densely in one scan: spinning, tilting, terrestrial); true estimates
    *  them on the local map after each refresh (slower on large maps; better for sparse,
-   *  non-repetitive patterns such as Livox's, measured on fastlio_quick_shack). */
+   *  non-repetitive patterns such as solid-state LiDARs'). */
   bool normals_from_map = false;
   int max_iterations = 50;
   double transformation_epsilon = 1e-8; ///< pICP stop: squared change of the transform

@@ -139,8 +139,8 @@ public:
   /** Adds the next scan (reduced, scanner frame) at its front-end pose, with its points'
    *  normals if the front end has them (ReducedScan::normals; pLUM estimates them
    *  otherwise, from the reduced points), and the information of its match from that
-   *  many pairs (FrontEndResult::information, information_pairs; zero: none) against a
-   *  map of `information_scans` scans in effect (FrontEndResult::map_scans), which
+   *  many pairs (ScanRecord::information, information_pairs; zero: none) against a
+   *  map of `information_scans` scans in effect (ScanReport::map_scans), which
    *  with sequence_constraints holds its pose relative to the previous scan, and its
    *  k-d tree if the front end built it (ReducedScan::tree; pLUM builds it otherwise).
    *  With an exchange, a scan another process owns comes as null with its `num_points`.
@@ -154,15 +154,6 @@ public:
           double information_scans = 1.0,
           std::size_t num_points = 0,
           std::shared_ptr<const KdTreeIndex> tree = nullptr);
-
-  /** Replaces the first scan's points (and normals and tree, as addScan takes them) while
-   *  it is the only one: the front end deskews the first scan again once the first step is
-   *  known (FrontEndResult::first_scan). Not collective: a process that does not keep the
-   *  scan ignores it. Throws std::logic_error with more or fewer scans. */
-  void
-  replaceFirstScan(const Cloud::ConstPtr& scan,
-                   std::vector<Eigen::Vector3f> normals = {},
-                   std::shared_ptr<const KdTreeIndex> tree = nullptr);
 
   /** Looks for loop links of the newest scan; adds the accepted ones to the graph and,
    *  with distribute_error and an error above overlap_distance, moves the poses since

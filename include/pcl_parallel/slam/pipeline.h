@@ -101,10 +101,28 @@ mapFrame(const Cloud& scan,
          std::size_t k,
          const Parameters& p);
 
-/** An odometryDisagreement above this says the odometry is in another frame, or broken.
- *  Measured (first 20 steps): odometry in the scans' frame 0.017-0.035 (the presets,
- *  fastlio_quick_shack), mulran's poor odometry 0.37; turned into a camera's frame 0.99
- *  (the corridor test set), 1.20 (fastlio), 1.39 (kitti). */
+/** Scan k at full resolution as the map shows it (mapFrame's frame), prepared on
+ *  `num_threads` threads; null: a scan this process does not map. */
+using MapScanSource = std::function<Cloud::ConstPtr(std::size_t k, unsigned num_threads)>;
+
+/** The merged map of scans [begin, end): each one read by `read`, moved by its pose, one
+ *  centroid per voxel of voxel_size (filters::VoxelCentroidMap: memory per voxel, not per
+ *  point); voxel_size <= 0 keeps every point. Scans are read and grouped a batch at a
+ *  time, one per thread (the reading is serial work), and added in order, so the result
+ *  is the scan-by-scan pass's for any thread count. `step` is called after each scan
+ *  (done, total). */
+Cloud::Ptr
+assembleMap(const MapScanSource& read,
+            const Poses& poses,
+            std::size_t begin,
+            std::size_t end,
+            double voxel_size,
+            unsigned num_threads,
+            const std::function<void(int, int)>& step = {});
+
+/** An odometryDisagreement above this says the odometry is in another frame, or broken:
+ *  odometry in the scans' frame gives a few hundredths, in another frame about 1
+ *  (docs/design.md, "Odometry in another frame"). */
 constexpr double kOdometryDisagreementLimit = 0.25;
 
 /** odometryDisagreement looks at this many steps from the first. */

@@ -14,7 +14,7 @@ namespace slam {
 
 /**
  * \brief A ScanSource that reads scan k + 1 on a thread of its own while the caller maps
- * scan k: reading a file is serial work (3 ms for a 120k-point KITTI `.bin`), which then
+ * scan k: reading a file is serial work (milliseconds per scan), which then
  * overlaps the front end's instead of adding to it (docs/design.md, "Serial work per
  * scan").
  *

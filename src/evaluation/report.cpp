@@ -1,0 +1,128 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/evaluation/report.h>
+
+#include <algorithm>
+#include <iomanip>
+#include <stdexcept>
+
+namespace pcl_parallel {
+namespace evaluation {
+
+namespace {
+
+void
+statsRow(std::ostream& out, const std::string& name, const Statistics& s)
+{
+  out << "  " << std::left << std::setw(20) << name << std::right;
+  for (double v : {s.rmse, s.mean, s.median, s.std, s.min, s.max})
+    out << std::setw(10) << v;
+  out << '\n';
+}
+
+void
+statsHeader(std::ostream& out, const std::string& title)
+{
+  out << std::left << std::setw(22) << title << std::right;
+  for (const char* c : {"rmse", "mean", "median", "std", "min", "max"})
+    out << std::setw(10) << c;
+  out << '\n';
+}
+
+} // namespace
+
+PairedTrajectories
+pairTrajectories(const io::Trajectory& est,
+                 const std::string& estimate_path,
+                 const io::Trajectory& truth,
+                 const std::string& truth_path,
+                 double max_diff,
+                 bool truncate)
+{
+  PairedTrajectories p;
+  if (!est.timestamps.empty() && !truth.timestamps.empty()) {
+    const auto pairs = associateByTimestamp(est.timestamps, truth.timestamps, max_diff);
+    if (pairs.empty())
+      throw std::runtime_error("no timestamps of " + estimate_path + " and " + truth_path +
+                               " lie within --max-diff " + std::to_string(max_diff) + " s");
+    for (const auto& [i, j] : pairs) {
+      p.estimate.push_back(est.poses[i]);
+      p.truth.push_back(truth.poses[j]);
+    }
+    p.association = "by timestamp (max diff " + std::to_string(max_diff) +
+                    " s): " + std::to_string(pairs.size()) + " pairs of " +
+                    std::to_string(std::min(est.poses.size(), truth.poses.size())) +
+                    " possible";
+    return p;
+  }
+  const std::size_t n = std::min(est.poses.size(), truth.poses.size());
+  if (est.poses.size() != truth.poses.size() && !truncate)
+    throw std::runtime_error("pairing by index (not both files have timestamps), but " +
+                             estimate_path + " has " + std::to_string(est.poses.size()) +
+                             " poses and " + truth_path + " " +
+                             std::to_string(truth.poses.size()) +
+                             " (--truncate compares the first " + std::to_string(n) + ")");
+  p.estimate.assign(est.poses.begin(), est.poses.begin() + static_cast<std::ptrdiff_t>(n));
+  p.truth.assign(truth.poses.begin(), truth.poses.begin() + static_cast<std::ptrdiff_t>(n));
+  p.association =
+      "by index" +
+      std::string(est.poses.size() != truth.poses.size()
+                      ? " (truncated to the first " + std::to_string(n) + ")"
+                      : "") +
+      (est.timestamps.empty() && truth.timestamps.empty() ? ": neither file has timestamps"
+                                                          : ": only one file has timestamps");
+  return p;
+}
+
+std::string
+describe(const std::string& path, const io::Trajectory& t)
+{
+  return path + " (" + io::toString(t.format) + ", " + std::to_string(t.poses.size()) +
+         " poses" + (t.timestamps.empty() ? "" : ", timestamps") + ")";
+}
+
+void
+printEvaluation(std::ostream& out, const TrajectoryEvaluation& e)
+{
+  const std::ios::fmtflags flags = out.flags();
+  const std::streamsize precision = out.precision();
+  out << std::fixed << std::setprecision(4);
+  statsHeader(out, "ATE (" + toString(e.ate.alignment) + " alignment)");
+  statsRow(out, "translation [m]", e.ate.translation);
+  statsRow(out, "rotation [deg]", e.ate.rotation_deg);
+  if (e.ate.alignment == Alignment::Sim3)
+    out << "  scale " << e.ate.similarity.scale << '\n';
+  if (e.ate.alignment != Alignment::None) {
+    statsHeader(out, "ATE (no alignment)");
+    statsRow(out, "translation [m]", e.ate_unaligned.translation);
+    statsRow(out, "rotation [deg]", e.ate_unaligned.rotation_deg);
+  }
+  statsHeader(out, "RPE (delta " + std::to_string(e.rpe.delta) + " frame)");
+  statsRow(out, "translation [m]", e.rpe.translation);
+  statsRow(out, "rotation [deg]", e.rpe.rotation_deg);
+  statsRow(out, "point distance [m]", e.rpe.point_distance);
+  out << "KITTI RPE (step " << e.kitti.step << " frames)";
+  if (!e.kitti.valid()) {
+    out << ": no segment fits the ground truth's path\n";
+  }
+  else {
+    out << ": translation " << e.kitti.translation_percent << " %, rotation "
+        << e.kitti.rotation_deg_per_m << " deg/m over " << e.kitti.segments.size()
+        << " segments\n";
+    for (const auto& l : e.kitti.per_length) {
+      out << "  " << std::setw(10) << l.length << " m  " << std::setw(4) << l.segments
+          << " segments";
+      if (l.segments > 0)
+        out << std::setw(10) << l.translation_percent << " %" << std::setw(10)
+            << l.rotation_deg_per_m << " deg/m";
+      out << '\n';
+    }
+  }
+  out.flags(flags);
+  out.precision(precision);
+}
+
+} // namespace evaluation
+} // namespace pcl_parallel
