@@ -93,23 +93,33 @@ setUpOurs(ParallelLUM<pcl::PointXYZ>& lum,
     lum.addLink(i, j);
 }
 
-int
-runBunny(const Options& opt)
+/** The bunny's scans and bun.conf's poses; false (and a line saying so) when absent. */
+bool
+loadBunny(const Options& opt, const char* what, std::vector<Cloud::Ptr>& clouds, Poses& truth)
 {
   const std::string conf = opt.data_dir + "/stanford_bunny/bun.conf";
   if (!std::filesystem::exists(conf)) {
-    std::printf("lum: %s not found, bunny part skipped\n\n", conf.c_str());
-    return 0;
+    std::printf("%s: %s not found, bunny part skipped\n\n", what, conf.c_str());
+    return false;
   }
-  std::vector<Cloud::Ptr> clouds;
-  Poses truth;
-  std::size_t points = 0;
   for (const auto& e : io::loadStanfordConf(conf)) {
     clouds.push_back(
         io::loadStanfordScan((std::filesystem::path(conf).parent_path() / e.file).string()));
     truth.push_back(e.pose);
-    points += clouds.back()->size();
   }
+  return true;
+}
+
+int
+runBunny(const Options& opt)
+{
+  std::vector<Cloud::Ptr> clouds;
+  Poses truth;
+  if (!loadBunny(opt, "lum", clouds, truth))
+    return 0;
+  std::size_t points = 0;
+  for (const auto& c : clouds)
+    points += c->size();
   std::mt19937 rng(2007);
   Poses start = truth;
   for (std::size_t v = 1; v < truth.size(); ++v)
@@ -435,18 +445,10 @@ runScaling(const Options& opt)
 int
 runBunnySeeds(const Options& opt)
 {
-  const std::string conf = opt.data_dir + "/stanford_bunny/bun.conf";
-  if (!std::filesystem::exists(conf)) {
-    std::printf("lum-seeds: %s not found, skipped\n\n", conf.c_str());
-    return 0;
-  }
   std::vector<Cloud::Ptr> clouds;
   Poses truth;
-  for (const auto& e : io::loadStanfordConf(conf)) {
-    clouds.push_back(
-        io::loadStanfordScan((std::filesystem::path(conf).parent_path() / e.file).string()));
-    truth.push_back(e.pose);
-  }
+  if (!loadBunny(opt, "lum-seeds", clouds, truth))
+    return 0;
   std::printf("### LUM: Stanford bunny, convergence from several start draws\n\n"
               "bun.conf perturbed by 2 deg / 3 mm per seed (test_lum's QuietPcl.Bunny*"
               "ConvergesToGroundTruth). Max: the largest error over the poses; peak: the "
