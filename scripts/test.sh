@@ -6,10 +6,10 @@
 #
 # Stages (each in its own build directory, reused by later runs):
 #   release  build/       Release build of everything; ctest (unit tests + install_consumer)
-#   asan     build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (clang-14, -O1 -g1,
-#                         no MPI), the tests labelled "asan" in test/CMakeLists.txt (all
-#                         but MPI's and the accuracy studies), leaks checked, any UBSan
-#                         finding fails
+#   asan     build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (GCC, -O1 -g1, no
+#                         MPI), the tests labelled "asan" in test/CMakeLists.txt (all but
+#                         MPI's and the accuracy studies), leaks checked, any UBSan finding
+#                         fails
 #   tsan     build-tsan/  ThreadSanitizer (clang-14, LLVM libomp + Archer, -O1 -g1, no MPI),
 #                         only the tests labelled "tsan" in test/CMakeLists.txt
 #   fuzz     build-fuzz/  libFuzzer + ASan/UBSan (clang-14) on every file reader
@@ -56,14 +56,12 @@ asan() {
   export LSAN_OPTIONS=suppressions=$PWD/test/sanitizers/lsan.supp:print_suppressions=0
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   # No MPI: its tests run only in the release stage (test/CMakeLists.txt), so its units
-  # would be compiled for nothing. clang-14, as in the other sanitizer stages: it compiles
-  # the Eigen/PCL-heavy units about three times faster than GCC (the release stage is GCC's).
-  export CC=clang-14 CXX=clang++-14
+  # would be compiled for nothing.
   stage asan-build cmake_build build-asan -DCMAKE_BUILD_TYPE=Debug \
     -DPCL_PARALLEL_SANITIZE=address,undefined -DPCL_PARALLEL_BUILD_APPS=OFF \
     -DPCL_PARALLEL_WITH_MPI=OFF
   stage asan-ctest ctest --test-dir build-asan --output-on-failure --no-tests=error -j2 -L asan
-  unset ASAN_OPTIONS LSAN_OPTIONS UBSAN_OPTIONS CC CXX
+  unset ASAN_OPTIONS LSAN_OPTIONS UBSAN_OPTIONS
 }
 
 tsan() {
