@@ -7,8 +7,9 @@
 # Stages (each in its own build directory, reused by later runs):
 #   release  build/       Release build of everything; ctest (unit tests + install_consumer)
 #   asan     build-asan/  AddressSanitizer + UndefinedBehaviorSanitizer (GCC, -O1 -g1, no
-#                         MPI), the test suite but MPI's, leaks checked, any UBSan
-#                         finding fails
+#                         MPI), the tests labelled "asan" in test/CMakeLists.txt (all but
+#                         MPI's and the accuracy studies), leaks checked, any UBSan finding
+#                         fails
 #   tsan     build-tsan/  ThreadSanitizer (clang-14, LLVM libomp + Archer, -O1 -g1, no MPI),
 #                         only the tests labelled "tsan" in test/CMakeLists.txt
 #   fuzz     build-fuzz/  libFuzzer + ASan/UBSan (clang-14) on every file reader
@@ -59,7 +60,7 @@ asan() {
   stage asan-build cmake_build build-asan -DCMAKE_BUILD_TYPE=Debug \
     -DPCL_PARALLEL_SANITIZE=address,undefined -DPCL_PARALLEL_BUILD_APPS=OFF \
     -DPCL_PARALLEL_WITH_MPI=OFF
-  stage asan-ctest ctest --test-dir build-asan --output-on-failure --no-tests=error -j2
+  stage asan-ctest ctest --test-dir build-asan --output-on-failure --no-tests=error -j2 -L asan
   unset ASAN_OPTIONS LSAN_OPTIONS UBSAN_OPTIONS
 }
 

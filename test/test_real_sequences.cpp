@@ -7,6 +7,7 @@
  * room with FAST-LIO2's odometry, and an Ouster car drive without any poses. Neither has
  * ground truth; each test asserts what a defect would break and the data can tell.
  */
+#include "car_sequence.h"
 #include "test_data.h"
 
 #include <pcl_parallel/evaluation/trajectory_error.h>
@@ -29,49 +30,7 @@ using slam::Poses;
 
 using test::kSanitized; // fewer scans under a sanitizer
 
-std::string
-binPath(const std::string& dir, std::size_t i)
-{
-  char name[32]; // any size_t's digits and ".bin"
-  std::snprintf(name, sizeof(name), "%06zu.bin", i);
-  return dir + "/" + name;
-}
-
-/** The pipeline with parameters p over scans first..n-1 of DIR/bin, with their odometry
- *  and time stamps if given (and its per-scan reports if asked): the final poses, or with
- * p.close_loops false the front end's alone (`pcl_pslam run --no-loops`). */
-Poses
-mapSequence(const std::string& dir,
-            std::size_t n,
-            const slam::Parameters& p,
-            const Poses* odometry = nullptr,
-            const std::vector<double>* stamps = nullptr,
-            std::vector<slam::ScanReport>* reports = nullptr,
-            std::size_t first = 0)
-{
-  slam::Pipeline pipeline(p);
-  for (std::size_t i = first; i < n; ++i)
-    pipeline.addScan(*io::loadScan(binPath(dir, i)),
-                     odometry ? std::optional<Pose>((*odometry)[i]) : std::nullopt,
-                     stamps ? std::optional<double>((*stamps)[i]) : std::nullopt);
-  pipeline.finish();
-  if (reports)
-    *reports = pipeline.reports();
-  return p.close_loops ? pipeline.poses() : pipeline.frontEndPoses();
-}
-
-/** ... with the default parameters on 2 threads. */
-Poses
-mapSequence(const std::string& dir,
-            std::size_t n,
-            const Poses* odometry = nullptr,
-            bool close_loops = false)
-{
-  slam::Parameters p;
-  p.close_loops = close_loops;
-  p.num_threads = 2;
-  return mapSequence(dir, n, p, odometry);
-}
+using test::mapSequence;
 
 /** fastlio_quick_shack's first n scans mapped from its odometry (the file): the per-step
  *  errors against its optimised poses. */
@@ -174,21 +133,7 @@ TEST(RealSequences, HandheldFrontEndWithoutOdometry)
   EXPECT_EQ(mapSequence(dir, n, p, nullptr, &stamps), poses);
 }
 
-/** The car's steps: the share going forward (along -x) and the path to keyframe 60, the
- *  poses starting at keyframe `first`. */
-std::pair<double, double>
-carProgress(const Poses& poses, std::size_t first = 0)
-{
-  std::size_t forward = 0;
-  double pull_away = 0.0;
-  for (std::size_t i = 1; i < poses.size(); ++i) {
-    const Pose step = poses[i - 1].inverse() * poses[i];
-    forward += step(0, 3) < 0.0 ? 1 : 0;
-    if (first + i <= 60)
-      pull_away += step.topRightCorner<3, 1>().norm();
-  }
-  return {static_cast<double>(forward) / static_cast<double>(poses.size() - 1), pull_away};
-}
+using test::carProgress;
 
 // An Ouster OS1-64 on a car, keyframes 0.4-5.5 s apart, no odometry (the data's poses are
 // unusable, PROVENANCE.txt): from constant velocity alone the front end must follow the
@@ -226,123 +171,79 @@ TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
   EXPECT_GT(end_to_start, 500.0);
 }
 
-/** The front end alone on 2 threads, deskewed by one sweep of sweep_period seconds (0: by
- *  the whole step), as `pcl_pslam run --no-loops --deskew [--sweep-period S]`. */
-slam::Parameters
-deskewedFrontEnd(double sweep_period)
-{
-  slam::Parameters p;
-  p.close_loops = false;
-  p.num_threads = 2;
-  p.deskew = true;
-  p.sweep_period = sweep_period;
-  return p;
-}
-
-/** How far pICP moved the median keyframe from the motion prior (ScanReport::correction,
- *  translation plus rotation at the median range), from the third keyframe on. */
-double
-medianCorrection(const std::vector<slam::ScanReport>& reports)
-{
-  std::vector<double> c;
-  for (std::size_t i = 2; i < reports.size(); ++i)
-    c.push_back(reports[i].correction);
-  std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
-  return c[c.size() / 2];
-}
-
 // The same keyframes with their time stamps (times.txt): 0.4-5.5 s apart, each one raw
 // 10 Hz sweep. Constant velocity per second, not per keyframe, predicts each keyframe
-// where pICP then finds it: median correction 0.42 m from keyframe 0 (0.33-0.44 m from
-// keyframe 25 on, starting at keyframes 0-3), where the prediction per keyframe was 1.28 m
-// off (1.26-1.31). Deskewed by one sweep's share of the step (--deskew --sweep-period 0.1)
-// it stays there; deskewed by the whole step (--deskew alone, right only for consecutive
-// sweeps) the scans are bent and it is 0.87 m. The pull-away (keyframes 1-20, 0.3-5 m/s
-// along a street whose length the scans hardly constrain) is asserted in the next test;
-// over the first 150 keyframes alone that stretch gave a median of 0.61 m, so this test
-// maps all 332. Measured with the speed hypotheses: 0.367 m, by the whole step 0.938 m.
+// where pICP then finds it, where the prediction per keyframe was 1.28 m off (1.26-1.31).
+// Deskewed by one sweep's share of the step (--deskew --sweep-period 0.1) it stays there;
+// deskewed by the whole step (--deskew alone, right only for consecutive sweeps) the
+// scans are bent and it is more than 1.5 times as far. Here the drive from keyframe
+// kCarCruiseFrom on, past the pull-away (keyframes 1-20, 0.3-5 m/s along a street whose
+// length the scans hardly constrain, asserted in the next test); `pcl_parallel_bench
+// real-car` maps all 332 (docs/benchmarks.md, "Real sequences").
+constexpr std::size_t kCarCruiseFrom = 200;
 TEST(RealSequences, CarKeyframesPredictedByTheirTimes)
 {
   PCL_PARALLEL_REQUIRE_DATA(dir, "mulran_riverside02_keyframes/bin");
   PCL_PARALLEL_REQUIRE_DATA(times_file, "mulran_riverside02_keyframes/times.txt");
   if (kSanitized)
-    GTEST_SKIP() << "332 Ouster sweeps: too slow under the sanitizers; test_slam's "
+    GTEST_SKIP() << "Ouster sweeps: too slow under the sanitizers; test_slam's "
                     "ConstantVelocityFollowsTheTimeStamps runs the same code there";
   const std::vector<double> times = io::loadKittiTimes(times_file);
   const std::size_t n = 332;
   ASSERT_EQ(times.size(), n);
-  const auto correction = [&](double sweep_period) {
-    std::vector<slam::ScanReport> reports;
-    EXPECT_EQ(
-        mapSequence(dir, n, deskewedFrontEnd(sweep_period), nullptr, &times, &reports).size(),
-        n);
-    return medianCorrection(reports);
-  };
-  const double one_sweep = correction(0.1), whole_step = correction(0.0);
-  std::printf("mulran keyframes, median correction: deskewed by one sweep %.3f m, by the "
-              "whole step %.3f m\n",
-              one_sweep,
-              whole_step);
-  EXPECT_LT(one_sweep, 0.6);
-  EXPECT_GT(whole_step, 1.5 * one_sweep);
+  const test::CarCorrections c = test::carCorrections(dir, times, n, kCarCruiseFrom);
+  std::printf("mulran keyframes %zu-%zu, median correction: deskewed by one sweep %.3f m, "
+              "by the whole step %.3f m\n",
+              kCarCruiseFrom,
+              n - 1,
+              c.one_sweep,
+              c.whole_step);
+  EXPECT_TRUE(c.complete);
+  EXPECT_LT(c.one_sweep, 0.6);
+  EXPECT_GT(c.whole_step, 1.5 * c.one_sweep);
 }
 
 // The pull-away with the time stamps, deskewed by one sweep (`pcl_pslam run BIN -s S
-// --deskew --sweep-period 0.1 --no-loops`), from start keyframes 0-3. Constant velocity
-// lags the car as it speeds up to ~14 m/s, and along the street a match started metres
-// short converges to a false fit near the previous pose (from 0-2 m short of keyframe
-// 18's 7.2 m step, pICP ends at +0.7 m, fitness 1.15 against 0.73), which then sets the
-// velocity: without the speed hypotheses (FrontEndParameters::speed_hypotheses) 5 of
-// these 12 runs (4 starts, not deskewed / clockwise / counter-clockwise) went the full
-// distance to keyframe 60 (240-320 m) and 7 stalled at 110-180 m. With them all 12 go
-// 297-362 m, and from keyframe 14 on their steps agree (keyframes 20-46: 5-9 m each,
-// where the stalled runs made 0.2-2 m). The paper's scan-to-scan front end (--scan-to-scan)
-// stalled the same way (3 of 8 full, 2 of the 4 deskewed), with them 8 of 8 (286-357 m).
-// 1 and 2 threads: the same poses.
+// --deskew --sweep-period 0.1 --no-loops`). Constant velocity lags the car as it speeds
+// up to ~14 m/s, and along the street a match started metres short converges to a false
+// fit near the previous pose (from 0-2 m short of keyframe 18's 7.2 m step, pICP ends at
+// +0.7 m, fitness 1.15 against 0.73), which then sets the velocity; the speed hypotheses
+// (FrontEndParameters::speed_hypotheses) must catch up with the car, against the local
+// map and scan-to-scan (--scan-to-scan), each from a start keyframe of its own: the path
+// to keyframe 60 over 250 m and every step of keyframes 20-46 over 4 m. 1 and 2 threads:
+// the same poses. `pcl_parallel_bench real-car` runs both from each of keyframes 0-3.
 TEST(RealSequences, CarPullsAwayFromAnyStartKeyframe)
 {
   PCL_PARALLEL_REQUIRE_DATA(dir, "mulran_riverside02_keyframes/bin");
   PCL_PARALLEL_REQUIRE_DATA(times_file, "mulran_riverside02_keyframes/times.txt");
   if (kSanitized)
-    GTEST_SKIP() << "8 x 70 Ouster sweeps: too slow under the sanitizers; the handheld "
+    GTEST_SKIP() << "2 x 70 Ouster sweeps: too slow under the sanitizers; the handheld "
                     "test runs the same code there";
   const std::vector<double> times = io::loadKittiTimes(times_file);
   const std::size_t n = 70;
   ASSERT_GE(times.size(), n);
-  slam::Parameters p = deskewedFrontEnd(0.1);
-  for (const slam::MatchTarget target :
-       {slam::MatchTarget::kLocalMap, slam::MatchTarget::kPreviousScan}) {
+  slam::Parameters p = test::deskewedFrontEnd(0.1);
+  for (const auto& [target, first] :
+       {std::pair{slam::MatchTarget::kLocalMap, std::size_t{0}},
+        std::pair{slam::MatchTarget::kPreviousScan, std::size_t{2}}}) {
     p.match_target = target;
     const char* mode = target == slam::MatchTarget::kLocalMap ? "local map" : "scan-to-scan";
-    for (std::size_t first = 0; first < 4; ++first) {
-      std::vector<slam::ScanReport> reports;
-      const Poses poses = mapSequence(dir, n, p, nullptr, &times, &reports, first);
-      ASSERT_EQ(poses.size(), n - first);
-      const double pull_away = carProgress(poses, first).second;
-      double shortest = 1e9; // step, keyframes 20-46 (0.4-0.6 s apart at ~14 m/s)
-      for (std::size_t k = 20; k < 46; ++k)
-        shortest = std::min(shortest,
-                            (poses[k + 1 - first].topRightCorner<3, 1>() -
-                             poses[k - first].topRightCorner<3, 1>())
-                                .norm());
-      std::printf("mulran, %s, from keyframe %zu: %.0f m to keyframe 60, steps of keyframes "
-                  "20-46 over %.2f m\n",
-                  mode,
-                  first,
-                  pull_away,
-                  shortest);
-      EXPECT_GT(pull_away, 250.0) << mode << " from keyframe " << first;
-      EXPECT_GT(shortest, 4.0) << mode << " from keyframe " << first;
-      // Catching up with the car takes a start ahead of constant velocity.
-      EXPECT_TRUE(std::any_of(reports.begin(),
-                              reports.end(),
-                              [](const slam::ScanReport& r) { return r.start_offset > 0.0; }))
-          << mode << " from keyframe " << first;
-      if (first == 0 && target == slam::MatchTarget::kLocalMap) {
-        p.num_threads = 1;
-        EXPECT_EQ(mapSequence(dir, n, p, nullptr, &times), poses) << "1 thread";
-        p.num_threads = 2;
-      }
+    const test::CarPullAway r = test::carPullAway(dir, times, n, first, p);
+    ASSERT_EQ(r.poses.size(), n - first);
+    std::printf("mulran, %s, from keyframe %zu: %.0f m to keyframe 60, steps of keyframes "
+                "20-46 over %.2f m\n",
+                mode,
+                first,
+                r.pull_away,
+                r.shortest);
+    EXPECT_GT(r.pull_away, 250.0) << mode << " from keyframe " << first;
+    EXPECT_GT(r.shortest, 4.0) << mode << " from keyframe " << first;
+    // Catching up with the car takes a start ahead of constant velocity.
+    EXPECT_TRUE(r.started_ahead) << mode << " from keyframe " << first;
+    if (target == slam::MatchTarget::kLocalMap) {
+      p.num_threads = 1;
+      EXPECT_EQ(mapSequence(dir, n, p, nullptr, &times), r.poses) << "1 thread";
+      p.num_threads = 2;
     }
   }
 }

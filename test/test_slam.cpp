@@ -721,11 +721,11 @@ TEST(Pipeline, PoseSearchMatchesItsCandidatesWithoutAPrior)
 // the corridor crossing (scan 195: 70 degrees and 1 m in one step, a crossing symmetric
 // under 90 degrees) the predicted turn stopped fitted a corridor 90 degrees off, and
 // nothing searched; at scan 429 the search's best candidate turned 160 degrees on the
-// spot. Now no step is off by more than 0.4 m or 1 degree (the corridors' own errors,
-// 0.32-0.39 m at scans 141, 175 and 375; before, 1.39 m and 90 degrees).
+// spot. Now no step is off by more than 0.4 m or 1 degree. Here the first 200 scans (the
+// first stops and the crossing); `pcl_parallel_bench hannover-steps` maps all 468.
 TEST(Pipeline, StopAndGoWithoutPosesThroughCorridorsAndACrossing)
 {
-  const sim::SimulatedScanSet set = presetScans("hannover", test::kSanitized ? 16 : 468);
+  const sim::SimulatedScanSet set = presetScans("hannover", test::kSanitized ? 16 : 200);
   const PipelineRun run = runPipeline(set, frontEndOnly(), false);
   expectStepsNear(run.front_end, set.truth, 0.4, 1.0 * kDeg, "hannover seed 1");
 }

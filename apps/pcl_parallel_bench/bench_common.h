@@ -121,6 +121,9 @@ int
 runLumBunny(const Options& opt);
 int
 runLumScaling(const Options& opt);
+/** test_lum's bunny convergence over several start draws (accuracy; not in all). */
+int
+runLumSeeds(const Options& opt);
 /** pcl::IterativeClosestPoint vs ParallelIterativeClosestPoint (and Open3D if built). */
 int
 runIcp(const Options& opt);
@@ -140,6 +143,13 @@ runMemory(const Options& opt);
  *  on the library's pool and on OpenMP. */
 int
 runContention(const Options& opt);
+
+/** Accuracy studies moved out of ctest (not in all; bench_accuracy.cpp): the front end
+ *  on the real Ouster car drive, and without poses on the whole hannover preset. */
+int
+runRealCar(const Options& opt);
+int
+runHannoverSteps(const Options& opt);
 
 /** voxelCentroid vs pcl::VoxelGrid, voxelNearestToCentroid vs pcl::UniformSampling. */
 int

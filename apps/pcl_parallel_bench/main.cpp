@@ -67,6 +67,8 @@ usage()
       "sim-kitti\n"
       "        memory (not in all: ICP on 20 million points, a few GB)\n"
       "        contention (not in all: 1 vs N threads beside CPU-bound processes it starts)\n"
+      "        accuracy (not in all: the accuracy studies the tests assert parts of, minutes)\n"
+      "        = lum-seeds + real-car + hannover-steps\n"
       "  --data     reference data directory (default: the build's PCL_PARALLEL_DATA_DIR)\n"
       "  --repeats  timed repeats per cell, median reported (default 5)\n"
       "  --threads  thread counts to compare (default: 1 and all cores)\n"
@@ -126,6 +128,7 @@ main(int argc, char** argv)
       {"lum", runLum},
       {"lum-bunny", runLumBunny},
       {"lum-scaling", runLumScaling},
+      {"lum-seeds", runLumSeeds},
       {"icp", runIcp},
       {"pslam-office", [](const Options& o) { return runPslamPreset(o, "office", true); }},
       {"pslam-hannover", [](const Options& o) { return runPslamPreset(o, "hannover", true); }},
@@ -137,7 +140,9 @@ main(int argc, char** argv)
       {"sim-riegl", [](const Options& o) { return runSimPreset(o, "riegl"); }},
       {"sim-kitti", [](const Options& o) { return runSimPreset(o, "kitti"); }},
       {"memory", runMemory},
-      {"contention", runContention}};
+      {"contention", runContention},
+      {"real-car", runRealCar},
+      {"hannover-steps", runHannoverSteps}};
   if (what == "all") {
     int rc = 0;
     for (const auto& b : benches)
@@ -148,6 +153,8 @@ main(int argc, char** argv)
   }
   if (what == "sim")
     return runSim(opt);
+  if (what == "accuracy")
+    return runLumSeeds(opt) | runRealCar(opt) | runHannoverSteps(opt);
   if (what == "pslam") { // every preset, and kitti without odometry
     int rc = 0;
     for (const auto& b : benches)
