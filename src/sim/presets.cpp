@@ -7,6 +7,7 @@
  * scanner models and drifting odometry. docs/design.md ("Simulator") has the layouts.
  */
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/sim/presets.h>
 
 #include <Eigen/Geometry>
@@ -67,10 +68,7 @@ orientedBox(World& w,
             double roll)
 {
   OrientedBox b;
-  b.rotation = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-                Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-                   .toRotationMatrix();
+  b.rotation = eulerZYXToRotation(roll, pitch, yaw);
   b.centre = centre;
   b.half_size = half;
   w.oriented_boxes.push_back(b);

@@ -4,10 +4,11 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
-#include <pcl_parallel/registration/lum_solver.h>
 #include <pcl_parallel/search/kdtree.h>
 #include <pcl_parallel/slam/correlative_search.h>
 #include <pcl_parallel/slam/front_end.h>
@@ -110,7 +111,7 @@ reducedNormals(const KdTreeIndex& tree, std::size_t num_points, unsigned num_thr
   if (tree.empty())
     return normals;
   // pLUM's estimator (the normals go to pLUM too), by tree position: back to point order.
-  const std::vector<Eigen::Vector3f> by_position = lum::estimateNormals(tree, 10, num_threads);
+  const std::vector<Eigen::Vector3f> by_position = estimateUnitNormals(tree, 10, num_threads);
   for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
     normals[tree.id(pos)] = by_position[pos];
   return normals;
@@ -459,7 +460,7 @@ FrontEnd::track(const Cloud& scan,
       // Constant velocity multiplies each pose by a step taken from the two before it,
       // which compounds rounding (mulran, 332 keyframes: |RᵀR - I| grew to 1e-9, faster
       // than linearly), and odometry read from text carries its digits' error.
-      r.pose = lum::orthonormalized(*matched);
+      r.pose = orthonormalized(*matched);
       r.fitness = icp.getFitnessScore(r.gate * r.gate); // squared, as PCL's max_range
       r.information =
           information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
@@ -500,7 +501,7 @@ FrontEnd::track(const Cloud& scan,
 ReducedScan
 FrontEnd::deskewFirstAgain(const Pose& sweep)
 {
-  map_.clear(); // of the first scan alone, at pose_
+  map_.clear();     // of the first scan alone, at pose_
   ReducedScan out = // the first scan, kept again while the second is tracked
       keep(reduce(*first_scan_, first_scan_times_, sweep),
            static_cast<std::uint32_t>(scans_ - 1));
@@ -881,7 +882,7 @@ void
 FrontEnd::applyCorrection(const Pose& correction)
 {
   // The previous scan, kept in its own frame, moves with it.
-  pose_ = lum::orthonormalized(correction * pose_);
+  pose_ = orthonormalized(correction * pose_);
   map_.transform(correction);
 }
 
