@@ -453,33 +453,6 @@ TEST(LumMath, ConstraintKernelJudgedByTheLinkBetweenItsVertices)
   EXPECT_LT((dropped.info - alone.info).norm(), 1e-12 * plain.info.norm());
 }
 
-// Normals of points on a sphere are radial; points on a line get none.
-TEST(LumMath, EstimateNormals)
-{
-  std::vector<float> xyz;
-  std::mt19937 rng(6);
-  std::normal_distribution<float> g;
-  for (int k = 0; k < 5000; ++k) {
-    Eigen::Vector3f p(g(rng), g(rng), g(rng));
-    p.normalize();
-    xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
-  }
-  pcl_parallel::KdTreeIndex tree;
-  tree.build(xyz.data(), 5000, 3);
-  const auto normals = pcl_parallel::estimateUnitNormals(tree, 10, 2);
-  ASSERT_EQ(normals.size(), tree.size());
-  for (std::uint32_t pos = 0; pos < tree.size(); ++pos) {
-    const Eigen::Vector3f p = Eigen::Vector3f::Map(tree.point(pos));
-    EXPECT_GT(std::abs(normals[pos].dot(p)), 0.99f) << pos;
-  }
-  std::vector<float> line;
-  for (int k = 0; k < 50; ++k)
-    line.insert(line.end(), {0.1f * k, 0.2f * k, 0.0f});
-  tree.build(line.data(), 50, 3);
-  for (const Eigen::Vector3f& n : pcl_parallel::estimateUnitNormals(tree, 10, 1))
-    EXPECT_EQ(n, Eigen::Vector3f::Zero());
-}
-
 // ---------------------------------------------------------------------------------------
 // pLUM mode: pairs re-estimated by the k-d trees every iteration.
 struct PlumScene {
