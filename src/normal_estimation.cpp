@@ -7,6 +7,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -47,6 +48,31 @@ estimateNormals(const KdTreeIndex& tree,
         out[a] = static_cast<float>(nrm[a]);
     }
   });
+}
+
+std::vector<Eigen::Vector3f>
+estimateUnitNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
+{
+  const std::size_t n = tree.size();
+  std::vector<Eigen::Vector3f> normals(n, Eigen::Vector3f::Zero());
+  k = std::max<std::size_t>(k, 3);
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+  // A scan's few thousand points over every thread.
+  parallelFor(n, threads, 256, [&](std::size_t first, std::size_t last) {
+    std::vector<std::uint32_t> pos(k);
+    std::vector<float> sqr(k);
+    for (std::size_t i = first; i < last; ++i) {
+      const std::uint32_t p = static_cast<std::uint32_t>(i);
+      const std::size_t got = tree.knn(tree.point(p), k, pos.data(), sqr.data());
+      Eigen::Vector3d normal, ev;
+      // A plane needs two clearly non-zero spreads; the normal's must be the smallest.
+      if (!neighbourhoodNormal(tree, pos.data(), got, tree.point(p), normal, ev) ||
+          !(ev(1) > 1e-6 * ev(2)))
+        continue;
+      normals[i] = normal.normalized().cast<float>();
+    }
+  });
+  return normals;
 }
 
 bool

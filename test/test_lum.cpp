@@ -9,9 +9,9 @@
 #include "synthetic_graph.h"
 #include "test_data.h"
 
-#include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/io/stanford.h>
-#include <pcl_parallel/registration/loop_detection.h>
+#include <pcl_parallel/normal_estimation.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/lum.h>
 
 #include <pcl/common/transforms.h>
@@ -64,7 +64,7 @@ poseErrors(const Poses& a, const Poses& b)
 {
   Errors e;
   for (std::size_t v = 1; v < a.size(); ++v) {
-    const auto [r, t] = pcl_parallel::evaluation::poseError(a[v], b[v]);
+    const auto [r, t] = pcl_parallel::poseError(a[v], b[v]);
     e.max_rot = std::max(e.max_rot, r);
     e.max_trans = std::max(e.max_trans, t);
     e.mean_rot += r / static_cast<double>(a.size() - 1);
@@ -76,7 +76,18 @@ poseErrors(const Poses& a, const Poses& b)
 Eigen::Vector6f
 toPclPose(const Eigen::Matrix4d& m)
 {
-  return pcl_parallel::lum::matrixToPose(m);
+  return pcl_parallel::matrixToPose(m);
+}
+
+/** Links between every pair of n scans, (i, j) with i < j, sorted. */
+std::vector<std::pair<std::uint32_t, std::uint32_t>>
+allPairs(std::size_t n)
+{
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> links;
+  for (std::uint32_t i = 0; i < n; ++i)
+    for (std::uint32_t j = i + 1; j < n; ++j)
+      links.emplace_back(i, j);
+  return links;
 }
 
 using pcl_parallel::test::makeGraph;
@@ -166,7 +177,7 @@ TYPED_TEST(LumApiTest, SameCodeCompilesAndRecoversTruth)
   EXPECT_LT(e.max_rot, 0.05 * kDeg);
   EXPECT_LT(e.max_trans, 1e-3);
   const Eigen::Matrix4f from_pose =
-      pcl_parallel::lum::poseToMatrix(lum.getPose(3)).template cast<float>();
+      pcl_parallel::poseToMatrix(lum.getPose(3)).template cast<float>();
   EXPECT_TRUE(lum.getTransformation(3).matrix().isApprox(from_pose, 1e-4f));
   const typename Lum::PointCloudPtr moved = lum.getTransformedCloud(1);
   ASSERT_EQ(moved->size(), sg.clouds[1]->size());
@@ -307,8 +318,8 @@ TEST_F(QuietPcl, GimbalLockPosesConverge)
   EXPECT_LT(e.max_trans, 0.5e-3);
   // The 6-vector boundary stays consistent at the lock: it maps back to the same matrix.
   for (std::size_t v = 1; v < truth.size(); ++v) {
-    double r, t;
-    pcl_parallel::lum::poseError(pcl_parallel::lum::poseToMatrix(lum.getPose(v)), got[v], r, t);
+    const auto [r, t] =
+        pcl_parallel::poseError(pcl_parallel::poseToMatrix(lum.getPose(v)), got[v]);
     EXPECT_LT(r, 1e-5) << "vertex " << v;
     EXPECT_LT(t, 1e-6) << "vertex " << v;
   }
@@ -318,9 +329,9 @@ TEST(LumMath, PoseRoundTripAtAnyPitch)
 {
   for (double pitch : {-M_PI / 2, -1.2, 0.0, 0.7, M_PI / 2 - 1e-7, M_PI / 2}) {
     const Eigen::Matrix4d m = makePose(0.1, -0.2, 0.3, 0.4, pitch, -1.1);
-    double r, t;
-    pcl_parallel::lum::poseError(
-        pcl_parallel::lum::poseToMatrix(pcl_parallel::lum::matrixToPose(m)), m, r, t);
+    const double r =
+        pcl_parallel::poseError(pcl_parallel::poseToMatrix(pcl_parallel::matrixToPose(m)), m)
+            .angle;
     EXPECT_LT(r, 1e-6) << "pitch " << pitch;
   }
 }
@@ -442,33 +453,6 @@ TEST(LumMath, ConstraintKernelJudgedByTheLinkBetweenItsVertices)
   EXPECT_LT((dropped.info - alone.info).norm(), 1e-12 * plain.info.norm());
 }
 
-// Normals of points on a sphere are radial; points on a line get none.
-TEST(LumMath, EstimateNormals)
-{
-  std::vector<float> xyz;
-  std::mt19937 rng(6);
-  std::normal_distribution<float> g;
-  for (int k = 0; k < 5000; ++k) {
-    Eigen::Vector3f p(g(rng), g(rng), g(rng));
-    p.normalize();
-    xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
-  }
-  pcl_parallel::KdTreeIndex tree;
-  tree.build(xyz.data(), 5000, 3);
-  const auto normals = pcl_parallel::lum::estimateNormals(tree, 10, 2);
-  ASSERT_EQ(normals.size(), tree.size());
-  for (std::uint32_t pos = 0; pos < tree.size(); ++pos) {
-    const Eigen::Vector3f p = Eigen::Vector3f::Map(tree.point(pos));
-    EXPECT_GT(std::abs(normals[pos].dot(p)), 0.99f) << pos;
-  }
-  std::vector<float> line;
-  for (int k = 0; k < 50; ++k)
-    line.insert(line.end(), {0.1f * k, 0.2f * k, 0.0f});
-  tree.build(line.data(), 50, 3);
-  for (const Eigen::Vector3f& n : pcl_parallel::lum::estimateNormals(tree, 10, 1))
-    EXPECT_EQ(n, Eigen::Vector3f::Zero());
-}
-
 // ---------------------------------------------------------------------------------------
 // pLUM mode: pairs re-estimated by the k-d trees every iteration.
 struct PlumScene {
@@ -537,7 +521,7 @@ TEST_F(QuietPcl, PlumRecoversTruthIncludingGimbalLock)
                        makePose(0.0, 0.1, -0.1, 0.5, -M_PI / 2, 2.9)};
   const PlumScene s = plumScene(truth, 31);
   const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 32);
-  const auto links = pcl_parallel::detectLinksByDistance(truth, 1.0, 2);
+  const auto links = allPairs(truth.size());
   ASSERT_EQ(links.size(), 10u); // all pairs of 5 close scans
   const Poses got = runPlum(s, start, links, 2, 10);
   const Errors e = poseErrors(got, truth);
@@ -553,7 +537,7 @@ TEST_F(QuietPcl, PlumIsIdenticalForOneAndTwoThreads)
                        makePose(0.1, -0.1, 0.05, -1.0, 0.3, -2.5)};
   const PlumScene s = plumScene(truth, 41);
   const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 42);
-  const auto links = pcl_parallel::detectLinksByDistance(truth, 1.0, 2);
+  const auto links = allPairs(truth.size());
   const Poses one = runPlum(s, start, links, 1, 3);
   const Poses two = runPlum(s, start, links, 2, 3);
   for (std::size_t v = 0; v < one.size(); ++v)
@@ -573,7 +557,7 @@ TEST_F(QuietPcl, PlumBidirectionalAndDuplicateLinksAreDeterministic)
                        makePose(0.1, -0.1, 0.05, -1.0, 0.3, -2.5)};
   const PlumScene s = plumScene(truth, 51);
   const Poses start = perturbAll(truth, 2.0 * kDeg, 0.003, 52);
-  const auto plain = pcl_parallel::detectLinksByDistance(truth, 1.0, 2);
+  const auto plain = allPairs(truth.size());
   auto both = plain;
   for (const auto& [i, j] : plain)
     both.emplace_back(j, i); // every link reversed
@@ -659,7 +643,7 @@ TEST_F(QuietPcl, PlumTakesGivenNormals)
       if (mode == Normals::kGiven) {
         const pcl_parallel::KdTreeIndex& tree =
             *lum.getSearchTree(v); // its normals: by tree position
-        const auto by_position = pcl_parallel::lum::estimateNormals(tree, 10, 1);
+        const auto by_position = pcl_parallel::estimateUnitNormals(tree, 10, 1);
         for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
           given[tree.id(pos)] = by_position[pos];
       }
@@ -702,7 +686,7 @@ TEST_F(QuietPcl, PlumTakesGivenTrees)
       const pcl::PointCloud<pcl::PointXYZ>& c = *s.clouds[v];
       auto tree = std::make_shared<pcl_parallel::KdTreeIndex>();
       tree->build(c.front().data, c.size(), 4, nullptr, 2);
-      const auto by_position = pcl_parallel::lum::estimateNormals(*tree, 10, 2);
+      const auto by_position = pcl_parallel::estimateUnitNormals(*tree, 10, 2);
       std::vector<Eigen::Vector3f> normals(c.size());
       for (std::uint32_t pos = 0; pos < tree->size(); ++pos)
         normals[tree->id(pos)] = by_position[pos];
@@ -851,32 +835,10 @@ TEST_F(QuietPcl, LoopOf200PosesCloses)
   EXPECT_GT(var100, 10.0 * var1);
   EXPECT_TRUE(lum.getPoseCovariance(0).isZero());
   // The closure itself: the last pose is where it should be relative to the first.
-  double r, t;
-  pcl_parallel::lum::poseError(
-      got[0].inverse() * got[n - 1], truth[0].inverse() * truth[n - 1], r, t);
+  const double t =
+      pcl_parallel::poseError(got[0].inverse() * got[n - 1], truth[0].inverse() * truth[n - 1])
+          .distance;
   EXPECT_LT(t, 0.01);
-}
-
-TEST(LoopDetection, ChainPlusCloseNonConsecutivePairs)
-{
-  // A square loop: 0..7 around, 8 back near 0.
-  Poses p;
-  const double xy[9][2] = {
-      {0, 0}, {1, 0}, {2, 0}, {2, 1}, {2, 2}, {1, 2}, {0, 2}, {0, 1}, {0, 0.1}};
-  for (const auto& c : xy)
-    p.push_back(makePose(c[0], c[1], 0, 0, 0, 0));
-  const auto links = pcl_parallel::detectLinksByDistance(p, 0.5, 3);
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> expect;
-  for (std::uint32_t i = 0; i + 1 < 9; ++i)
-    expect.emplace_back(i, i + 1);
-  expect.emplace_back(0, 8); // closer than 0.5 and 8 apart
-  std::sort(expect.begin(), expect.end());
-  EXPECT_EQ(links, expect);
-  // loopsize larger than the gap suppresses it; cldist 0 gives the chain.
-  EXPECT_EQ(pcl_parallel::detectLinksByDistance(p, 0.5, 9).size(), 8u);
-  EXPECT_EQ(pcl_parallel::detectLinksByDistance(p, 0.0, 3).size(), 8u);
-  // cldist 1.5: (0,7), (0,8), (1,7) at 1.41 and (1,8) at 1.35 as well.
-  EXPECT_EQ(pcl_parallel::detectLinksByDistance(p, 1.5, 3).size(), 8u + 4u);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1205,10 +1167,9 @@ TEST_F(QuietPcl, TwoScanPlumFollowsPclIcp)
   Cloud aligned;
   icp.align(aligned, start.cast<float>());
 
-  double r, t, r0, t0;
-  pcl_parallel::lum::poseError(
-      lum.getPoseMatrix(1), icp.getFinalTransformation().cast<double>(), r, t);
-  pcl_parallel::lum::poseError(start, b.truth[1], r0, t0);
+  const auto [r, t] = pcl_parallel::poseError(lum.getPoseMatrix(1),
+                                              icp.getFinalTransformation().cast<double>());
+  const auto [r0, t0] = pcl_parallel::poseError(start, b.truth[1]);
   std::printf(
       "pLUM vs PCL ICP after %d iterations: %.4f deg %.4f mm\n", iterations, r / kDeg, t * 1e3);
   EXPECT_LT(r, 0.05 * r0);
@@ -1242,25 +1203,28 @@ TEST_F(QuietPcl, LinkIterationsMatchOuterIterations)
     lum.compute();
     return lum.getPoseMatrix(1);
   };
-  double r0, t0, r, t;
   const Eigen::Matrix4d ten_outer = run(10, 1, false);
-  pcl_parallel::lum::poseError(start, ten_outer, r0, t0);
-  pcl_parallel::lum::poseError(run(1, 10, false), ten_outer, r, t);
+  const auto [r0, t0] = pcl_parallel::poseError(start, ten_outer);
+  pcl_parallel::PoseError e = pcl_parallel::poseError(run(1, 10, false), ten_outer);
   std::printf("start %.3f deg %.3f mm; 1 x 10 steps: %.2e deg %.2e mm apart\n",
               r0 / kDeg,
               t0 * 1e3,
-              r / kDeg,
-              t * 1e3);
-  EXPECT_LT(r, 1e-4 * r0);
-  EXPECT_LT(t, 1e-4 * t0);
-  pcl_parallel::lum::poseError(run(1, 10, true), ten_outer, r, t);
-  std::printf("reversed link, 1 x 10 steps: %.2e deg %.2e mm apart\n", r / kDeg, t * 1e3);
-  EXPECT_LT(r, 1e-4 * r0);
-  EXPECT_LT(t, 0.05 * t0);
-  pcl_parallel::lum::poseError(run(2, 10, true), run(11, 1, false), r, t);
-  std::printf("reversed link, 2 x 10 steps: %.2e deg %.2e mm apart\n", r / kDeg, t * 1e3);
-  EXPECT_LT(r, 1e-4 * r0);
-  EXPECT_LT(t, 1e-4 * t0);
+              e.angle / kDeg,
+              e.distance * 1e3);
+  EXPECT_LT(e.angle, 1e-4 * r0);
+  EXPECT_LT(e.distance, 1e-4 * t0);
+  e = pcl_parallel::poseError(run(1, 10, true), ten_outer);
+  std::printf("reversed link, 1 x 10 steps: %.2e deg %.2e mm apart\n",
+              e.angle / kDeg,
+              e.distance * 1e3);
+  EXPECT_LT(e.angle, 1e-4 * r0);
+  EXPECT_LT(e.distance, 0.05 * t0);
+  e = pcl_parallel::poseError(run(2, 10, true), run(11, 1, false));
+  std::printf("reversed link, 2 x 10 steps: %.2e deg %.2e mm apart\n",
+              e.angle / kDeg,
+              e.distance * 1e3);
+  EXPECT_LT(e.angle, 1e-4 * r0);
+  EXPECT_LT(e.distance, 1e-4 * t0);
 }
 
 } // namespace
@@ -1289,8 +1253,7 @@ TEST_F(QuietPcl, PoseConstraintsAloneGiveTheirChain)
   lum.setMaxIterations(10);
   lum.compute();
   for (std::size_t v = 1; v < truth.size(); ++v) {
-    double angle, dist;
-    pcl_parallel::lum::poseError(lum.getPoseMatrix(v), truth[v], angle, dist);
+    const auto [angle, dist] = pcl_parallel::poseError(lum.getPoseMatrix(v), truth[v]);
     EXPECT_LT(angle, 1e-9) << v;
     EXPECT_LT(dist, 1e-8) << v;
   }
@@ -1375,9 +1338,7 @@ TEST_F(QuietPcl, ContradictedPoseConstraintYieldsUnderCauchy)
     for (std::size_t k = 0; k < lum.getNumPoseConstraints(); ++k)
       chi2.push_back(lum.getPoseConstraintChi2(k));
     EXPECT_THROW(lum.getPoseConstraintChi2(lum.getNumPoseConstraints()), std::out_of_range);
-    double angle, dist;
-    pcl_parallel::lum::poseError(lum.getPoseMatrix(2), truth[2], angle, dist);
-    return dist;
+    return pcl_parallel::poseError(lum.getPoseMatrix(2), truth[2]).distance;
   };
   const double plain = run(true, 0.0), cauchy = run(true, 16.8);
   ASSERT_EQ(chi2.size(), 4u);

@@ -3,7 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  *
  * estimateNormals against pcl::NormalEstimation (same k, same viewpoint) and across
- * thread counts.
+ * thread counts; estimateUnitNormals (pLUM's) on a sphere and a line.
  */
 #include "random_clouds.h"
 #include "test_data.h"
@@ -14,9 +14,12 @@
 
 #include <pcl/features/normal_3d.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <cstring>
 #include <gtest/gtest.h>
+#include <random>
 
 namespace {
 
@@ -100,6 +103,33 @@ TEST(EstimateNormals, PlanesThreadsAndDegenerateInput)
   pcl_parallel::estimateNormals(tree.index(), 10, 0, n1);
   for (float v : n1)
     EXPECT_TRUE(std::isnan(v));
+}
+
+// pLUM's unit normals: radial for points on a sphere; none for points on a line.
+TEST(EstimateUnitNormals, RadialOnASphereNoneOnALine)
+{
+  std::vector<float> xyz;
+  std::mt19937 rng(6);
+  std::normal_distribution<float> g;
+  for (int k = 0; k < 5000; ++k) {
+    Eigen::Vector3f p(g(rng), g(rng), g(rng));
+    p.normalize();
+    xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+  }
+  pcl_parallel::KdTreeIndex tree;
+  tree.build(xyz.data(), 5000, 3);
+  const auto normals = pcl_parallel::estimateUnitNormals(tree, 10, 2);
+  ASSERT_EQ(normals.size(), tree.size());
+  for (std::uint32_t pos = 0; pos < tree.size(); ++pos) {
+    const Eigen::Vector3f p = Eigen::Vector3f::Map(tree.point(pos));
+    EXPECT_GT(std::abs(normals[pos].dot(p)), 0.99f) << pos;
+  }
+  std::vector<float> line;
+  for (int k = 0; k < 50; ++k)
+    line.insert(line.end(), {0.1f * k, 0.2f * k, 0.0f});
+  tree.build(line.data(), 50, 3);
+  for (const Eigen::Vector3f& n : pcl_parallel::estimateUnitNormals(tree, 10, 1))
+    EXPECT_EQ(n, Eigen::Vector3f::Zero());
 }
 
 } // namespace

@@ -11,6 +11,7 @@
 
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/slam/deskewer.h>
 #include <pcl_parallel/slam/matcher.h>
 #include <pcl_parallel/slam/motion_model.h>
@@ -40,15 +41,6 @@ makePose(double yaw, double x, double y, double z = 0.0)
   p.topLeftCorner<3, 3>() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   p.topRightCorner<3, 1>() = Eigen::Vector3d(x, y, z);
   return p;
-}
-
-/** The translation error (m) and rotation error (rad) between two poses. */
-std::pair<double, double>
-poseError(const Pose& a, const Pose& b)
-{
-  const Pose d = a.inverse() * b;
-  return {d.topRightCorner<3, 1>().norm(),
-          Eigen::AngleAxisd(Eigen::Matrix3d(d.topLeftCorner<3, 3>())).angle()};
 }
 
 /** The test room (random_clouds.h) around a scanner near its middle. */
@@ -231,9 +223,9 @@ expectMatch(slam::MatchTarget target)
   const auto matched =
       matcher.match(source, Pose::Identity(), Pose::Identity(), Pose::Identity());
   ASSERT_TRUE(matched);
-  const auto [t, r] = poseError(*matched, truth);
-  EXPECT_LT(t, 0.01);
-  EXPECT_LT(r, 0.2 * kDeg);
+  const PoseError e = poseError(*matched, truth);
+  EXPECT_LT(e.distance, 0.01);
+  EXPECT_LT(e.angle, 0.2 * kDeg);
   slam::ScanRecord record;
   record.pose = *matched;
   record.report.gate = matcher.gate();
@@ -291,9 +283,9 @@ TEST(PoseGuess, FindsATurnNothingPredicted)
   // its box has no such symmetry, so only the search's heading can explain the scan.
   const auto [start, r] = guessTurn(60 * kDeg, false);
   EXPECT_TRUE(r.report.pose_searched);
-  const auto [t, rot] = poseError(start, makePose(60 * kDeg, 0.3, 0.2));
-  EXPECT_LT(t, 0.03);
-  EXPECT_LT(rot, 1.0 * kDeg);
+  const PoseError e = poseError(start, makePose(60 * kDeg, 0.3, 0.2));
+  EXPECT_LT(e.distance, 0.03);
+  EXPECT_LT(e.angle, 1.0 * kDeg);
   EXPECT_NEAR(r.report.start_heading, 60 * kDeg, 10 * kDeg);
 }
 

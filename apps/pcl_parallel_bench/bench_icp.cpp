@@ -19,6 +19,7 @@
 #include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/icp.h>
 
 #include <pcl/common/io.h>
@@ -65,9 +66,7 @@ std::string
 versus(const Eigen::Matrix4f& pcl_result, const Eigen::Matrix4f& ours)
 {
   const Eigen::Matrix4f d = pcl_result.inverse() * ours;
-  const Eigen::Vector3f w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
-  const double deg =
-      std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0)) * 180.0 / M_PI;
+  const double deg = rotationAngle(d.topLeftCorner<3, 3>().cast<double>()) * 180.0 / M_PI;
   return fmt(
       " (vs PCL: %.4f deg, %.2g)", deg, static_cast<double>(d.topRightCorner<3, 1>().norm()));
 }

@@ -14,10 +14,10 @@
 #include "bench_common.h"
 #include "synthetic_graph.h"
 
-#include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/io/stanford.h>
-#include <pcl_parallel/registration/loop_detection.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/lum.h>
+#include <pcl_parallel/slam/loop_closure.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/registration/correspondence_estimation.h>
@@ -46,7 +46,7 @@ maxError(const Poses& a, const Poses& b, double& rot, double& trans)
 {
   rot = trans = 0.0;
   for (std::size_t v = 1; v < a.size(); ++v) {
-    const auto [r, t] = evaluation::poseError(a[v], b[v]);
+    const auto [r, t] = poseError(a[v], b[v]);
     rot = std::max(rot, r);
     trans = std::max(trans, t);
   }
@@ -62,7 +62,7 @@ pclOneIteration(const std::vector<Cloud::Ptr>& clouds,
   return seconds([&]() {
     pcl::registration::LUM<pcl::PointXYZ> lum;
     for (std::size_t v = 0; v < clouds.size(); ++v)
-      lum.addPointCloud(clouds[v], lum::matrixToPose(poses[v]));
+      lum.addPointCloud(clouds[v], matrixToPose(poses[v]));
     std::vector<Cloud::Ptr> moved;
     for (std::size_t v = 0; v < clouds.size(); ++v)
       moved.push_back(lum.getTransformedCloud(v));
@@ -223,7 +223,7 @@ runBunny(const Options& opt)
         sub.back()->push_back((*c)[k]);
     }
     for (std::size_t v = 0; v < clouds.size(); ++v)
-      lum.addPointCloud(sub[v], lum::matrixToPose(start[v]));
+      lum.addPointCloud(sub[v], matrixToPose(start[v]));
     lum.setMaxIterations(1);
     double peak = 0.0;
     const double s = seconds([&]() {
@@ -301,8 +301,25 @@ runBunny(const Options& opt)
   return 0;
 }
 
+/** Chain links plus the pipeline's loop links (slam::loopCandidates, paper Sec. VI-C: closer
+ *  than `distance`, at least `min_separation` apart, after a path of 2 x `distance` by
+ *  translation alone), as (i, j) with i < j, sorted. */
+std::vector<std::pair<std::uint32_t, std::uint32_t>>
+chainAndLoopLinks(const Poses& poses, double distance, int min_separation)
+{
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> links;
+  for (std::size_t j = 1; j < poses.size(); ++j) {
+    const auto to = static_cast<std::uint32_t>(j);
+    links.emplace_back(to - 1, to);
+    for (const std::uint32_t i : slam::loopCandidates(poses, j, distance, min_separation, 0.0))
+      links.emplace_back(i, to);
+  }
+  std::sort(links.begin(), links.end());
+  return links;
+}
+
 /** Two laps of a circle (radius 20 m, or `radius`) at heights 0 and 1 m: chain links
- *  plus loop links between the laps (poses closer than 1.5 m, >= 10 apart), 20 exact
+ *  plus loop links between the laps (chainAndLoopLinks: 1.5 m, >= 10 apart), 20 exact
  *  pairs per link with 1 mm noise. Start poses: truth with 1 deg / 0.1 m noise. At 20 m
  *  and 2000 poses the laps link every pose to ~20 others (a dense revisit); with the
  *  radius grown to keep poses 1 m apart, ~3 links a pose (a survey's sparse loops). */
@@ -329,7 +346,7 @@ scalingGraph(int n, double radius = 20.0)
   for (int i = 1; i < n; ++i)
     g.start[i] = perturb(g.truth[i], 1.0 * kDeg, 0.1, rng);
   test::SyntheticGraph sg =
-      test::makeGraph(g.truth, detectLinksByDistance(g.truth, 1.5, 10), 20, 2.0, 0.001, rng);
+      test::makeGraph(g.truth, chainAndLoopLinks(g.truth, 1.5, 10), 20, 2.0, 0.001, rng);
   g.clouds = std::move(sg.clouds);
   g.links = std::move(sg.links);
   return g;
@@ -339,8 +356,8 @@ int
 runScaling(const Options& opt)
 {
   std::printf("### LUM: solve-step scaling (synthetic graphs)\n\n");
-  std::printf("Two laps of a circle, chain + loop links (detectLinksByDistance, cldist 1.5 m, "
-              "loopsize 10), 20 fixed pairs per link, one iteration of compute() (fixed "
+  std::printf("Two laps of a circle, chain + loop links (slam::loopCandidates, 1.5 m, "
+              "10 scans apart), 20 fixed pairs per link, one iteration of compute() (fixed "
               "correspondences: linearisation + assembly + solve). PCL: LUM::compute, dense "
               "6(n-1) x 6(n-1) float system, column-pivoting QR; one run, skipped where "
               "it would take more than a minute (O(n^3) extrapolation from the smaller "
@@ -373,7 +390,7 @@ runScaling(const Options& opt)
       pcl_s = seconds([&]() {
         pcl::registration::LUM<pcl::PointXYZ> lum;
         for (int v = 0; v < n; ++v)
-          lum.addPointCloud(g.clouds[v], lum::matrixToPose(g.start[v]));
+          lum.addPointCloud(g.clouds[v], matrixToPose(g.start[v]));
         for (const auto& [i, j, corrs] : g.links)
           lum.setCorrespondences(i, j, corrs);
         lum.setMaxIterations(1);

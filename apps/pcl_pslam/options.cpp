@@ -40,7 +40,7 @@ struct Descriptions {
 
   explicit Descriptions(Options& o)
   {
-    const Parameters d;
+    const pcl_parallel::slam::Parameters d;
     auto text = [](const std::string& s) { return s; };
     // clang-format off
     input.add_options()

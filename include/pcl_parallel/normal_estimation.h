@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -28,6 +29,14 @@ estimateNormals(const KdTreeIndex& tree,
                 unsigned num_threads,
                 std::vector<float>& normals,
                 const float viewpoint[3] = nullptr);
+
+/** Unit surface normals of a tree's points, indexed by tree position (KdTreeIndex::
+ *  point()): the direction of least variance of each point's k nearest neighbours
+ *  (itself included), in the tree's frame, unoriented (pLUM's point-to-plane weights).
+ *  Zero where the neighbourhood does not define a plane (fewer than 3 distinct points, or
+ *  collinear ones). Parallel over points. */
+std::vector<Eigen::Vector3f>
+estimateUnitNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads);
 
 /**
  * \brief PCA of one neighbourhood, the step every normal estimate here shares: the

@@ -12,23 +12,6 @@
 namespace pcl_parallel {
 namespace evaluation {
 
-double
-rotationAngle(const Eigen::Matrix3d& r)
-{
-  // 2 sin(θ) is the norm of the skew part, 2 cos(θ) + 1 the trace (Rodrigues).
-  const Eigen::Vector3d w(r(2, 1) - r(1, 2), r(0, 2) - r(2, 0), r(1, 0) - r(0, 1));
-  return std::atan2(0.5 * w.norm(), 0.5 * (r.trace() - 1.0));
-}
-
-PoseError
-poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
-{
-  PoseError e;
-  e.angle = rotationAngle(a.topLeftCorner<3, 3>().transpose() * b.topLeftCorner<3, 3>());
-  e.distance = (a.topRightCorner<3, 1>() - b.topRightCorner<3, 1>()).norm();
-  return e;
-}
-
 Statistics
 computeStatistics(std::vector<double> values)
 {

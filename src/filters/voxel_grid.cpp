@@ -131,20 +131,24 @@ struct VoxelRuns {
   std::vector<std::uint32_t> runs;
 };
 
-VoxelRuns
-groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const char* who)
+/** Per point, its integer voxel coordinates (g.keys, where `valid`), and over all points
+ *  the coordinates' bounds and each block's first slot among the finite points (back():
+ *  their count). Throws where a point lies beyond int32 voxels. */
+struct KeyRange {
+  std::int64_t lo[3], hi[3];
+  std::vector<std::size_t> first;
+};
+
+KeyRange
+voxelKeys(const Cloud& cloud,
+          double voxel_size,
+          const Blocks& blocks,
+          VoxelRuns& g,
+          detail::UninitializedVector<char>& valid,
+          const char* who)
 {
-  if (cloud.size() >= std::numeric_limits<std::uint32_t>::max())
-    throw std::invalid_argument(std::string(who) + ": 2^32 points or more");
-  const std::int64_t n = static_cast<std::int64_t>(cloud.size());
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-  const Blocks blocks{n, threads > 1 && n >= kParallelPoints ? static_cast<int>(threads) : 1};
   const double inv = 1.0 / voxel_size;
   constexpr double limit = 2147483647.0;
-  VoxelRuns g;
-  // Per-point buffers are written in the parallel passes, not zeroed here (serially).
-  g.keys.resize(cloud.size());
-  detail::UninitializedVector<char> valid(cloud.size());
   // Per block: its keys, their exact integer bounds and its count of finite points.
   struct Bounds {
     std::int64_t lo[3], hi[3];
@@ -177,33 +181,46 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
     }
     bounds[t] = b;
   });
-  std::int64_t lo[3], hi[3];
-  std::fill(lo, lo + 3, std::numeric_limits<std::int64_t>::max());
-  std::fill(hi, hi + 3, std::numeric_limits<std::int64_t>::min());
-  std::vector<std::size_t> first(bounds.size() + 1, 0); // each block's first keyed slot
+  KeyRange r;
+  std::fill(r.lo, r.lo + 3, std::numeric_limits<std::int64_t>::max());
+  std::fill(r.hi, r.hi + 3, std::numeric_limits<std::int64_t>::min());
+  r.first.assign(bounds.size() + 1, 0);
   for (std::size_t t = 0; t < bounds.size(); ++t) {
     if (bounds[t].too_far)
       throw std::invalid_argument(std::string(who) +
                                   ": a point lies more than 2^31 voxels of " +
                                   std::to_string(voxel_size) + " from the origin");
     for (int a = 0; a < 3; ++a)
-      lo[a] = std::min(lo[a], bounds[t].lo[a]), hi[a] = std::max(hi[a], bounds[t].hi[a]);
-    first[t + 1] = first[t] + bounds[t].finite;
+      r.lo[a] = std::min(r.lo[a], bounds[t].lo[a]),
+      r.hi[a] = std::max(r.hi[a], bounds[t].hi[a]);
+    r.first[t + 1] = r.first[t] + bounds[t].finite;
   }
+  return r;
+}
+
+/** The finite points as (key, index), sorted by voxel and, within one, by index. `bits`
+ *  (out): the key's width; above 64 the keys hold (x, y) alone and z is compared apart. */
+detail::UninitializedVector<Keyed>
+sortedByVoxel(const VoxelRuns& g,
+              const KeyRange& r,
+              const Blocks& blocks,
+              const detail::UninitializedVector<char>& valid,
+              int& bits)
+{
   auto offset = [&](std::uint32_t i, int a) {
-    return static_cast<std::uint64_t>(g.keys[i][a] - lo[a]);
+    return static_cast<std::uint64_t>(g.keys[i][a] - r.lo[a]);
   };
   // Each axis gets the bits its extent needs: 64 hold any extent below 2^21 voxels an
   // axis (200 km at 10 cm); wider clouds sort twice, by z and then by (x, y).
   int width[3];
   for (int a = 0; a < 3; ++a)
-    width[a] = hi[a] >= lo[a] ? bitWidth(static_cast<std::uint64_t>(hi[a] - lo[a])) : 0;
-  const int bits = width[0] + width[1] + width[2];
+    width[a] = r.hi[a] >= r.lo[a] ? bitWidth(static_cast<std::uint64_t>(r.hi[a] - r.lo[a])) : 0;
+  bits = width[0] + width[1] + width[2];
   // (A shift by 64 would be undefined; x's width is 0 then, so x adds nothing.)
   const int shift_x = width[1] + width[2];
-  detail::UninitializedVector<Keyed> keyed(first.back());
+  detail::UninitializedVector<Keyed> keyed(r.first.back());
   forEachBlock(blocks.count, [&](int t) {
-    std::size_t j = first[t];
+    std::size_t j = r.first[t];
     for (std::int64_t i = blocks.begin(t), end = blocks.begin(t + 1); i < end; ++i)
       if (valid[i]) {
         const auto k = static_cast<std::uint32_t>(i);
@@ -213,7 +230,6 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
       }
   });
   radixSort(keyed, bits <= 64 ? bits : width[2], static_cast<unsigned>(blocks.count));
-  const std::int64_t m = static_cast<std::int64_t>(keyed.size());
   if (bits > 64) {
     const auto threads = static_cast<unsigned>(blocks.count);
     parallelFor(keyed.size(),
@@ -226,12 +242,19 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
                 });
     radixSort(keyed, 64, static_cast<unsigned>(blocks.count));
   }
-  // A voxel starts where the key changes; block by block, then gathered in order.
+  return keyed;
+}
+
+/** g.order and g.runs from the sorted keys: a voxel starts where the key changes; block by
+ *  block, then gathered in order. */
+void
+collectRuns(const detail::UninitializedVector<Keyed>& keyed, int bits, int blocks, VoxelRuns& g)
+{
   const auto starts = [&](std::int64_t j) {
     return j == 0 || keyed[j].key != keyed[j - 1].key ||
            (bits > 64 && g.keys[keyed[j].index][2] != g.keys[keyed[j - 1].index][2]);
   };
-  const Blocks sorted{m, blocks.count};
+  const Blocks sorted{static_cast<std::int64_t>(keyed.size()), blocks};
   std::vector<std::vector<std::uint32_t>> runs(static_cast<std::size_t>(sorted.count));
   g.order.resize(keyed.size());
   forEachBlock(sorted.count, [&](int t) {
@@ -247,6 +270,24 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
     for (const auto& r : runs)
       g.runs.insert(g.runs.end(), r.begin(), r.end());
   g.runs.push_back(static_cast<std::uint32_t>(keyed.size()));
+}
+
+VoxelRuns
+groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const char* who)
+{
+  if (cloud.size() >= std::numeric_limits<std::uint32_t>::max())
+    throw std::invalid_argument(std::string(who) + ": 2^32 points or more");
+  const std::int64_t n = static_cast<std::int64_t>(cloud.size());
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+  const Blocks blocks{n, threads > 1 && n >= kParallelPoints ? static_cast<int>(threads) : 1};
+  VoxelRuns g;
+  // Per-point buffers are written in the parallel passes, not zeroed here (serially).
+  g.keys.resize(cloud.size());
+  detail::UninitializedVector<char> valid(cloud.size());
+  const KeyRange range = voxelKeys(cloud, voxel_size, blocks, g, valid, who);
+  int bits = 0;
+  const detail::UninitializedVector<Keyed> keyed = sortedByVoxel(g, range, blocks, valid, bits);
+  collectRuns(keyed, bits, blocks.count, g);
   return g;
 }
 

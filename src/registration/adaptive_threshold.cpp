@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 
 #include <Eigen/Geometry>
@@ -33,23 +34,11 @@ AdaptiveThreshold::AdaptiveThreshold(double initial_threshold,
   sum_ = samples_.back();
 }
 
-namespace {
-
-/** The rotation angle of a rigid transform, from sin (skew part) and cos (trace): acos
- *  alone loses small angles. */
-double
-rotationAngle(const Eigen::Matrix4d& d)
-{
-  const Eigen::Vector3d w(d(2, 1) - d(1, 2), d(0, 2) - d(2, 0), d(1, 0) - d(0, 1));
-  return std::atan2(0.5 * w.norm(), 0.5 * (d.topLeftCorner<3, 3>().trace() - 1.0));
-}
-
-} // namespace
-
 double
 motionDisplacement(const Eigen::Matrix4d& d, double range)
 {
-  return d.topRightCorner<3, 1>().norm() + 2.0 * range * std::sin(0.5 * rotationAngle(d));
+  return d.topRightCorner<3, 1>().norm() +
+         2.0 * range * std::sin(0.5 * rotationAngle(d.topLeftCorner<3, 3>()));
 }
 
 double
@@ -66,7 +55,7 @@ AdaptiveThreshold::updateModelDeviation(const Eigen::Matrix4d& deviation)
   const double e = modelError(deviation);
   if (e <= min_motion_) // standing still says nothing about the prediction's error
     return;
-  const double theta = rotationAngle(deviation);
+  const double theta = rotationAngle(deviation.topLeftCorner<3, 3>());
   const Sample s{e * e, deviation.topRightCorner<3, 1>().squaredNorm(), theta * theta};
   samples_.push_back(s);
   if (window_ > 0 && samples_.size() > window_) {

@@ -2,8 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/icp_factors.h>
-#include <pcl_parallel/registration/lum_solver.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -143,7 +143,7 @@ PointToPlaneFactor::bodyHessian(const NormalEquations& eq,
       Eigen::Vector3d(ref[0], ref[1], ref[2]) - estimate.topRightCorner<3, 1>();
   Eigen::Matrix<double, 6, 6> K = Eigen::Matrix<double, 6, 6>::Zero();
   K.topLeftCorner<3, 3>() = R;
-  K.bottomLeftCorner<3, 3>() = -lum::skew(lever) * R;
+  K.bottomLeftCorner<3, 3>() = -skew(lever) * R;
   K.bottomRightCorner<3, 3>() = R;
   return K.transpose() * eq.hessian() * K;
 }
@@ -168,10 +168,7 @@ PointToPlaneFactor::solve(const NormalEquations& eq, const double ref[3], Eigen:
   // Same linear motion ω × d + t about the weighted centroid c: t_c = t + ω × c.
   const Eigen::Vector3d c = Eigen::Vector3d(eq.sd[0], eq.sd[1], eq.sd[2]) / eq.w;
   const Eigen::Vector3d t_c = x.tail<3>() + omega.cross(c);
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(omega[2], Eigen::Vector3d::UnitZ()) *
-                             Eigen::AngleAxisd(omega[1], Eigen::Vector3d::UnitY()) *
-                             Eigen::AngleAxisd(omega[0], Eigen::Vector3d::UnitX()))
-                                .toRotationMatrix();
+  const Eigen::Matrix3d R = eulerZYXToRotation(omega[0], omega[1], omega[2]);
   // d -> R (d - r - c) + r + c + t_c in unshifted coordinates.
   const Eigen::Vector3d rc = Eigen::Vector3d(ref[0], ref[1], ref[2]) + c;
   step = Eigen::Matrix4d::Identity();
@@ -188,16 +185,15 @@ PointToPlaneFactor::addPosePrior(NormalEquations& eq,
                                  double weight_translation,
                                  double weight_rotation)
 {
-  const Eigen::AngleAxisd deviation(Eigen::Matrix3d(estimate.topLeftCorner<3, 3>() *
-                                                    prior.topLeftCorner<3, 3>().transpose()));
   Eigen::Matrix<double, 6, 1> e;
-  e.head<3>() = deviation.angle() * deviation.axis();
+  e.head<3>() =
+      so3Log(estimate.topLeftCorner<3, 3>() * prior.topLeftCorner<3, 3>().transpose());
   e.tail<3>() = estimate.topRightCorner<3, 1>() - prior.topRightCorner<3, 1>();
   // The step moves the sensor origin s (shifted by ref) by ω × s + t.
   const Eigen::Vector3d s =
       estimate.topRightCorner<3, 1>() - Eigen::Vector3d(ref[0], ref[1], ref[2]);
   Eigen::Matrix<double, 6, 6> a = Eigen::Matrix<double, 6, 6>::Identity();
-  a.bottomLeftCorner<3, 3>() = -lum::skew(s);
+  a.bottomLeftCorner<3, 3>() = -skew(s);
   Eigen::Matrix<double, 6, 1> w;
   w << Eigen::Vector3d::Constant(weight_rotation),
       Eigen::Vector3d::Constant(weight_translation);

@@ -7,6 +7,7 @@
  * scanner models and drifting odometry. docs/design.md ("Simulator") has the layouts.
  */
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/sim/presets.h>
 
 #include <Eigen/Geometry>
@@ -67,10 +68,7 @@ orientedBox(World& w,
             double roll)
 {
   OrientedBox b;
-  b.rotation = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
-                Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
-                   .toRotationMatrix();
+  b.rotation = eulerZYXToRotation(roll, pitch, yaw);
   b.centre = centre;
   b.half_size = half;
   w.oriented_boxes.push_back(b);
@@ -686,10 +684,12 @@ simulatePreset(const std::string& name, std::uint32_t seed, unsigned num_threads
   return simulatePreset(name, o);
 }
 
-SimulatedScanSet
-simulatePreset(const std::string& name, const PresetOptions& o)
+namespace {
+
+/** The options' overrides of the preset's odometry noise and beam count, checked. */
+void
+applyOptions(Spec& spec, const PresetOptions& o)
 {
-  Spec spec = makeSpec(name, o.seed);
   if (o.odometry_translation_noise >= 0.0)
     spec.translation_noise = o.odometry_translation_noise;
   if (o.odometry_heading_noise >= 0.0)
@@ -703,31 +703,14 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   if (o.beams > 0)
     spec.scanner.elevation_steps = o.beams;
   validate(spec.scanner);
-  const Route route(spec.waypoints, spec.smoothing, spec.ground, spec.sensor_height);
-  // Stop-and-go: scans spread over the laps of the waypoint polyline (so that a side
-  // of k steps puts stops at its corners), the last one `gap` short of the start.
-  const bool moving = spec.scanner.sweep_period > 0.0;
-  if (!moving)
-    spec.step = (spec.laps * route.waypointLength() - spec.gap) / std::max(1, spec.scans - 1);
-  if (o.stride < 1)
-    throw std::invalid_argument("[pcl_parallel::sim] stride must be >= 1, got " +
-                                std::to_string(o.stride));
-  const double speed = spec.step / spec.period; // metres per second along the route
-  spec.step *= o.stride;                        // between kept scans
-  const int kept = (spec.scans + o.stride - 1) / o.stride;
-  const int n = o.max_scans >= 0 ? std::min(o.max_scans, kept) : kept;
+}
 
-  SimulatedScanSet set;
-  set.name = name;
-  set.scanner = spec.scanner;
-  for (int i = 0; i < n; ++i) {
-    const double s = spec.start + i * spec.step;
-    set.truth.push_back(moving ? route.pose(s) : route.poseAtWaypointArc(s));
-    // 0.3, not 3 * 0.1 = 0.30000000000000004
-    set.timestamps.push_back(static_cast<double>(i) * o.stride / (1.0 / spec.period));
-  }
-  // Odometry: the true step, disturbed in the plane of the vehicle, accumulated.
-  Rng rng(0x6f646f6dull ^ (static_cast<std::uint64_t>(o.seed) << 20));
+/** Odometry: the true step, disturbed in the plane of the vehicle, accumulated. */
+void
+addOdometry(SimulatedScanSet& set, const Spec& spec, std::uint32_t seed)
+{
+  const int n = static_cast<int>(set.truth.size());
+  Rng rng(0x6f646f6dull ^ (static_cast<std::uint64_t>(seed) << 20));
   if (n > 0)
     set.odometry.push_back(set.truth[0]);
   for (int i = 1; i < n; ++i) {
@@ -738,16 +721,19 @@ simulatePreset(const std::string& name, const PresetOptions& o)
                  eyaw = spec.heading_noise * l * rng.normal();
     set.odometry.push_back(set.odometry.back() * step * yawStep(ex, ey, eyaw));
   }
+}
 
-  if (o.poses_only) {
-    set.scans.assign(static_cast<std::size_t>(n), nullptr);
-    for (auto& scan : set.scans)
-      scan.reset(new pcl::PointCloud<pcl::PointXYZ>);
-    if (moving)
-      set.point_times.resize(static_cast<std::size_t>(n));
-    set.world = std::move(spec.world);
-    return set;
-  }
+/** The scans at the set's poses (while moving: each column from the route's pose at its
+ *  sweep time, the vehicle at `speed` m/s), each from its own key. */
+void
+castScans(SimulatedScanSet& set,
+          const Spec& spec,
+          const Route& route,
+          const PresetOptions& o,
+          double speed)
+{
+  const int n = static_cast<int>(set.truth.size());
+  const bool moving = spec.scanner.sweep_period > 0.0;
   const RayCaster caster(spec.world);
   set.scans.resize(static_cast<std::size_t>(n));
   if (moving)
@@ -785,6 +771,48 @@ simulatePreset(const std::string& name, const PresetOptions& o)
     if (o.progress)
       o.progress(last, n);
   }
+}
+
+} // namespace
+
+SimulatedScanSet
+simulatePreset(const std::string& name, const PresetOptions& o)
+{
+  Spec spec = makeSpec(name, o.seed);
+  applyOptions(spec, o);
+  const Route route(spec.waypoints, spec.smoothing, spec.ground, spec.sensor_height);
+  // Stop-and-go: scans spread over the laps of the waypoint polyline (so that a side
+  // of k steps puts stops at its corners), the last one `gap` short of the start.
+  const bool moving = spec.scanner.sweep_period > 0.0;
+  if (!moving)
+    spec.step = (spec.laps * route.waypointLength() - spec.gap) / std::max(1, spec.scans - 1);
+  if (o.stride < 1)
+    throw std::invalid_argument("[pcl_parallel::sim] stride must be >= 1, got " +
+                                std::to_string(o.stride));
+  const double speed = spec.step / spec.period; // metres per second along the route
+  spec.step *= o.stride;                        // between kept scans
+  const int kept = (spec.scans + o.stride - 1) / o.stride;
+  const int n = o.max_scans >= 0 ? std::min(o.max_scans, kept) : kept;
+
+  SimulatedScanSet set;
+  set.name = name;
+  set.scanner = spec.scanner;
+  for (int i = 0; i < n; ++i) {
+    const double s = spec.start + i * spec.step;
+    set.truth.push_back(moving ? route.pose(s) : route.poseAtWaypointArc(s));
+    // 0.3, not 3 * 0.1 = 0.30000000000000004
+    set.timestamps.push_back(static_cast<double>(i) * o.stride / (1.0 / spec.period));
+  }
+  addOdometry(set, spec, o.seed);
+  if (o.poses_only) {
+    set.scans.assign(static_cast<std::size_t>(n), nullptr);
+    for (auto& scan : set.scans)
+      scan.reset(new pcl::PointCloud<pcl::PointXYZ>);
+    if (moving)
+      set.point_times.resize(static_cast<std::size_t>(n));
+  }
+  else
+    castScans(set, spec, route, o, speed);
   set.world = std::move(spec.world);
   return set;
 }

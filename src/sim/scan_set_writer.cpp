@@ -125,6 +125,122 @@ toUosFrame(const Eigen::Matrix4d& pose)
   return m;
 }
 
+namespace {
+
+/** The scans as 3DTK uos files in 3DTK's axes: scanNNN.3d in centimetres and scanNNN.pose
+ *  from the odometry; `truth` is turned into the same axes. */
+void
+writeUosScans(const SimulatedScanSet& set,
+              const fs::path& root,
+              std::vector<Eigen::Matrix4d>& truth)
+{
+  const std::size_t n = set.scans.size();
+  if (n > 1000)
+    throw std::invalid_argument("pcl_parallel::sim: writeScanSet: 3DTK's scanNNN names hold "
+                                "at most 1000 scans, the set has " +
+                                std::to_string(n));
+  const Eigen::Matrix3d c = uosAxes();
+  std::string text;
+  for (std::size_t i = 0; i < n; ++i) {
+    text.clear();
+    text.reserve(set.scans[i]->size() * 32);
+    for (const auto& p : *set.scans[i]) {
+      // Centimetres in 3DTK's axes; 1e-4 cm is far below float resolution at range.
+      const Eigen::Vector3d q = 100.0 * (c * p.getVector3fMap().cast<double>());
+      append(text, q.x(), 4), text += ' ';
+      append(text, q.y(), 4), text += ' ';
+      append(text, q.z(), 4), text += '\n';
+    }
+    AtomicFile scan((root / numbered("scan%03u.3d", i)).string());
+    scan.write(text);
+    scan.commit();
+
+    // Odometry as a 3DTK .pose: R = Rx(a) Ry(b) Rz(c), which Eigen's eulerAngles(0, 1, 2)
+    // decomposes.
+    const Eigen::Matrix4d odo = toUosFrame(set.odometry[i]);
+    const Eigen::Vector3d euler =
+        odo.topLeftCorner<3, 3>().eulerAngles(0, 1, 2) * (180.0 / M_PI);
+    std::string pose;
+    for (int k = 0; k < 3; ++k)
+      append(pose, 100.0 * odo(k, 3)), pose += k < 2 ? ' ' : '\n';
+    for (int k = 0; k < 3; ++k)
+      append(pose, euler(k)), pose += k < 2 ? ' ' : '\n';
+    AtomicFile pf((root / numbered("scan%03u.pose", i)).string());
+    pf.write(pose);
+    pf.commit();
+    truth[i] = toUosFrame(set.truth[i]);
+  }
+}
+
+/** Scan i's file bytes: KITTI .bin (x y z and intensity 0) or binary PCD (x y z and t, ns
+ *  from the sweep's start, 0 without point times), little-endian on any host. */
+void
+scanBytes(const SimulatedScanSet& set,
+          std::size_t i,
+          bool pcd,
+          std::vector<unsigned char>& bytes)
+{
+  const auto put = [&](std::uint32_t u) {
+    for (int b = 0; b < 4; ++b)
+      bytes.push_back(static_cast<unsigned char>(u >> (8 * b)));
+  };
+  const auto bits = [](float v) {
+    std::uint32_t u;
+    std::memcpy(&u, &v, 4);
+    return u;
+  };
+  const auto& scan = *set.scans[i];
+  bytes.clear();
+  bytes.reserve(16 * scan.size() + 256);
+  if (pcd) {
+    const std::string size = std::to_string(scan.size());
+    const std::string header =
+        "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z t\n"
+        "SIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH " +
+        size + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + size + "\nDATA binary\n";
+    bytes.insert(bytes.end(), header.begin(), header.end());
+  }
+  const bool timed = pcd && !set.point_times.empty();
+  if (timed && set.point_times[i].size() != scan.size())
+    throw std::invalid_argument("pcl_parallel::sim: writeScanSet: scan " + std::to_string(i) +
+                                " has " + std::to_string(set.point_times[i].size()) +
+                                " point times for " + std::to_string(scan.size()) + " points");
+  for (std::size_t k = 0; k < scan.size(); ++k) {
+    const auto& p = scan[k];
+    put(bits(p.x)), put(bits(p.y)), put(bits(p.z));
+    if (!pcd)
+      put(bits(0.0f)); // intensity
+    else
+      put(timed ? static_cast<std::uint32_t>(
+                      std::llround(1e9 * set.scanner.sweep_period * set.point_times[i][k]))
+                : 0u);
+  }
+}
+
+/** The scans as KITTI .bin or PCD files, the odometry and the scans' times. */
+void
+writeKittiScans(const SimulatedScanSet& set, const fs::path& root, bool pcd)
+{
+  const std::size_t n = set.scans.size();
+  std::vector<unsigned char> bytes;
+  for (std::size_t i = 0; i < n; ++i) {
+    scanBytes(set, i, pcd, bytes);
+    AtomicFile file((root / numbered(pcd ? "%06u.pcd" : "%06u.bin", i)).string());
+    file.write(bytes.data(), bytes.size());
+    file.commit();
+  }
+  io::writeKittiPoses((root / "odometry.txt").string(), set.odometry);
+  std::string times;
+  for (std::size_t i = 0; i < n; ++i)
+    append(times, set.timestamps.empty() ? 0.1 * static_cast<double>(i) : set.timestamps[i]),
+        times += '\n';
+  AtomicFile tf((root / "times.txt").string());
+  tf.write(times);
+  tf.commit();
+}
+
+} // namespace
+
 void
 writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat format)
 {
@@ -145,97 +261,10 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
                              (ec ? ": " + ec.message() : ""));
   const fs::path root(dir);
   std::vector<Eigen::Matrix4d> truth = set.truth;
-
-  if (format == ScanSetFormat::Uos) {
-    if (n > 1000)
-      throw std::invalid_argument("pcl_parallel::sim: writeScanSet: 3DTK's scanNNN names hold "
-                                  "at most 1000 scans, the set has " +
-                                  std::to_string(n));
-    const Eigen::Matrix3d c = uosAxes();
-    std::string text;
-    for (std::size_t i = 0; i < n; ++i) {
-      text.clear();
-      text.reserve(set.scans[i]->size() * 32);
-      for (const auto& p : *set.scans[i]) {
-        // Centimetres in 3DTK's axes; 1e-4 cm is far below float resolution at range.
-        const Eigen::Vector3d q = 100.0 * (c * p.getVector3fMap().cast<double>());
-        append(text, q.x(), 4), text += ' ';
-        append(text, q.y(), 4), text += ' ';
-        append(text, q.z(), 4), text += '\n';
-      }
-      AtomicFile scan((root / numbered("scan%03u.3d", i)).string());
-      scan.write(text);
-      scan.commit();
-
-      // Odometry as a 3DTK .pose: R = Rx(a) Ry(b) Rz(c), which Eigen's eulerAngles(0, 1, 2)
-      // decomposes.
-      const Eigen::Matrix4d odo = toUosFrame(set.odometry[i]);
-      const Eigen::Vector3d euler =
-          odo.topLeftCorner<3, 3>().eulerAngles(0, 1, 2) * (180.0 / M_PI);
-      std::string pose;
-      for (int k = 0; k < 3; ++k)
-        append(pose, 100.0 * odo(k, 3)), pose += k < 2 ? ' ' : '\n';
-      for (int k = 0; k < 3; ++k)
-        append(pose, euler(k)), pose += k < 2 ? ' ' : '\n';
-      AtomicFile pf((root / numbered("scan%03u.pose", i)).string());
-      pf.write(pose);
-      pf.commit();
-      truth[i] = toUosFrame(set.truth[i]);
-    }
-  }
-  else {
-    const bool pcd = format == ScanSetFormat::Pcd;
-    std::vector<unsigned char> bytes;
-    const auto put = [&](std::uint32_t u) { // little-endian on any host
-      for (int b = 0; b < 4; ++b)
-        bytes.push_back(static_cast<unsigned char>(u >> (8 * b)));
-    };
-    const auto bits = [](float v) {
-      std::uint32_t u;
-      std::memcpy(&u, &v, 4);
-      return u;
-    };
-    for (std::size_t i = 0; i < n; ++i) {
-      const auto& scan = *set.scans[i];
-      bytes.clear();
-      bytes.reserve(16 * scan.size() + 256);
-      if (pcd) {
-        const std::string size = std::to_string(scan.size());
-        const std::string header =
-            "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS x y z t\n"
-            "SIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\nWIDTH " +
-            size + "\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + size + "\nDATA binary\n";
-        bytes.insert(bytes.end(), header.begin(), header.end());
-      }
-      const bool timed = pcd && !set.point_times.empty();
-      if (timed && set.point_times[i].size() != scan.size())
-        throw std::invalid_argument(
-            "pcl_parallel::sim: writeScanSet: scan " + std::to_string(i) + " has " +
-            std::to_string(set.point_times[i].size()) + " point times for " +
-            std::to_string(scan.size()) + " points");
-      for (std::size_t k = 0; k < scan.size(); ++k) {
-        const auto& p = scan[k];
-        put(bits(p.x)), put(bits(p.y)), put(bits(p.z));
-        if (!pcd)
-          put(bits(0.0f)); // intensity
-        else               // ns from the sweep's start
-          put(timed ? static_cast<std::uint32_t>(
-                          std::llround(1e9 * set.scanner.sweep_period * set.point_times[i][k]))
-                    : 0u);
-      }
-      AtomicFile file((root / numbered(pcd ? "%06u.pcd" : "%06u.bin", i)).string());
-      file.write(bytes.data(), bytes.size());
-      file.commit();
-    }
-    io::writeKittiPoses((root / "odometry.txt").string(), set.odometry);
-    std::string times;
-    for (std::size_t i = 0; i < n; ++i)
-      append(times, set.timestamps.empty() ? 0.1 * static_cast<double>(i) : set.timestamps[i]),
-          times += '\n';
-    AtomicFile tf((root / "times.txt").string());
-    tf.write(times);
-    tf.commit();
-  }
+  if (format == ScanSetFormat::Uos)
+    writeUosScans(set, root, truth);
+  else
+    writeKittiScans(set, root, format == ScanSetFormat::Pcd);
   io::writeKittiPoses((root / "ground_truth.txt").string(), truth);
 }
 

@@ -2,7 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include <pcl_parallel/registration/lum_solver.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/slam/motion_model.h>
 #include <pcl_parallel/slam/preprocess.h>
 
@@ -91,7 +91,7 @@ MotionModel::update(const Pose& matched, const MotionPrediction& m, std::optiona
 void
 MotionModel::applyCorrection(const Pose& correction)
 {
-  pose_ = lum::orthonormalized(correction * pose_);
+  pose_ = orthonormalized(correction * pose_);
 }
 
 } // namespace slam

@@ -4,8 +4,8 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
-#include <pcl_parallel/registration/lum_solver.h>
 #include <pcl_parallel/slam/deskewer.h>
 #include <pcl_parallel/slam/matcher.h>
 #include <pcl_parallel/slam/motion_model.h>
@@ -289,7 +289,7 @@ Pipeline::match(ScanRecord& r,
     return;
   // Constant velocity compounds rounding, and odometry read from text carries its digits'
   // error: the pose is kept a rotation.
-  r.pose = lum::orthonormalized(*matched);
+  r.pose = orthonormalized(*matched);
   s.matcher.measure(r, *source);
 }
 

@@ -4,7 +4,7 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/kdtree.h>
-#include <pcl_parallel/registration/lum_solver.h>
+#include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/slam/reducer.h>
 
 #include <limits>
@@ -37,7 +37,7 @@ reducedNormals(const KdTreeIndex& tree, std::size_t num_points, unsigned num_thr
   std::vector<Eigen::Vector3f> normals(num_points, Eigen::Vector3f::Zero());
   if (tree.empty())
     return normals;
-  const std::vector<Eigen::Vector3f> by_position = lum::estimateNormals(tree, 10, num_threads);
+  const std::vector<Eigen::Vector3f> by_position = estimateUnitNormals(tree, 10, num_threads);
   for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
     normals[tree.id(pos)] = by_position[pos];
   return normals;

@@ -4,6 +4,8 @@
  */
 #pragma once
 
+#include <pcl_parallel/pose_math.h>
+
 #include <Eigen/Core>
 
 #include <cstddef>
@@ -14,20 +16,10 @@ namespace evaluation {
 
 using Poses = std::vector<Eigen::Matrix4d>;
 
-/** Angle (rad, in [0, pi]) of the rotation r: atan2(|skew part|, (trace - 1) / 2), which,
- *  unlike acos((trace - 1) / 2), keeps small angles of float-rounded matrices. */
-double
-rotationAngle(const Eigen::Matrix3d& r);
-
-/** The error of pose a against pose b: the angle (rad) of the rotation between them,
- *  R_aᵀ·R_b, and the distance between their positions (in the poses' unit). */
-struct PoseError {
-  double angle = 0.0;
-  double distance = 0.0;
-};
-
-PoseError
-poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b);
+// The pose error and rotation angle live in pose_math.h; the evaluation API names them too.
+using pcl_parallel::PoseError;
+using pcl_parallel::poseError;
+using pcl_parallel::rotationAngle;
 
 /** Summary statistics of a list of errors, as evo reports them (evo/core/metrics.py,
  *  PE.get_statistic): rmse = sqrt(mean(e²)), mean, median (mean of the two middle values

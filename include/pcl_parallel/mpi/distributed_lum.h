@@ -184,6 +184,27 @@ private:
   /** Hash of the graph and of the options that change the result. */
   static std::uint64_t
   configHash(const Lum& lum);
+  /** Starts computeOn() on every rank: each link's owning rank in `owners` (link order),
+   *  this rank's links in `run`; throws on every rank where one fails or the ranks'
+   *  graphs or options differ. */
+  static void
+  beginOn(Lum& lum,
+          MPI_Comm comm,
+          typename Lum::Run& run,
+          std::vector<int>& owners,
+          const LinkOwner& owner,
+          const std::string& where);
+  /** This rank's link blocks of the iteration as sent to rank 0, in link order. */
+  static void
+  packLinks(const typename Lum::Run& run, std::vector<WireLink>& mine);
+  /** Rank 0: the gathered blocks of the other ranks' links back at their links' places
+   *  (`displs`: each rank's first byte in `all`). */
+  static void
+  unpackLinks(typename Lum::Run& run,
+              const std::vector<WireLink>& all,
+              const std::vector<int>& owners,
+              const std::vector<int>& displs,
+              std::vector<std::string>& remote_reasons);
   /** Rank 0's poses and `control` values to every rank. */
   static void
   broadcastPoses(

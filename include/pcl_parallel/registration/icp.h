@@ -347,6 +347,15 @@ protected:
   void
   computeTransformationFused(PointCloudSource& output, const Matrix4& guess);
 
+  /** PCL's convergence criteria set from this object's limits, as computeTransformation. */
+  void
+  setUpCriteria(ConvergenceCriteria& criteria) const;
+
+  /** The estimate moved by one step (composed in double after alignDouble, in Scalar as
+   *  PCL otherwise), and the iteration counted. */
+  void
+  applyStep(const Eigen::Matrix4d& step);
+
   /** One pass over the source: the step for the current estimate \a tr, the pairs' count
    *  and MSE. False when the step cannot be solved (point-to-plane: singular system). */
   bool
@@ -355,6 +364,27 @@ protected:
             Eigen::Matrix4d& step,
             double& pairs,
             double& mse);
+
+  /** fusedStep()'s pass for point-to-point pairs: their moments (Eq. 12-13). */
+  PointToPointMoments
+  pointToPointPass(const KdTreeIndex& target,
+                   const SearchTransform& tr,
+                   float bound,
+                   std::vector<NearestSlot>& slots);
+
+  /** fusedStep()'s pass for point-to-plane pairs: their normal equations in coordinates
+   *  shifted by the target point `ref`. */
+  NormalEquations
+  pointToPlanePass(const KdTreeIndex& target,
+                   const SearchTransform& tr,
+                   float bound,
+                   const double ref[3],
+                   std::vector<NearestSlot>& slots);
+
+  /** The point-to-plane step from the pairs' normal equations, with the motion prior if
+   *  one is set; keeps the pairs' own information (final_hessian_). */
+  bool
+  solvePointToPlane(const NormalEquations& total, const double ref[3], Eigen::Matrix4d& step);
 
   /** Target normals per tree position (fields or estimated), reused while valid. */
   void

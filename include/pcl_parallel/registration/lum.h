@@ -5,7 +5,8 @@
 #pragma once
 
 #include <pcl_parallel/kdtree.h>
-#include <pcl_parallel/registration/lum_solver.h>
+#include <pcl_parallel/registration/lum_link.h>
+#include <pcl_parallel/registration/pose_graph_solver.h>
 
 #include <pcl/correspondence.h>
 #include <pcl/point_cloud.h>
@@ -37,7 +38,7 @@ class DistributedLUM;
  *   built once in the scan's own frame; the source points are moved into the target's
  *   frame by the current poses and searched there, by default in both directions
  *   (setSymmetricCorrespondences). Links come from setCorrespondences() (the given pairs
- *   are then ignored), addLink(), detectLinksByDistance() (loop_detection.h) or
+ *   are then ignored), addLink(), slam::loopCandidates() (slam/loop_closure.h) or
  *   findOverlappingPairs(). The distance may shrink over the iterations
  *   (setCorrespondenceDistanceSchedule). Options beyond the paper, off by default:
  *   point-to-plane pairs (setPointToPlane) and several pairing steps per link and
@@ -65,7 +66,7 @@ class DistributedLUM;
  *   a PCL_WARN (PCL keeps it with zero weight, which may leave G singular);
  * - the link covariance is s^2 A^-1 with the unbiased s^2 = SSR / (3N - 6) (Borrmann et
  *   al. 2008) where PCL uses SSR; both agree when every link has the same pair count;
- * - EdgeProperties::cinv_ / cinvd_ receive our H and g (see lum_solver.h), in the local
+ * - EdgeProperties::cinv_ / cinvd_ receive our H and g (see lum_link.h), in the local
  *   perturbation's parametrisation, not in PCL's Euler one.
  */
 template <typename PointT>

@@ -149,17 +149,16 @@ DistributedLUM<PointT>::compute()
 
 template <typename PointT>
 void
-DistributedLUM<PointT>::computeOn(Lum& lum,
-                                  MPI_Comm comm,
-                                  std::vector<std::string>& remote_reasons,
-                                  const LinkOwner& owner)
+DistributedLUM<PointT>::beginOn(Lum& lum,
+                                MPI_Comm comm,
+                                typename Lum::Run& run,
+                                std::vector<int>& owners,
+                                const LinkOwner& owner,
+                                const std::string& where)
 {
-  const std::string where = "[pcl_parallel::mpi::DistributedLUM::compute] ";
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
-  typename Lum::Run run;
-  std::vector<int> owners; // of each link, in link order
   std::string error;
   try {
     if (!(lum.getCorrespondenceDistance() > 0.0))
@@ -192,6 +191,69 @@ DistributedLUM<PointT>::computeOn(Lum& lum,
   throwIfAnyFailed(comm, error);
   // Every rank must run the same relaxation (only the thread count may differ).
   requireSameOnAllRanks(comm, configHash(lum), where + "the graph or the pLUM options");
+}
+
+template <typename PointT>
+void
+DistributedLUM<PointT>::packLinks(const typename Lum::Run& run, std::vector<WireLink>& mine)
+{
+  for (std::size_t k = 0; k < run.mine.size(); ++k) {
+    const std::size_t li = run.mine[k];
+    const lum::LinkBlock& b = run.blocks[li];
+    WireLink& w = mine[k];
+    std::memset(&w, 0, sizeof(w));
+    Eigen::Map<lum::Matrix6d>(w.info) = b.info;
+    Eigen::Map<lum::Vector6d>(w.grad) = b.grad;
+    w.pairs = run.pair_counts[li];
+    w.source = b.source;
+    w.target = b.target;
+    w.valid = b.valid;
+    if (run.reasons[li])
+      std::strncpy(w.reason, run.reasons[li], sizeof(w.reason) - 1);
+  }
+}
+
+template <typename PointT>
+void
+DistributedLUM<PointT>::unpackLinks(typename Lum::Run& run,
+                                    const std::vector<WireLink>& all,
+                                    const std::vector<int>& owners,
+                                    const std::vector<int>& displs,
+                                    std::vector<std::string>& remote_reasons)
+{
+  std::vector<std::size_t> next(displs.begin(), displs.end()); // per rank, in bytes
+  for (std::size_t li = 0; li < run.links.size(); ++li) {
+    const int r = owners[li];
+    const WireLink& w = all[next[r] / sizeof(WireLink)];
+    next[r] += sizeof(WireLink);
+    if (r == 0)
+      continue; // measured here
+    lum::LinkBlock& b = run.blocks[li];
+    b.info = Eigen::Map<const lum::Matrix6d>(w.info);
+    b.grad = Eigen::Map<const lum::Vector6d>(w.grad);
+    b.source = w.source;
+    b.target = w.target;
+    b.valid = w.valid != 0;
+    run.pair_counts[li] = w.pairs;
+    remote_reasons[li] = std::string(w.reason, strnlen(w.reason, sizeof(w.reason)));
+    run.reasons[li] = remote_reasons[li].empty() ? nullptr : remote_reasons[li].c_str();
+  }
+}
+
+template <typename PointT>
+void
+DistributedLUM<PointT>::computeOn(Lum& lum,
+                                  MPI_Comm comm,
+                                  std::vector<std::string>& remote_reasons,
+                                  const LinkOwner& owner)
+{
+  const std::string where = "[pcl_parallel::mpi::DistributedLUM::compute] ";
+  int rank = 0, size = 1;
+  MPI_Comm_rank(comm, &rank);
+  MPI_Comm_size(comm, &size);
+  typename Lum::Run run;
+  std::vector<int> owners; // of each link, in link order
+  beginOn(lum, comm, run, owners, owner, where);
 
   std::vector<double> buffer;
   broadcastPoses(lum, comm, buffer, nullptr, 0); // rank 0's start poses
@@ -206,6 +268,7 @@ DistributedLUM<PointT>::computeOn(Lum& lum,
   std::vector<WireLink> mine(run.mine.size()), all(rank == 0 ? num_links : 0);
   remote_reasons.assign(num_links, std::string());
 
+  std::string error;
   for (int it = 0; it < lum.getMaxIterations(); ++it) {
     error.clear();
     try {
@@ -215,20 +278,7 @@ DistributedLUM<PointT>::computeOn(Lum& lum,
       error = e.what();
     }
     throwIfAnyFailed(comm, error);
-    for (std::size_t k = 0; k < run.mine.size(); ++k) {
-      const std::size_t li = run.mine[k];
-      const lum::LinkBlock& b = run.blocks[li];
-      WireLink& w = mine[k];
-      std::memset(&w, 0, sizeof(w));
-      Eigen::Map<lum::Matrix6d>(w.info) = b.info;
-      Eigen::Map<lum::Vector6d>(w.grad) = b.grad;
-      w.pairs = run.pair_counts[li];
-      w.source = b.source;
-      w.target = b.target;
-      w.valid = b.valid;
-      if (run.reasons[li])
-        std::strncpy(w.reason, run.reasons[li], sizeof(w.reason) - 1);
-    }
+    packLinks(run, mine);
     MPI_Gatherv(mine.data(),
                 counts[rank],
                 MPI_BYTE,
@@ -242,23 +292,7 @@ DistributedLUM<PointT>::computeOn(Lum& lum,
     double control[4] = {0.0, 0.0, 0.0, 0.0};
     if (rank == 0) {
       try {
-        std::vector<std::size_t> next(displs.begin(), displs.end()); // per rank, in bytes
-        for (std::size_t li = 0; li < num_links; ++li) {
-          const int r = owners[li];
-          const WireLink& w = all[next[r] / sizeof(WireLink)];
-          next[r] += sizeof(WireLink);
-          if (r == 0)
-            continue; // measured here
-          lum::LinkBlock& b = run.blocks[li];
-          b.info = Eigen::Map<const lum::Matrix6d>(w.info);
-          b.grad = Eigen::Map<const lum::Vector6d>(w.grad);
-          b.source = w.source;
-          b.target = w.target;
-          b.valid = w.valid != 0;
-          run.pair_counts[li] = w.pairs;
-          remote_reasons[li] = std::string(w.reason, strnlen(w.reason, sizeof(w.reason)));
-          run.reasons[li] = remote_reasons[li].empty() ? nullptr : remote_reasons[li].c_str();
-        }
+        unpackLinks(run, all, owners, displs, remote_reasons);
         control[0] = lum.solveIteration(run, it) ? 1.0 : 0.0; // steps 3-5
         control[1] = lum.iterations_done_;
         control[2] = lum.last_mean_update_;

@@ -285,37 +285,14 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
     double& pairs,
     double& mse)
 {
-  const PointCloudSource& src = *input_;
-  const std::size_t n = order_.size();
   const unsigned threads = resolveNumberOfThreads(num_threads_);
   const float bound = sqrDistanceBound(corr_dist_threshold_);
-  const RobustKernel kernel = kernel_;
   // Per thread: its padded search slot (paper Sec. IV-B) and a block's pair buffer.
   std::vector<NearestSlot> slots(threads);
   pair_buffers_.resize(threads);
 
   if (!point_to_plane_) {
-    const std::vector<PointToPointMoments> children = deterministicBlocks(
-        n, threads, PointToPointMoments{}, [&](std::size_t begin, std::size_t end, unsigned t) {
-          NearestSlot& slot = slots[t];
-          std::vector<MatchedPair>& buf = pair_buffers_[t];
-          buf.clear();
-          double sqr_dist = 0.0;
-          MatchedPair pair;
-          for (std::size_t i = begin; i < end; ++i) {
-            const std::uint32_t pos = transformedNearest(
-                target, slot, tr, src[order_[i]].data, pair.d, bound, warm_[i]);
-            if (pos == KdTreeIndex::kInvalid)
-              continue;
-            warm_[i] = pos;
-            pair.m = target.point(pos);
-            pair.w = kernel.weight(slot.sqr_dist);
-            sqr_dist += slot.sqr_dist;
-            buf.push_back(pair);
-          }
-          return PointToPointFactor::child(buf.data(), buf.size(), sqr_dist);
-        });
-    const PointToPointMoments total = PointToPointFactor::combine(children);
+    const PointToPointMoments total = pointToPointPass(target, tr, bound, slots);
     pairs = total.n;
     mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
     if (total.n < static_cast<double>(min_number_correspondences_) || !(total.w > 0.0))
@@ -329,9 +306,64 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
   updateTargetNormals(target);
   const float* r = target.point(0);
   const double ref[3] = {r[0], r[1], r[2]};
-  const NormalEquations total = deterministicReduce(
-      n,
-      threads,
+  const NormalEquations total = pointToPlanePass(target, tr, bound, ref, slots);
+  pairs = total.n;
+  mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
+  if (total.n < static_cast<double>(min_number_correspondences_))
+    return true;
+  return solvePointToPlane(total, ref, step);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+PointToPointMoments
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::pointToPointPass(
+    const KdTreeIndex& target,
+    const SearchTransform& tr,
+    float bound,
+    std::vector<NearestSlot>& slots)
+{
+  const PointCloudSource& src = *input_;
+  const RobustKernel kernel = kernel_;
+  const std::vector<PointToPointMoments> children = deterministicBlocks(
+      order_.size(),
+      static_cast<unsigned>(slots.size()),
+      PointToPointMoments{},
+      [&](std::size_t begin, std::size_t end, unsigned t) {
+        NearestSlot& slot = slots[t];
+        std::vector<MatchedPair>& buf = pair_buffers_[t];
+        buf.clear();
+        double sqr_dist = 0.0;
+        MatchedPair pair;
+        for (std::size_t i = begin; i < end; ++i) {
+          const std::uint32_t pos = transformedNearest(
+              target, slot, tr, src[order_[i]].data, pair.d, bound, warm_[i]);
+          if (pos == KdTreeIndex::kInvalid)
+            continue;
+          warm_[i] = pos;
+          pair.m = target.point(pos);
+          pair.w = kernel.weight(slot.sqr_dist);
+          sqr_dist += slot.sqr_dist;
+          buf.push_back(pair);
+        }
+        return PointToPointFactor::child(buf.data(), buf.size(), sqr_dist);
+      });
+  return PointToPointFactor::combine(children);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+NormalEquations
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::pointToPlanePass(
+    const KdTreeIndex& target,
+    const SearchTransform& tr,
+    float bound,
+    const double ref[3],
+    std::vector<NearestSlot>& slots)
+{
+  const PointCloudSource& src = *input_;
+  const RobustKernel kernel = kernel_;
+  return deterministicReduce(
+      order_.size(),
+      static_cast<unsigned>(slots.size()),
       NormalEquations{},
       [&](std::size_t begin, std::size_t end, unsigned t) {
         NormalEquations acc;
@@ -356,10 +388,13 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
         return acc;
       },
       [](NormalEquations& into, const NormalEquations& from) { into += from; });
-  pairs = total.n;
-  mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
-  if (total.n < static_cast<double>(min_number_correspondences_))
-    return true;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+bool
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::solvePointToPlane(
+    const NormalEquations& total, const double ref[3], Eigen::Matrix4d& step)
+{
   // The pairs' information alone (no prior), at the estimate they were found at.
   final_hessian_ = PointToPlaneFactor::bodyHessian(total, ref, final_transformation_double_);
   final_error_ = total.rtr;
@@ -379,6 +414,38 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
 
 template <typename PointSource, typename PointTarget, typename Scalar>
 void
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::setUpCriteria(
+    ConvergenceCriteria& criteria) const
+{
+  // Same criteria set-up as PCL's computeTransformation.
+  criteria.setMaximumIterations(max_iterations_);
+  criteria.setRelativeMSE(euclidean_fitness_epsilon_);
+  criteria.setTranslationThreshold(transformation_epsilon_);
+  if (transformation_rotation_epsilon_ > 0)
+    criteria.setRotationThreshold(transformation_rotation_epsilon_);
+  else
+    criteria.setRotationThreshold(1.0 - transformation_epsilon_);
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
+ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::applyStep(
+    const Eigen::Matrix4d& step)
+{
+  transformation_ = step.template cast<Scalar>();
+  if (use_double_) {
+    final_transformation_double_ = step * final_transformation_double_;
+    final_transformation_ = final_transformation_double_.template cast<Scalar>();
+  }
+  else {
+    final_transformation_ = transformation_ * final_transformation_;
+    final_transformation_double_ = final_transformation_.template cast<double>();
+  }
+  ++nr_iterations_;
+}
+
+template <typename PointSource, typename PointTarget, typename Scalar>
+void
 ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransformationFused(
     PointCloudSource& output, const Matrix4& guess)
 {
@@ -391,15 +458,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
   final_transformation_ = guess;
   transformation_ = Matrix4::Identity();
   correspondences_->clear();
-
-  // Same criteria set-up as PCL's computeTransformation.
-  criteria.setMaximumIterations(max_iterations_);
-  criteria.setRelativeMSE(euclidean_fitness_epsilon_);
-  criteria.setTranslationThreshold(transformation_epsilon_);
-  if (transformation_rotation_epsilon_ > 0)
-    criteria.setRotationThreshold(transformation_rotation_epsilon_);
-  else
-    criteria.setRotationThreshold(1.0 - transformation_epsilon_);
+  setUpCriteria(criteria);
 
   final_transformation_double_ =
       use_double_ ? guess_double_ : Eigen::Matrix4d(guess.template cast<double>());
@@ -443,16 +502,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
         break;
       }
 
-      transformation_ = step.template cast<Scalar>();
-      if (use_double_) {
-        final_transformation_double_ = step * final_transformation_double_;
-        final_transformation_ = final_transformation_double_.template cast<Scalar>();
-      }
-      else {
-        final_transformation_ = transformation_ * final_transformation_;
-        final_transformation_double_ = final_transformation_.template cast<double>();
-      }
-      ++nr_iterations_;
+      applyStep(step);
 
       // PCL's MSE: mean of the correspondences' squared distances.
       criteria.setCorrespondencesMSE(mse);

@@ -4,6 +4,8 @@
  */
 #pragma once
 
+#include <pcl_parallel/normal_estimation.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/correspondence_estimation.h> // sqrDistanceBound
 #include <pcl_parallel/registration/lum.h>
 #include <pcl_parallel/search/impl/kdtree.hpp>
@@ -71,7 +73,7 @@ ParallelLUM<PointT>::syncPoses()
     const Eigen::Vector6f& p = (*slam_graph_)[v].pose_;
     // Bitwise comparison: NaN mirrors (new vertices) never match.
     if (!(p.array() == mirrors_[v].array()).all()) {
-      poses_[v] = lum::poseToMatrix(p);
+      poses_[v] = poseToMatrix(p);
       mirrors_[v] = p;
     }
   }
@@ -82,7 +84,7 @@ void
 ParallelLUM<PointT>::writeBackPoses()
 {
   for (std::size_t v = 0; v < poses_.size(); ++v) {
-    mirrors_[v] = lum::matrixToPose(poses_[v]);
+    mirrors_[v] = matrixToPose(poses_[v]);
     (*slam_graph_)[v].pose_ = mirrors_[v];
   }
 }
@@ -110,7 +112,7 @@ ParallelLUM<PointT>::addPointCloud(const PointCloudPtr& cloud, const Eigen::Matr
   const Vertex v = add_vertex(*slam_graph_);
   (*slam_graph_)[v].cloud_ = cloud;
   poses_.push_back(pose.cast<double>());
-  mirrors_.push_back(lum::matrixToPose(poses_.back()));
+  mirrors_.push_back(matrixToPose(poses_.back()));
   (*slam_graph_)[v].pose_ = mirrors_.back();
   return v;
 }
@@ -161,7 +163,7 @@ ParallelLUM<PointT>::setPoseMatrix(const Vertex& vertex, const Eigen::Matrix4d& 
   checkVertex(vertex, "setPoseMatrix");
   syncPoses();
   poses_[vertex] = pose;
-  mirrors_[vertex] = lum::matrixToPose(pose);
+  mirrors_[vertex] = matrixToPose(pose);
   (*slam_graph_)[vertex].pose_ = mirrors_[vertex];
 }
 
@@ -173,7 +175,7 @@ ParallelLUM<PointT>::getPoseMatrix(const Vertex& vertex) const
   const Eigen::Vector6f& p = (*slam_graph_)[vertex].pose_;
   if (vertex < poses_.size() && (p.array() == mirrors_[vertex].array()).all())
     return poses_[vertex];
-  return lum::poseToMatrix(p); // changed through the graph since
+  return poseToMatrix(p); // changed through the graph since
 }
 
 template <typename PointT>
@@ -551,7 +553,7 @@ ParallelLUM<PointT>::buildTrees(const std::vector<char>* needed)
       std::vector<Eigen::Vector3f>().swap(given);
     }
     if (normals_k_[v] != kGivenNormals && normals_k_[v] != normal_neighbours_) {
-      normals_[v] = lum::estimateNormals(*trees_[v], normal_neighbours_, threads);
+      normals_[v] = estimateUnitNormals(*trees_[v], normal_neighbours_, threads);
       normals_k_[v] = normal_neighbours_;
     }
   }

@@ -2,36 +2,25 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * Non-template core of ParallelLUM: pose conversions, the 6D linearisation of one link
- * and the sparse solve of G X = B. Compiled once in src/registration/lum_solver.cpp.
+ * One link of ParallelLUM's pose graph: the world-frame pose update it is linearised in,
+ * the sufficient statistics of its point pairs, its block of G X = B, and the measured
+ * pose constraints that enter the graph as link blocks, with their chi2. Non-template,
+ * compiled once in src/registration/lum_link.cpp.
  */
 #pragma once
 
+#include <pcl_parallel/pose_math.h>
+
 #include <Eigen/Core>
-#include <Eigen/Geometry>
 
 #include <cstddef>
 #include <cstdint>
-#include <memory>
-#include <vector>
 
 namespace pcl_parallel {
-class KdTreeIndex;
 namespace lum {
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
-
-/** PCL's 6-vector (x, y, z, roll, pitch, yaw), T = Tr * Rz(yaw) * Ry(pitch) * Rx(roll)
- *  as pcl::getTransformation, as a 4x4 in double. */
-Eigen::Matrix4d
-poseToMatrix(const Eigen::Matrix<float, 6, 1>& pose);
-
-/** Inverse of poseToMatrix(). At pitch = +-90 deg (gimbal lock) roll and yaw are not
- *  unique: roll is set to 0 and yaw carries the whole rotation, so the round trip still
- *  gives the same matrix. */
-Eigen::Matrix<float, 6, 1>
-matrixToPose(const Eigen::Matrix4d& m);
 
 /** Left (world-frame) update of a pose by delta = (t, w). The linearisation below models
  *  it to first order as moving a world point p to p + w x p + t. Any rigid motion with
@@ -43,24 +32,10 @@ matrixToPose(const Eigen::Matrix4d& m);
 void
 applyUpdate(Eigen::Matrix4d& pose, const Vector6d& delta);
 
-/** Rotation angle (rad) and translation distance between two poses: evaluation::poseError
- *  (the one place pose errors are computed), kept for existing callers. */
-void
-poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double& angle, double& dist);
-
-/** `pose` with its rotation orthonormal again (the nearest rotation, through a normalised
- *  quaternion): products of many poses drift from SO(3) by rounding. */
-Eigen::Matrix4d
-orthonormalized(const Eigen::Matrix4d& pose);
-
-/** The cross-product matrix [v]x: [v]x u = v x u. */
-inline Eigen::Matrix3d
-skew(const Eigen::Vector3d& v)
-{
-  Eigen::Matrix3d s;
-  s << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return s;
-}
+/** The delta with applyUpdate(before, delta) == after (up to rounding): the inverse of
+ *  applyUpdate, e.g. to express a link's pairwise alignment as a measurement. */
+Vector6d
+updateBetween(const Eigen::Matrix4d& before, const Eigen::Matrix4d& after);
 
 /**
  * \brief Sufficient statistics of one link's point pairs (paper Sec. III step 2).
@@ -171,18 +146,6 @@ private:
   double sum_rr_ = 0.0; ///< sum r^T W r over both kinds
 };
 
-/** The delta with applyUpdate(before, delta) == after (up to rounding): the inverse of
- *  applyUpdate, e.g. to express a link's pairwise alignment as a measurement. */
-Vector6d
-updateBetween(const Eigen::Matrix4d& before, const Eigen::Matrix4d& after);
-
-/** Unit surface normals of a tree's points, indexed by tree position (KdTreeIndex::
- *  point()): the direction of least variance of each point's k nearest neighbours
- *  (itself included), in the tree's frame. Zero where the neighbourhood does not define
- *  a plane (fewer than 3 distinct points, or collinear ones). Parallel over points. */
-std::vector<Eigen::Vector3f>
-estimateNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads);
-
 /** One link's contribution to G X = B: cost (D + H^-1 g)^T H (D + H^-1 g) with
  *  D = delta_source - delta_target. */
 struct LinkBlock {
@@ -230,46 +193,5 @@ double
 constraintChi2(const PoseConstraint& c,
                const Eigen::Matrix4d& source_pose,
                const Eigen::Matrix4d& target_pose);
-
-/**
- * \brief Assembles and solves the sparse normal equations G X = B over vertices
- * 1..n-1 (vertex 0 is the fixed reference) with Eigen's SimplicialLDLT in double
- * (paper Sec. III steps 3-4; the O(n^3) dense solve of PCL's LUM becomes a sparse
- * Cholesky whose cost follows the fill of the graph).
- *
- * Triplets are generated from the link blocks in link order, so G and B, and hence the
- * solution, do not depend on which thread computed which link. The symbolic analysis is
- * reused while the link structure stays the same.
- */
-class PoseGraphSolver {
-public:
-  PoseGraphSolver();
-  ~PoseGraphSolver();
-  PoseGraphSolver(const PoseGraphSolver&) = delete;
-  PoseGraphSolver&
-  operator=(const PoseGraphSolver&) = delete;
-
-  /** Solves for the updates of all n vertices (delta[0] = 0). Returns false if the
-   *  factorisation fails (e.g. a vertex without a valid link). */
-  bool
-  solve(std::size_t num_vertices,
-        const std::vector<LinkBlock, Eigen::aligned_allocator<LinkBlock>>& links,
-        std::vector<Vector6d, Eigen::aligned_allocator<Vector6d>>& delta);
-
-  /** Marginal covariance of vertex v (1..n-1) from the last factorisation: the 6x6
-   *  diagonal block of G^-1 (paper step 5, "update the covariances"). Zero for v = 0. */
-  Matrix6d
-  covariance(std::size_t v) const;
-
-private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
-
-/** Vertices not connected to vertex 0 through the given (source, target) links. */
-std::vector<std::uint32_t>
-unreachableFromZero(std::size_t num_vertices,
-                    const std::vector<std::pair<std::uint32_t, std::uint32_t>>& links);
-
 } // namespace lum
 } // namespace pcl_parallel
