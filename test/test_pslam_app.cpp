@@ -131,11 +131,17 @@ TEST(PslamOptions, SlamSixDCommandLineInFileUnits)
   EXPECT_TRUE(pcl_pslam::toParameters(o, 1.0).sequence_constraints);
   const auto no_constraints = parse({"run", "--no-sequence-constraints", "d"});
   EXPECT_FALSE(pcl_pslam::toParameters(no_constraints, 1.0).sequence_constraints);
-  // Segments: off unless asked for (one front end, loops fed back online).
-  EXPECT_EQ(pcl_pslam::toParameters(o, 1.0).segment_size, 0u);
+  // Segments: off unless asked for (one front end, loops fed back online); over ranks
+  // whenever there are several.
+  using pcl_parallel::slam::MappingBackend;
+  EXPECT_EQ(pcl_pslam::toMappingOptions(o, 1).backend, MappingBackend::kOnline);
+  EXPECT_EQ(pcl_pslam::toMappingOptions(o, 1).segment_size, 0u);
+  EXPECT_EQ(pcl_pslam::toMappingOptions(o, 2).backend, MappingBackend::kRanks);
   const auto segmented = parse({"run", "--segment-size", "40", "--segment-overlap", "3", "d"});
-  EXPECT_EQ(pcl_pslam::toParameters(segmented, 1.0).segment_size, 40u);
-  EXPECT_EQ(pcl_pslam::toParameters(segmented, 1.0).segment_overlap, 3u);
+  EXPECT_EQ(pcl_pslam::toMappingOptions(segmented, 1).backend, MappingBackend::kSegments);
+  EXPECT_EQ(pcl_pslam::toMappingOptions(segmented, 1).segment_size, 40u);
+  EXPECT_EQ(pcl_pslam::toMappingOptions(segmented, 1).segment_overlap, 3u);
+  EXPECT_EQ(pcl_pslam::toMappingOptions(segmented, 3).backend, MappingBackend::kRanks);
 }
 
 TEST(PslamOptions, BadUsageIsOneLine)
