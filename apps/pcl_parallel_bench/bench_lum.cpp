@@ -515,8 +515,7 @@ runBunnySeeds(const Options& opt)
       maxError(start, truth, r0, t0);
       maxError(got, truth, r1, t1);
       for (std::size_t v = 1; v < got.size(); ++v)
-        mean_rot +=
-            poseError(got[v], truth[v]).angle / static_cast<double>(got.size() - 1);
+        mean_rot += poseError(got[v], truth[v]).angle / static_cast<double>(got.size() - 1);
       t.addRow({mode == 0 ? "paper (point-to-point)" : "point-to-plane, 5 link steps",
                 fmt("%u", seed),
                 fmt("%zu", boost::num_edges(*lum.getLoopGraph())),
