@@ -5,14 +5,12 @@
 #include "outputs.h"
 
 #include <pcl_parallel/evaluation/trajectory_error.h>
-#include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/render/map_picture.h>
 
-#include <pcl/common/transforms.h>
 #include <pcl/pcl_config.h>
 
 #include <Eigen/Geometry>
@@ -22,7 +20,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
-#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
