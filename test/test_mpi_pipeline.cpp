@@ -153,7 +153,7 @@ TEST(MapSegments, AScanOneRankCannotReadEndsEveryRankWithOneMessage)
   // The ranks stayed in step: the next collective call works.
   slam::Parameters q;
   q.num_threads = 1;
-  q.close_loops = false;
+  q.loops.enabled = false;
   EXPECT_EQ(mpi::mapSegments(MPI_COMM_WORLD, q, 6, 3, 1, good)->size(), 6u);
 }
 
@@ -162,7 +162,7 @@ TEST(MapSegments, DifferentOptionsOnOneRankAreAnError)
   if (worldSize() < 2)
     GTEST_SKIP() << "needs 2 ranks";
   slam::Parameters p;
-  p.voxel_size = worldRank() == 1 ? 0.2 : 0.25;
+  p.reduction.voxel_size = worldRank() == 1 ? 0.2 : 0.25;
   try {
     mpi::mapSegments(MPI_COMM_WORLD, p, 6, 3, 1, source(corridorSet()));
     ADD_FAILURE() << "no exception";

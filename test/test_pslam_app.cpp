@@ -86,17 +86,18 @@ TEST(PslamOptions, SlamSixDCommandLineInFileUnits)
   EXPECT_EQ(o.first, 0);
   EXPECT_EQ(o.last, 65);
   const auto p = pcl_pslam::toParameters(o, 0.01); // uos: centimetres
-  EXPECT_DOUBLE_EQ(p.voxel_size, 0.1);
-  EXPECT_DOUBLE_EQ(p.icp_distance, 0.75);
-  EXPECT_DOUBLE_EQ(p.lum_distance, 2.5);
-  EXPECT_DOUBLE_EQ(p.loop_distance, 7.5);
-  EXPECT_EQ(p.icp_iterations, 100);
-  EXPECT_EQ(p.lum_iterations, 50);
-  // Unset lengths keep the metre defaults whatever the files' units.
-  EXPECT_DOUBLE_EQ(p.lum_final_distance, pcl_parallel::slam::Parameters().lum_final_distance);
-  EXPECT_DOUBLE_EQ(p.icp_final, pcl_parallel::slam::Parameters().icp_final);
-  EXPECT_DOUBLE_EQ(
-      pcl_pslam::toParameters(parse({"run", "--icp-final", "20", "d"}), 0.01).icp_final, 0.2);
+  EXPECT_DOUBLE_EQ(p.reduction.voxel_size, 0.1);
+  EXPECT_DOUBLE_EQ(p.matcher.max_correspondence_distance, 0.75);
+  EXPECT_DOUBLE_EQ(p.loops.lum_distance, 2.5);
+  EXPECT_DOUBLE_EQ(p.loops.distance, 7.5);
+  EXPECT_EQ(p.matcher.max_iterations, 100);
+  EXPECT_EQ(p.loops.lum_iterations, 50);
+  // Unset lengths stay automatic whatever the files' units.
+  EXPECT_DOUBLE_EQ(p.loops.lum_final_distance, 0.0);
+  EXPECT_DOUBLE_EQ(p.matcher.final_correspondence_distance, 0.0);
+  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(parse({"run", "--icp-final", "20", "d"}), 0.01)
+                       .matcher.final_correspondence_distance,
+                   0.2);
   // 3DTK's long names and the app's own are the same options.
   const auto l = parse({"run",
                         "--max=500",
@@ -115,22 +116,24 @@ TEST(PslamOptions, SlamSixDCommandLineInFileUnits)
   EXPECT_EQ(l.min_range, 50.0);
   EXPECT_EQ(l.loop_size, 7);
   EXPECT_EQ(l.lum_iterations, 3);
-  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(l, 1.0).voxel_size, 20.0);
-  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(l, 1.0).icp_distance, 30.0);
+  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(l, 1.0).reduction.voxel_size, 20.0);
+  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(l, 1.0).matcher.max_correspondence_distance, 30.0);
   const auto m = parse({"run", "-m", "3000", "-M", "50", "d"}); // -m max, -M min as slam6D
   EXPECT_EQ(m.max_range, 3000.0);
   EXPECT_EQ(m.min_range, 50.0);
   // ... and reach the pipeline in metres (it sizes its local map by the range).
-  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(m, 0.01).max_range, 30.0);
-  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(m, 0.01).min_range, 0.5);
-  EXPECT_TRUE(std::isinf(pcl_pslam::toParameters(o, 0.01).max_range));
+  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(m, 0.01).reduction.max_range, 30.0);
+  EXPECT_DOUBLE_EQ(pcl_pslam::toParameters(m, 0.01).reduction.min_range, 0.5);
+  EXPECT_TRUE(std::isinf(pcl_pslam::toParameters(o, 0.01).reduction.max_range));
   // slam6D's -L: 0 no loop closing before pLUM, 1-4 ELCH; ours on by default.
-  EXPECT_TRUE(pcl_pslam::toParameters(o, 1.0).elch);
-  EXPECT_FALSE(pcl_pslam::toParameters(parse({"run", "-L", "0", "d"}), 1.0).elch);
-  EXPECT_TRUE(pcl_pslam::toParameters(parse({"run", "--loop6DAlgo", "4", "d"}), 1.0).elch);
-  EXPECT_TRUE(pcl_pslam::toParameters(o, 1.0).sequence_constraints);
+  EXPECT_TRUE(pcl_pslam::toParameters(o, 1.0).loops.distribute_error);
+  EXPECT_FALSE(
+      pcl_pslam::toParameters(parse({"run", "-L", "0", "d"}), 1.0).loops.distribute_error);
+  EXPECT_TRUE(pcl_pslam::toParameters(parse({"run", "--loop6DAlgo", "4", "d"}), 1.0)
+                  .loops.distribute_error);
+  EXPECT_TRUE(pcl_pslam::toParameters(o, 1.0).loops.sequence_constraints);
   const auto no_constraints = parse({"run", "--no-sequence-constraints", "d"});
-  EXPECT_FALSE(pcl_pslam::toParameters(no_constraints, 1.0).sequence_constraints);
+  EXPECT_FALSE(pcl_pslam::toParameters(no_constraints, 1.0).loops.sequence_constraints);
   // Segments: off unless asked for (one front end, loops fed back online); over ranks
   // whenever there are several.
   using pcl_parallel::slam::MappingBackend;
@@ -699,7 +702,7 @@ TEST(PslamApp, StopAndGoWithoutPosesKeepsTheMatchThatContradictsLess)
   const pcl_pslam::Input in = pcl_pslam::openDirectory(o);
   ASSERT_FALSE(in.odometry);
   pcl_parallel::slam::Parameters p = pcl_pslam::toParameters(o, in.scale);
-  p.up = Eigen::Vector3d::Unit(in.up); // as the app sets it: y for 3DTK's frame
+  p.guess.up = Eigen::Vector3d::Unit(in.up); // as the app sets it: y for 3DTK's frame
   const pcl_pslam::Result r = pcl_pslam::run(
       pcl_parallel::io::readAllScans(in), in.odometry ? in.initial : pcl_pslam::Poses(), p);
   const auto truth = pcl_parallel::io::loadKittiPoses((dir / "ground_truth.txt").string());

@@ -98,7 +98,7 @@ TEST(RealSequences, HandheldLoopClosingKeepsTheSteps)
 // The same scanner without odometry: the front end from constant velocity alone. The
 // swings change the motion between keyframes far more than constant velocity predicts,
 // so the local-map match starts from a match to the previous scan
-// (FrontEndParameters::guess_from_previous_scan), the best of it and of the predicted turn
+// (PoseGuessParameters::guess_from_previous_scan), the best of it and of the predicted turn
 // stopped and doubled (the turn-rate hypotheses; docs/design.md, "Speed hypotheses").
 // Measured: per-step rotation error 0.40 degrees mean, 4.9 worst (0.61, 8.6 registering
 // voxel centroids); without the turn-rate hypotheses 1.44 and 17.6 (they lost the fastest
@@ -108,7 +108,7 @@ TEST(RealSequences, HandheldFrontEndWithoutOdometry)
   PCL_PARALLEL_REQUIRE_DATA(reference_file, "fastlio_quick_shack/optimized_poses.txt");
   const std::size_t n = kSanitized ? 30 : 241;
   slam::Parameters p;
-  p.close_loops = false;
+  p.loops.enabled = false;
   p.num_threads = 2;
   std::vector<slam::ScanReport> reports;
   const std::string dir = test::dataFile("fastlio_quick_shack/bin");
@@ -208,7 +208,7 @@ TEST(RealSequences, CarKeyframesPredictedByTheirTimes)
 // up to ~14 m/s, and along the street a match started metres short converges to a false
 // fit near the previous pose (from 0-2 m short of keyframe 18's 7.2 m step, pICP ends at
 // +0.7 m, fitness 1.15 against 0.73), which then sets the velocity; the speed hypotheses
-// (FrontEndParameters::speed_hypotheses) must catch up with the car, against the local
+// (PoseGuessParameters::speed_hypotheses) must catch up with the car, against the local
 // map and scan-to-scan (--scan-to-scan), each from a start keyframe of its own: the path
 // to keyframe 60 over 250 m and every step of keyframes 20-46 over 4 m. 1 and 2 threads:
 // the same poses. `pcl_parallel_bench real-car` runs both from each of keyframes 0-3.
@@ -226,7 +226,7 @@ TEST(RealSequences, CarPullsAwayFromAnyStartKeyframe)
   for (const auto& [target, first] :
        {std::pair{slam::MatchTarget::kLocalMap, std::size_t{0}},
         std::pair{slam::MatchTarget::kPreviousScan, std::size_t{2}}}) {
-    p.match_target = target;
+    p.matcher.target = target;
     const char* mode = target == slam::MatchTarget::kLocalMap ? "local map" : "scan-to-scan";
     const test::CarPullAway r = test::carPullAway(dir, times, n, first, p);
     ASSERT_EQ(r.poses.size(), n - first);

@@ -133,7 +133,7 @@ frontEndOnly()
 {
   slam::Parameters p;
   p.num_threads = 2;
-  p.close_loops = false;
+  p.loops.enabled = false;
   return p;
 }
 
@@ -257,7 +257,7 @@ TEST(Pipeline, SegmentedWithoutOdometryJoinsSegmentsInFramesOfTheirOwn)
   const std::size_t n = set.scans.size();
   slam::Parameters p;
   p.num_threads = 2;
-  p.deskew = true;
+  p.deskew.enabled = true;
   const slam::ScanSource read = [&](std::size_t i) {
     return slam::SourceScan{set.scans[i], std::nullopt, std::nullopt, {}};
   };
@@ -296,8 +296,8 @@ TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
   };
   const auto frontEnd = [&](bool deskew, double sweep_period) {
     slam::Parameters p = frontEndOnly();
-    p.deskew = deskew;
-    p.sweep_period = sweep_period;
+    p.deskew.enabled = deskew;
+    p.deskew.sweep_period = sweep_period;
     slam::Pipeline pipeline(p);
     for (std::size_t i = 0; i < set.scans.size(); ++i)
       pipeline.addScan(*set.scans[i], set.odometry[i], set.timestamps[i]);
@@ -339,8 +339,8 @@ TEST(Pipeline, ScansInTurnsAreDeskewedAgainByTheirMatchedStep)
   const double period = set.scanner.sweep_period;
   const auto frontEnd = [&](bool by_truth, std::vector<slam::ScanReport>* reports) {
     slam::Parameters p = frontEndOnly();
-    p.deskew = !by_truth;
-    p.sweep_period = period;
+    p.deskew.enabled = !by_truth;
+    p.deskew.sweep_period = period;
     slam::Pipeline pipeline(p);
     for (std::size_t i = 0; i < set.scans.size(); ++i) {
       const Pose sweep = slam::sweepMotionAt(set.truth, set.timestamps, i, period);
@@ -399,8 +399,8 @@ TEST(Pipeline, DeskewsByThePointsTimesWhenGiven)
   enum class Times { kNone, kSweep, kReversed, kZero };
   const auto frontEnd = [&](Times times) {
     slam::Parameters p = frontEndOnly();
-    p.deskew = true;
-    p.min_range = 4.0;
+    p.deskew.enabled = true;
+    p.reduction.min_range = 4.0;
     slam::Pipeline pipeline(p);
     std::mt19937 rng(11);
     for (std::size_t i = 0; i < set.scans.size(); ++i) {
@@ -514,7 +514,7 @@ TEST(Pipeline, FirstScanIsDeskewedOnceTheFirstStepIsKnown)
 {
   const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 4 : 8);
   slam::Parameters p = frontEndOnly();
-  p.deskew = true;
+  p.deskew.enabled = true;
   for (const bool odometry : {true, false}) {
     slam::Pipeline pipeline(p);
     for (std::size_t i = 0; i < set.scans.size(); ++i)
@@ -579,7 +579,7 @@ TEST(Pipeline, CoarseToFineRefinesTheWideGatesMatch)
         .translation.rmse;
   };
   const double refined = ate(runPipeline(set, p).front_end);
-  p.icp_final = 1e3; // wider than the gate: no refinement
+  p.matcher.final_correspondence_distance = 1e3; // wider than the gate: no refinement
   const double wide = ate(runPipeline(set, p).front_end);
   std::printf("office front end ATE: wide gate %.4f m, refined %.4f m\n", wide, refined);
   EXPECT_LT(refined, 0.006);
@@ -677,7 +677,7 @@ TEST(Pipeline, PoseSearchFindsStopAndGoStepsWithoutPoses)
   }
   if (test::kSanitized)
     return; // the search's run is what the sanitizers look at
-  p.pose_search = false;
+  p.guess.pose_search = false;
   const PipelineRun guessed = runPipeline(s.set, p, false);
   std::printf("riegl without poses, front-end ATE: searched %.4f m, constant velocity %.3f m\n",
               ate(searched.front_end, s.set.truth),
@@ -685,9 +685,9 @@ TEST(Pipeline, PoseSearchFindsStopAndGoStepsWithoutPoses)
   EXPECT_GT(ate(guessed.front_end, s.set.truth), 1.0);
 
   const sim::SimulatedScanSet kitti = presetScans("kitti", 12);
-  p.pose_search = true;
+  p.guess.pose_search = true;
   const PipelineRun lidar = runPipeline(kitti, p, false);
-  p.pose_search = false;
+  p.guess.pose_search = false;
   const PipelineRun plain = runPipeline(kitti, p, false);
   EXPECT_EQ(lidar.front_end, plain.front_end);
   for (std::size_t i = 2; i < lidar.reports.size(); ++i)
@@ -760,9 +760,9 @@ TEST(Pipeline, PoseSearchTakesKeyframesThroughSharpCorners)
   const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 13 : 15, 5);
   const auto frontEndAte = [&](bool search) {
     slam::Parameters p = frontEndOnly();
-    p.deskew = true;
-    p.sweep_period = set.scanner.sweep_period;
-    p.pose_search = search;
+    p.deskew.enabled = true;
+    p.deskew.sweep_period = set.scanner.sweep_period;
+    p.guess.pose_search = search;
     slam::Pipeline pipeline(p);
     for (std::size_t i = 0; i < set.scans.size(); ++i)
       pipeline.addScan(*set.scans[i], std::nullopt, set.timestamps[i]);
@@ -815,7 +815,7 @@ TEST(Pipeline, LoopClosingCutsDriftAndBreaksNoLink)
 {
   const auto& set = corridorSet();
   slam::Parameters p;
-  p.match_target = slam::MatchTarget::kPreviousScan;
+  p.matcher.target = slam::MatchTarget::kPreviousScan;
   p.num_threads = 2;
   const PipelineRun run = runPipeline(set, p);
   const bool loop = std::any_of(run.links.begin(), run.links.end(), [&](const slam::Link& l) {
@@ -852,7 +852,7 @@ TEST(Pipeline, SequenceConstraintsKeepTheFrontEndsSteps)
   const PipelineRun& with = defaultRun();
   slam::Parameters p;
   p.num_threads = 2;
-  p.sequence_constraints = false;
+  p.loops.sequence_constraints = false;
   const PipelineRun without = runPipeline(set, p);
   const auto ate = [&](const Poses& poses) {
     return evaluation::absoluteTrajectoryError(poses, set.truth, evaluation::Alignment::SE3)
@@ -912,8 +912,8 @@ TEST(Pipeline, SparseScannerLoopClosingKeepsTheFrontEndsSteps)
   const sim::ScannerModel& m = set.scanner;
   slam::Parameters p;
   p.num_threads = 2;
-  p.deskew = true;
-  p.sweep_period = m.sweep_period;
+  p.deskew.enabled = true;
+  p.deskew.sweep_period = m.sweep_period;
   slam::Pipeline pipeline(p);
   for (std::size_t i = 0; i < set.scans.size(); ++i)
     pipeline.addScan(*set.scans[i], set.odometry[i], set.timestamps[i]);
@@ -974,7 +974,7 @@ TEST(Pipeline, RelaxEachLoopMatchesRelaxAtEnd)
 {
   const auto& set = corridorSet();
   slam::Parameters end;
-  end.relax_each_loop = false;
+  end.loops.relax_each_loop = false;
   end.num_threads = 2;
   const PipelineRun& a = defaultRun();
   const PipelineRun b = runPipeline(set, end);
@@ -1029,7 +1029,9 @@ TEST(Pipeline, ReportsCorrectionAndGate)
   for (std::size_t i = 1; i < reports.size(); ++i) {
     largest = std::max(largest, reports[i].correction);
     EXPECT_GT(reports[i].gate, 0.0) << i;
-    EXPECT_LE(reports[i].gate, pipeline.frontEndParameters().max_correspondence_distance) << i;
+    EXPECT_LE(reports[i].gate,
+              pipeline.resolvedParameters().matcher.max_correspondence_distance)
+        << i;
     EXPECT_GE(reports[i].correction, 0.0) << i;
     EXPECT_LT(reports[i].correction, 0.05) << i; // metres (rotation at the median range)
   }
@@ -1054,8 +1056,8 @@ TEST(Pipeline, BadInputIsAClearError)
 
   // Time stamps: finite, all or none, and increasing when a sweep period needs them.
   slam::Parameters p;
-  p.deskew = true;
-  p.sweep_period = 0.1;
+  p.deskew.enabled = true;
+  p.deskew.sweep_period = 0.1;
   slam::Pipeline keyframes(p);
   EXPECT_THROW(keyframes.addScan(one), std::invalid_argument); // no stamp
   EXPECT_THROW(keyframes.addScan(one, std::nullopt, NAN), std::invalid_argument);
@@ -1064,12 +1066,12 @@ TEST(Pipeline, BadInputIsAClearError)
   EXPECT_THROW(keyframes.addScan(one, std::nullopt, 1.5), std::invalid_argument);
   EXPECT_THROW(keyframes.addScan(one), std::invalid_argument);
   EXPECT_EQ(keyframes.addScan(one, std::nullopt, 2.5), 1u);
-  p.sweep_period = -0.1;
+  p.deskew.sweep_period = -0.1;
   slam::Pipeline negative(p);
   EXPECT_THROW(negative.addScan(one, std::nullopt, 0.0), std::invalid_argument);
 
   // Point times: one per point, finite.
-  p.sweep_period = 0.0;
+  p.deskew.sweep_period = 0.0;
   slam::Pipeline timed(p);
   std::vector<double> times(one.size(), 1.0);
   EXPECT_THROW(timed.addScan(one, std::nullopt, std::nullopt, {1.0, 2.0}),
@@ -1136,8 +1138,8 @@ TEST(Pipeline, FirstScanEntersTheGraphOnceDeskewedByTheFirstStep)
 {
   const auto& set = corridorSet();
   slam::Parameters p;
-  p.deskew = true;
-  p.close_loops = false;
+  p.deskew.enabled = true;
+  p.loops.enabled = false;
   slam::Pipeline pipeline(p);
   pipeline.addScan(*set.scans[0], set.truth[0]);
   EXPECT_EQ(pipeline.size(), 0u);
@@ -1145,10 +1147,11 @@ TEST(Pipeline, FirstScanEntersTheGraphOnceDeskewedByTheFirstStep)
   ASSERT_EQ(pipeline.size(), 2u);
   // The odometry's step, whole (no stamps, no sweep period).
   const Pose step = set.truth[0].inverse() * set.truth[1];
-  const Cloud::Ptr cropped = slam::cropRange(*set.scans[0], p.min_range, p.max_range);
-  const Cloud::Ptr expected =
-      filters::voxelCentroid(*slam::deskewSweep(*cropped, {}, step, p.sweep_clockwise, 0),
-                             pipeline.frontEndParameters().voxel_size);
+  const Cloud::Ptr cropped =
+      slam::cropRange(*set.scans[0], p.reduction.min_range, p.reduction.max_range);
+  const Cloud::Ptr expected = filters::voxelCentroid(
+      *slam::deskewSweep(*cropped, {}, step, p.deskew.sweep_clockwise, 0),
+      pipeline.resolvedParameters().reduction.voxel_size);
   const Cloud::ConstPtr kept = pipeline.reducedScan(0);
   ASSERT_EQ(kept->size(), expected->size());
   for (std::size_t i = 0; i < kept->size(); ++i)
@@ -1161,16 +1164,25 @@ TEST(Pipeline, FirstScanEntersTheGraphOnceDeskewedByTheFirstStep)
   EXPECT_EQ(alone.size(), 1u);
 }
 
+/** Loop closing with 10 cm voxels on scans of 10 m median range, loops within 5 m. */
+slam::Parameters
+loopParameters()
+{
+  slam::Parameters p;
+  p.reduction.voxel_size = 0.1;
+  p.loops.distance = 5.0;
+  p.loops.lum_epsilon = 1e-4;
+  return slam::resolve(p, 10.0);
+}
+
 // A scanner turning in place (30 deg per scan) is near every earlier scan and sees again
 // what it saw 12 scans before: loop links stay one per loopsize / 2 scans, so the graph
 // grows linearly.
 TEST(LoopCloser, LingeringScannerMakesALinearGraph)
 {
   const auto& set = corridorSet();
-  slam::LoopClosureParameters p;
-  p.min_separation = 10;
-  p.distance = 5.0;
-  p.overlap_distance = 0.2;
+  slam::Parameters p = loopParameters();
+  p.loops.min_separation = 10;
   slam::LoopCloser closer(p);
   const std::size_t n = test::kSanitized ? 40 : 80;
   for (std::size_t i = 0; i < n; ++i) {
@@ -1181,7 +1193,8 @@ TEST(LoopCloser, LingeringScannerMakesALinearGraph)
   for (const auto& l : closer.links())
     loops += l.loop ? 1 : 0;
   EXPECT_GE(loops, 2u);
-  EXPECT_LE(loops, (n - p.min_separation) / (p.min_separation / 2) + 1);
+  const std::size_t separation = p.loops.min_separation;
+  EXPECT_LE(loops, (n - separation) / (separation / 2) + 1);
 }
 
 // A loop's error is spread along it only when it shows in the map (above the overlap
@@ -1194,8 +1207,7 @@ TEST(LoopCloser, SpreadsOnlyAVisibleLoopError)
   const std::size_t n = set.scans.size();
   for (const double drift : {0.0, 0.35}) {
     SCOPED_TRACE("drift " + std::to_string(drift));
-    slam::LoopClosureParameters p;
-    p.overlap_distance = 0.2;
+    slam::Parameters p = loopParameters();
     p.num_threads = 2;
     slam::LoopCloser closer(p);
     std::size_t accepted = 0, distributed = 0;
@@ -1208,7 +1220,7 @@ TEST(LoopCloser, SpreadsOnlyAVisibleLoopError)
         accepted += c.accepted;
         distributed += c.distributed;
         if (c.distributed) { // the newest scan moves towards the truth
-          EXPECT_GT(c.error, p.overlap_distance);
+          EXPECT_GT(c.error, p.loops.overlap_distance);
           const auto offset = [&](const Pose& a) {
             return (a - set.truth[i]).topRightCorner(3, 1).norm();
           };
@@ -1593,12 +1605,12 @@ TEST(Preprocess, MapFrameDeskewsByTimesOrAzimuth)
     return a.size() == b.size();
   };
   EXPECT_TRUE(same(*slam::mapFrame(scan, ns, poses, {}, 1, p), scan)); // not deskewing
-  p.deskew = true;
+  p.deskew.enabled = true;
   const Pose motion = helixPose(1.0);
   EXPECT_TRUE(same(*slam::mapFrame(scan, ns, poses, {}, 1, p),
                    *slam::deskew(scan, slam::sweepFractions(ns), motion)));
   EXPECT_TRUE(same(*slam::mapFrame(scan, {}, poses, {}, 1, p), *slam::deskew(scan, motion)));
-  p.sweep_clockwise = false;
+  p.deskew.sweep_clockwise = false;
   EXPECT_TRUE(same(*slam::mapFrame(scan, std::vector<double>(40, 7.0), poses, {}, 1, p),
                    *slam::deskew(scan, motion, 0, false))); // equal times: by azimuth
   EXPECT_FALSE(same(*slam::mapFrame(scan, {}, poses, {}, 1, p), *slam::deskew(scan, motion)));

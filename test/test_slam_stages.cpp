@@ -3,9 +3,10 @@
  * SPDX-License-Identifier: BSD-3-Clause
  *
  * The front end's stages one by one (slam/motion_model.h, deskewer.h, reducer.h,
- * matcher.h, pose_guess.h), each against what it must equal: exact poses for the motion
- * model, the voxel filters for the reducer, a known step for the matcher and the pose
- * guess. test_slam runs them together through the Pipeline.
+ * matcher.h, pose_guess.h) and their parameters (parameters.h), each against what it must
+ * equal: the automatic lengths' rules, exact poses for the motion model, the voxel filters
+ * for the reducer, a known step for the matcher and the pose guess. test_slam runs them
+ * together through the Pipeline.
  */
 #include "random_clouds.h"
 
@@ -13,6 +14,7 @@
 #include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/slam/deskewer.h>
+#include <pcl_parallel/slam/loop_closure.h>
 #include <pcl_parallel/slam/matcher.h>
 #include <pcl_parallel/slam/motion_model.h>
 #include <pcl_parallel/slam/pose_guess.h>
@@ -25,6 +27,8 @@
 
 #include <cmath>
 #include <gtest/gtest.h>
+#include <limits>
+#include <stdexcept>
 
 namespace {
 
@@ -62,18 +66,74 @@ seenFrom(const Cloud& world, const Pose& pose)
   return out;
 }
 
-slam::FrontEndParameters
+/** The pipeline's automatic lengths for 5 cm voxels in a room of 5 m median range. */
+slam::Parameters
 roomParameters(slam::MatchTarget target)
 {
-  slam::FrontEndParameters p;
-  p.target = target;
-  p.voxel_size = 0.05;
-  p.source_voxel_size = 0.15;
-  p.map_voxel_size = 0.1;
-  p.map_distance = 10.0;
-  p.max_correspondence_distance = 0.5;
-  p.final_correspondence_distance = 0.1;
-  return p;
+  slam::Parameters p;
+  p.matcher.target = target;
+  p.reduction.voxel_size = 0.05;
+  p.matcher.map_distance = 10.0;
+  p.matcher.max_correspondence_distance = 0.5;
+  p.matcher.final_correspondence_distance = 0.1;
+  return slam::resolve(p, 5.0);
+}
+
+// Every automatic length follows from the median range r (docs/design.md, "Automatic
+// scale"): voxel r / 20, gates 10 and 2 voxels, map voxel 2, loops within r; set lengths
+// and the range crop are kept, and the loop pICP follows the matcher's.
+TEST(Parameters, ResolveSetsTheAutomaticLengthsFromTheMedianRange)
+{
+  const slam::Parameters automatic = slam::resolve(slam::Parameters(), 8.0);
+  EXPECT_TRUE(slam::isResolved(automatic));
+  EXPECT_FALSE(slam::isResolved(slam::Parameters()));
+  EXPECT_DOUBLE_EQ(automatic.median_range, 8.0);
+  EXPECT_DOUBLE_EQ(automatic.reduction.voxel_size, 0.4);
+  EXPECT_DOUBLE_EQ(automatic.reduction.source_voxel_size, 1.2);
+  EXPECT_DOUBLE_EQ(automatic.matcher.map_voxel_size, 0.8);
+  EXPECT_DOUBLE_EQ(automatic.matcher.map_distance, 40.0); // unbounded range: 5 r
+  EXPECT_DOUBLE_EQ(automatic.matcher.max_correspondence_distance, 4.0);
+  EXPECT_DOUBLE_EQ(automatic.matcher.final_correspondence_distance, 0.8);
+  EXPECT_DOUBLE_EQ(automatic.loops.distance, 8.0);
+  EXPECT_DOUBLE_EQ(automatic.loops.overlap_distance, 0.8);
+  EXPECT_DOUBLE_EQ(automatic.loops.icp_distance, 4.0);
+  EXPECT_EQ(automatic.loops.icp_iterations, 50);
+  EXPECT_DOUBLE_EQ(automatic.loops.lum_distance, 4.0);
+  EXPECT_DOUBLE_EQ(automatic.loops.lum_final_distance, 0.8);
+  EXPECT_DOUBLE_EQ(automatic.loops.lum_epsilon, 0.004);
+
+  slam::Parameters p;
+  p.reduction.voxel_size = 0.1;
+  p.reduction.max_range = 25.0;
+  p.matcher.max_correspondence_distance = 0.3;
+  p.matcher.final_correspondence_distance = 0.5; // wider than the gate: capped by it
+  p.matcher.max_iterations = 80;
+  p.loops.distance = 3.0;
+  p.median_range = 6.0; // the user's scale wins over the scans'
+  const slam::Parameters q = slam::resolve(p, 8.0);
+  EXPECT_DOUBLE_EQ(q.median_range, 6.0);
+  EXPECT_DOUBLE_EQ(q.reduction.voxel_size, 0.1);
+  EXPECT_DOUBLE_EQ(q.matcher.map_distance, 25.0);
+  EXPECT_DOUBLE_EQ(q.matcher.max_correspondence_distance, 0.3);
+  EXPECT_DOUBLE_EQ(q.matcher.final_correspondence_distance, 0.3);
+  EXPECT_DOUBLE_EQ(q.loops.distance, 3.0);
+  EXPECT_DOUBLE_EQ(q.loops.icp_distance, 0.3);
+  EXPECT_EQ(q.loops.icp_iterations, 80);
+  EXPECT_DOUBLE_EQ(q.loops.lum_distance, 1.0);
+}
+
+TEST(Parameters, BadScaleOrSweepPeriodAndUnresolvedStagesAreRefused)
+{
+  slam::Parameters p;
+  EXPECT_THROW(slam::resolve(p, 0.0), std::invalid_argument);
+  EXPECT_THROW(slam::resolve(p, std::numeric_limits<double>::quiet_NaN()),
+               std::invalid_argument);
+  p.deskew.sweep_period = -0.1;
+  EXPECT_THROW(slam::resolve(p, 8.0), std::invalid_argument);
+  p.deskew.sweep_period = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(slam::resolve(p, 8.0), std::invalid_argument);
+  EXPECT_THROW(slam::Matcher{slam::Parameters()}, std::invalid_argument);
+  EXPECT_THROW(slam::LoopCloser{slam::Parameters()}, std::invalid_argument);
 }
 
 TEST(MotionModel, ConstantVelocityRepeatsTheLastStep)
@@ -209,8 +269,8 @@ TEST(Reducer, DescribesOnceWithTheSurfacesNormals)
 void
 expectMatch(slam::MatchTarget target)
 {
-  const slam::FrontEndParameters p = roomParameters(target);
-  const slam::Reducer reducer(p.voxel_size, p.source_voxel_size, 0);
+  const slam::Parameters p = roomParameters(target);
+  const slam::Reducer reducer(p.reduction.voxel_size, p.reduction.source_voxel_size, 0);
   slam::Matcher matcher(p);
   EXPECT_FALSE(matcher.hasTarget());
   slam::ReducedScan first = reducer.reduce(room(1));
@@ -233,7 +293,7 @@ expectMatch(slam::MatchTarget target)
   EXPECT_GT(record.information_pairs, 0.5 * source->size());
   EXPECT_GT(record.information.ldlt().vectorD().minCoeff(), 0.0); // all six constrained
   // Two samplings of the same surfaces: pairs about a voxel apart, not a wall's width.
-  EXPECT_LT(record.report.fitness, p.voxel_size * p.voxel_size);
+  EXPECT_LT(record.report.fitness, p.reduction.voxel_size * p.reduction.voxel_size);
 }
 
 TEST(Matcher, RecoversAStepToThePreviousScan)
@@ -251,9 +311,9 @@ TEST(Matcher, RecoversAStepToTheLocalMap)
 std::pair<Pose, slam::ScanRecord>
 guessTurn(double yaw, bool odometry)
 {
-  const slam::FrontEndParameters p = roomParameters(slam::MatchTarget::kLocalMap);
-  slam::MotionModel motion(0.0, p.voxel_size);
-  const slam::Reducer reducer(p.voxel_size, p.source_voxel_size, 0);
+  const slam::Parameters p = roomParameters(slam::MatchTarget::kLocalMap);
+  slam::MotionModel motion(0.0, p.reduction.voxel_size);
+  const slam::Reducer reducer(p.reduction.voxel_size, p.reduction.source_voxel_size, 0);
   slam::Matcher matcher(p);
   slam::PoseGuess guess(p, matcher, reducer, motion);
   const slam::MotionPrediction m0 = motion.predict(std::nullopt, std::nullopt);

@@ -64,7 +64,7 @@ printPullAway(const std::string& dir, const std::vector<double>& times)
   slam::Parameters p = test::deskewedFrontEnd(0.1);
   for (const slam::MatchTarget target :
        {slam::MatchTarget::kLocalMap, slam::MatchTarget::kPreviousScan}) {
-    p.match_target = target;
+    p.matcher.target = target;
     for (std::size_t first = 0; first < 4; ++first) {
       test::CarPullAway r;
       const double s = seconds([&]() { r = test::carPullAway(dir, times, 70, first, p); });
@@ -104,7 +104,7 @@ runHannoverSteps(const Options&)
   const sim::SimulatedScanSet set = sim::simulatePreset("hannover", o);
   slam::Parameters p;
   p.num_threads = 2;
-  p.close_loops = false;
+  p.loops.enabled = false;
   slam::Pipeline pipeline(p);
   const double s = seconds([&]() {
     for (const auto& scan : set.scans)

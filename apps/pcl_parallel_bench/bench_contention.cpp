@@ -208,7 +208,7 @@ pipelineWorkloads(const Options& opt)
     for (const auto& f : files)
       scans->push_back(io::loadKittiScan(f));
     slam::Parameters p;
-    p.close_loops = false;
+    p.loops.enabled = false;
     out.push_back(pipelineWorkload(
         fmt("pipeline: fastlio keyframes (%zu, no odometry, no loops)", scans->size()),
         scans,

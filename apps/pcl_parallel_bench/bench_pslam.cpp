@@ -83,7 +83,7 @@ runPslamPreset(const Options& opt, const std::string& preset, bool use_odometry)
   for (unsigned threads : opt.threads) {
     slam::Parameters p;
     p.num_threads = threads;
-    p.deskew = !reader.uos;
+    p.deskew.enabled = !reader.uos;
     slam::Pipeline pipeline(p);
     double read = 0.0;
     std::vector<Eigen::Matrix4d> odometry; // as read with the scans

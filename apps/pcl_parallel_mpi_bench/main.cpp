@@ -179,7 +179,7 @@ runPslam(int argc, char** argv)
 
   slam::Parameters p;
   p.num_threads = threads;
-  p.deskew = !reader.uos;
+  p.deskew.enabled = !reader.uos;
   double read_seconds = 0.0;
   const slam::ScanSource read = [&](std::size_t i) {
     const double t = now();

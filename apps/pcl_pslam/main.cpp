@@ -123,8 +123,8 @@ pcl_parallel::slam::Parameters
 runParameters(const pcl_pslam::Options& o, const pcl_pslam::Input& in)
 {
   pcl_parallel::slam::Parameters params = pcl_pslam::toParameters(o, in.scale);
-  params.up = Eigen::Vector3d::Unit(in.up);
-  if (!in.has_stamps && params.sweep_period > 0.0)
+  params.guess.up = Eigen::Vector3d::Unit(in.up);
+  if (!in.has_stamps && params.deskew.sweep_period > 0.0)
     throw pcl_pslam::UsageError("--sweep-period needs the scans' time stamps: no --times "
                                 "and no times.txt in " +
                                 o.dir + " or its parent");
@@ -170,7 +170,7 @@ mapAndWrite(pcl_pslam::Options& o,
   const pcl_parallel::slam::Parameters params = runParameters(o, in);
   // Streamed: each scan is read when the pipeline takes it, and dropped after.
   const pcl_pslam::Result r =
-      pcl_pslam::run(scanReader(in, params.deskew),
+      pcl_pslam::run(scanReader(in, params.deskew.enabled),
                      in.size(),
                      in.odometry ? in.initial : pcl_pslam::Poses(),
                      in.has_stamps ? in.stamps : std::vector<double>(),
@@ -185,7 +185,8 @@ mapAndWrite(pcl_pslam::Options& o,
     points += report.points;
   const std::string read_time = std::to_string(in.read_seconds).substr(0, 4) + " s";
   if (r.spread.ranks == 1)
-    if (const std::string note = pcl_pslam::deskewNote(in, params.deskew); !note.empty())
+    if (const std::string note = pcl_pslam::deskewNote(in, params.deskew.enabled);
+        !note.empty())
       progress.note(note);
   progress.note(std::to_string(points) + " points read" +
                 (r.spread.ranks > 1 ? " by " + std::to_string(r.spread.ranks) +

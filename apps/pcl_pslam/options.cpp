@@ -77,13 +77,13 @@ struct Descriptions {
        "--voxel) [default: auto, the scans' median range / 20]")
       ("iter,icp-iterations,i", po::value<int>(&o.icp_iterations)->value_name("NR"),
        text("maximal number of ICP iterations (also --icp-iterations) [default " +
-            std::to_string(d.icp_iterations) + "]").c_str())
+            std::to_string(d.matcher.max_iterations) + "]").c_str())
       ("dist,icp-distance,d", po::value<double>()->value_name("NR"),
        "maximal point-to-point distance for matching with ICP (also --icp-distance) "
        "[default: auto, 10 voxels]")
       ("iterSLAM,lum-iterations,I", po::value<int>(&o.lum_iterations)->value_name("NR"),
        text("maximal number of pLUM (SLAM) iterations per relaxation, >= 1 (also "
-            "--lum-iterations) [default " + std::to_string(d.lum_iterations) +
+            "--lum-iterations) [default " + std::to_string(d.loops.lum_iterations) +
             "; 3DTK's default 0 skips SLAM: here --no-loops]").c_str())
       ("icp-final", po::value<double>()->value_name("NR"),
        "after converging within -d, the front end's match is refined within NR (coarse to "
@@ -98,7 +98,7 @@ struct Descriptions {
        "[default: auto, the scans' median range]")
       ("loopsize,loop-size,l", po::value<int>(&o.loop_size)->value_name("NR"),
        text("a loop must exceed NR scans (also --loop-size) [default " +
-            std::to_string(d.loop_size) + "]").c_str())
+            std::to_string(d.loops.min_separation) + "]").c_str())
       ("epsICP", po::value<double>()->value_name("NR"),
        "stop pICP when the transform changes by less than NR (squared: PCL's "
        "transformation epsilon) [default 1e-8]")
@@ -407,37 +407,35 @@ parseCommandLine(int argc, const char* const* argv)
 pcl_parallel::slam::Parameters
 toParameters(const Options& o, double scale)
 {
-  pcl_parallel::slam::Parameters p;
-  auto length = [scale](const std::optional<double>& v, double fallback) {
-    return v ? *v * scale : fallback;
-  };
-  p.voxel_size = length(o.voxel, p.voxel_size);
+  namespace slam = pcl_parallel::slam;
+  slam::Parameters p;
+  auto length = [scale](const std::optional<double>& v) { return v ? *v * scale : 0.0; };
   // The scans are cropped when read; the pipeline also sizes its local map by the range.
-  p.min_range = o.min_range * scale;
-  p.max_range = o.max_range * scale;
-  p.icp_distance = length(o.icp_distance, p.icp_distance);
-  p.icp_final = length(o.icp_final, p.icp_final);
-  p.icp_iterations = o.icp_iterations;
-  p.loop_distance = length(o.loop_distance, p.loop_distance);
-  p.loop_size = o.loop_size;
-  p.lum_distance = length(o.lum_distance, p.lum_distance);
-  p.lum_final_distance = length(o.lum_final, p.lum_final_distance);
-  p.lum_iterations = o.lum_iterations;
-  if (o.eps_icp)
-    p.icp_epsilon = *o.eps_icp;
-  if (o.eps_slam)
-    p.lum_epsilon = *o.eps_slam;
+  p.reduction.min_range = o.min_range * scale;
+  p.reduction.max_range = o.max_range * scale;
+  p.reduction.voxel_size = length(o.voxel);
+  p.deskew.enabled = o.deskew;
+  p.deskew.sweep_period = o.sweep_period;
+  p.deskew.sweep_clockwise = !o.sweep_ccw;
+  slam::MatcherParameters& m = p.matcher;
+  m.target = o.scan_to_scan ? slam::MatchTarget::kPreviousScan : slam::MatchTarget::kLocalMap;
+  m.max_correspondence_distance = length(o.icp_distance);
+  m.final_correspondence_distance = length(o.icp_final);
+  m.max_iterations = o.icp_iterations;
+  m.transformation_epsilon = o.eps_icp.value_or(m.transformation_epsilon);
+  m.normals_from_map = o.map_normals;
+  p.guess.pose_search = !o.no_pose_search;
+  slam::LoopClosureParameters& l = p.loops;
+  l.enabled = !o.no_loops;
+  l.distance = length(o.loop_distance);
+  l.min_separation = o.loop_size;
+  l.distribute_error = o.elch != 0;
+  l.lum_distance = length(o.lum_distance);
+  l.lum_final_distance = length(o.lum_final);
+  l.lum_iterations = o.lum_iterations;
+  l.lum_epsilon = o.eps_slam.value_or(l.lum_epsilon);
+  l.sequence_constraints = !o.no_sequence_constraints;
   p.num_threads = o.threads;
-  p.match_target = o.scan_to_scan ? pcl_parallel::slam::MatchTarget::kPreviousScan
-                                  : pcl_parallel::slam::MatchTarget::kLocalMap;
-  p.deskew = o.deskew;
-  p.sweep_period = o.sweep_period;
-  p.sweep_clockwise = !o.sweep_ccw;
-  p.normals_from_map = o.map_normals;
-  p.close_loops = !o.no_loops;
-  p.pose_search = !o.no_pose_search;
-  p.elch = o.elch != 0;
-  p.sequence_constraints = !o.no_sequence_constraints;
   return p;
 }
 

@@ -50,9 +50,9 @@ struct Options {
   int up = -1;                 ///< vertical axis of the picture (-1: per format)
 
   std::optional<double> voxel, icp_distance, icp_final, loop_distance, lum_distance, lum_final;
-  int icp_iterations = pcl_parallel::slam::Parameters().icp_iterations;
-  int loop_size = pcl_parallel::slam::Parameters().loop_size;
-  int lum_iterations = pcl_parallel::slam::Parameters().lum_iterations;
+  int icp_iterations = pcl_parallel::slam::MatcherParameters().max_iterations;
+  int loop_size = pcl_parallel::slam::LoopClosureParameters().min_separation;
+  int lum_iterations = pcl_parallel::slam::LoopClosureParameters().lum_iterations;
   std::optional<double> eps_icp, eps_slam; ///< unset: the pipeline's defaults
   bool metascan = false;     ///< against a map of previous scans (the pipeline's default)
   bool scan_to_scan = false; ///< against the previous scan only (the paper's default)

@@ -99,7 +99,7 @@ public:
   Cloud::Ptr
   read(std::size_t k, unsigned threads) const
   {
-    if (!params_.deskew)
+    if (!params_.deskew.enabled)
       return readScan(in_, k);
     std::vector<double> point_times;
     const Cloud::Ptr scan = readScan(in_, k, &point_times);
@@ -382,38 +382,40 @@ inputJson(const Options& o, const Input& in, const Result& r)
 
 /** The parameters as the pipeline resolved them (automatic lengths from the data). */
 nlohmann::json
-parametersJson(const pcl_parallel::slam::Parameters& params, const Result& r, double map_voxel)
+parametersJson(const Result& r, double map_voxel)
 {
-  const auto& fe = r.front_end;
-  const auto& lc = r.loop_closure;
-  return {{"voxel_size_m", fe.voxel_size},
-          {"source_voxel_size_m", fe.source_voxel_size},
-          {"map_voxel_size_m", fe.map_voxel_size},
-          {"map_distance_m", fe.map_distance},
-          {"icp_distance_m", fe.max_correspondence_distance},
-          {"icp_final_distance_m", fe.final_correspondence_distance},
-          {"icp_adaptive_threshold", fe.adaptive_threshold},
-          {"icp_point_to_plane", fe.point_to_plane},
-          {"icp_iterations", fe.max_iterations},
-          {"icp_epsilon", fe.transformation_epsilon},
-          {"loop_distance_m", lc.distance},
-          {"loop_size", lc.min_separation},
-          {"loop_min_overlap", lc.min_overlap},
-          {"lum_distance_m", lc.lum_distance},
-          {"lum_final_distance_m", lc.lum_final_distance},
-          {"lum_iterations", lc.lum_iterations},
-          {"lum_iterations_per_loop", params.lum_iterations_per_loop},
-          {"lum_epsilon", lc.lum_epsilon},
-          {"lum_sequence_constraints", lc.sequence_constraints},
-          {"elch", lc.distribute_error},
+  const pcl_parallel::slam::Parameters& p = r.parameters;
+  const auto& m = p.matcher;
+  const auto& l = p.loops;
+  const Eigen::Vector3d& up = p.guess.up;
+  return {{"voxel_size_m", p.reduction.voxel_size},
+          {"source_voxel_size_m", p.reduction.source_voxel_size},
+          {"map_voxel_size_m", m.map_voxel_size},
+          {"map_distance_m", m.map_distance},
+          {"icp_distance_m", m.max_correspondence_distance},
+          {"icp_final_distance_m", m.final_correspondence_distance},
+          {"icp_adaptive_threshold", m.adaptive_threshold},
+          {"icp_point_to_plane", m.point_to_plane},
+          {"icp_iterations", m.max_iterations},
+          {"icp_epsilon", m.transformation_epsilon},
+          {"loop_distance_m", l.distance},
+          {"loop_size", l.min_separation},
+          {"loop_min_overlap", l.min_overlap},
+          {"lum_distance_m", l.lum_distance},
+          {"lum_final_distance_m", l.lum_final_distance},
+          {"lum_iterations", l.lum_iterations},
+          {"lum_iterations_per_loop", l.lum_iterations_per_loop},
+          {"lum_epsilon", l.lum_epsilon},
+          {"lum_sequence_constraints", l.sequence_constraints},
+          {"elch", l.distribute_error},
           {"map_voxel_m", map_voxel},
-          {"scan_to_scan", fe.target == pcl_parallel::slam::MatchTarget::kPreviousScan},
-          {"deskew", fe.deskew},
-          {"sweep_period_s", fe.sweep_period},
-          {"sweep_clockwise", fe.sweep_clockwise},
-          {"pose_search", fe.pose_search},
-          {"up", std::vector<double>{fe.up.x(), fe.up.y(), fe.up.z()}},
-          {"close_loops", params.close_loops}};
+          {"scan_to_scan", m.target == pcl_parallel::slam::MatchTarget::kPreviousScan},
+          {"deskew", p.deskew.enabled},
+          {"sweep_period_s", p.deskew.sweep_period},
+          {"sweep_clockwise", p.deskew.sweep_clockwise},
+          {"pose_search", p.guess.pose_search},
+          {"up", std::vector<double>{up.x(), up.y(), up.z()}},
+          {"close_loops", l.enabled}};
 }
 
 /** How many matches the pose search ran for, and how many it placed. */
@@ -516,7 +518,6 @@ writeOutputs(const Options& o,
 {
   std::vector<std::string> written;
   const std::size_t n = in.size();
-  const pcl_parallel::slam::Parameters params = toParameters(o, in.scale);
   std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
   for (const auto& [i, j] : r.links)
     if ((i > j ? i - j : j - i) > 1)
@@ -536,7 +537,7 @@ writeOutputs(const Options& o,
   j["versions"] = versionsJson();
   j["threads"] = pcl_parallel::resolveNumberOfThreads(o.threads);
   j["input"] = inputJson(o, in, r);
-  j["parameters"] = parametersJson(params, r, map_voxel);
+  j["parameters"] = parametersJson(r, map_voxel);
   j["pipeline_seconds"] = {{"read", in.read_seconds},
                            {"preprocess", r.times.preprocess},
                            {"front_end", r.times.front_end},
@@ -565,7 +566,8 @@ writeOutputs(const Options& o,
     loop_list.push_back({a, b});
   j["loops"] = loop_list;
   j["links"] = r.links.size();
-  j["lum"] = {{"iterations", r.lum_iterations}, {"iteration_cap", params.lum_iterations}};
+  j["lum"] = {{"iterations", r.lum_iterations},
+              {"iteration_cap", r.parameters.loops.lum_iterations}};
   j["map"] = {{"points", map->size()}, {"voxel_m", map_voxel}};
   if (!style.empty())
     j["picture_style"] = style;
@@ -620,8 +622,8 @@ printSummary(const Options& o,
   // Where the relaxation and the front end disagree most: the first places to look at in
   // a map. Steps beyond chi2's 99 % quantile for 6 degrees of freedom, or the kernel's
   // scale where one is set.
-  const double notable = r.loop_closure.sequence_cauchy_scale > 0.0
-                             ? r.loop_closure.sequence_cauchy_scale
+  const double notable = r.parameters.loops.sequence_cauchy_scale > 0.0
+                             ? r.parameters.loops.sequence_cauchy_scale
                              : pcl_parallel::slam::kChi2Quantile99SixDof;
   std::vector<std::pair<double, std::size_t>> chi2;
   for (std::size_t i = 0; i < r.reports.size(); ++i)

@@ -66,11 +66,10 @@ run(const ScanReader& read,
   result.reports = pipeline->reports();
   result.relaxations = pipeline->relaxations();
   result.bytes_per_scan = pipeline->bytesPerScan();
-  result.front_end = pipeline->frontEndParameters();
+  result.parameters = pipeline->resolvedParameters();
   if (!odometry.empty())
     result.odometry_disagreement =
-        slam::odometryDisagreement(result.reports, result.front_end.voxel_size);
-  result.loop_closure = pipeline->loopClosureParameters();
+        slam::odometryDisagreement(result.reports, result.parameters.reduction.voxel_size);
   return result;
 }
 

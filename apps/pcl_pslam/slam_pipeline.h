@@ -44,11 +44,10 @@ struct Result {
   /** With odometry: slam::odometryDisagreement of the scans (none: too few steps, or
    *  too short). */
   std::optional<double> odometry_disagreement;
-  std::size_t bytes_per_scan = 0;                         ///< kept by the pipeline
-  pcl_parallel::slam::FrontEndParameters front_end;       ///< as resolved (lengths in m)
-  pcl_parallel::slam::LoopClosureParameters loop_closure; ///< likewise
-  pcl_parallel::slam::MappingOptions mapping;             ///< how the sequence was spread
-  pcl_parallel::slam::MappingReport spread; ///< what the backend did (segments, ranks)
+  std::size_t bytes_per_scan = 0;             ///< kept by the pipeline
+  pcl_parallel::slam::Parameters parameters;  ///< as resolved (lengths in m)
+  pcl_parallel::slam::MappingOptions mapping; ///< how the sequence was spread
+  pcl_parallel::slam::MappingReport spread;   ///< what the backend did (segments, ranks)
 };
 
 /** Scan k (0-based), read when the pipeline needs it: its points and, if the file has

@@ -186,15 +186,26 @@ inputHash(const slam::Parameters& p,
           std::size_t overlap)
 {
   Fnv1a h;
-  h.add(p.min_range), h.add(p.max_range), h.add(p.voxel_size);
-  h.add(static_cast<int>(p.match_target)), h.add(p.icp_distance), h.add(p.icp_final);
-  h.add(p.icp_iterations);
-  h.add(p.point_to_plane), h.add(p.normals_from_map), h.add(p.icp_epsilon), h.add(p.deskew);
-  h.add(p.sweep_period), h.add(p.sweep_clockwise);
-  h.add(p.close_loops), h.add(p.loop_distance), h.add(p.loop_size), h.add(p.min_overlap);
-  h.add(p.lum_distance), h.add(p.lum_final_distance), h.add(p.lum_iterations);
-  h.add(p.lum_epsilon), h.add(p.relax_each_loop), h.add(p.lum_iterations_per_loop);
-  h.add(p.elch), h.add(p.sequence_constraints);
+  const slam::ReductionParameters& r = p.reduction;
+  h.add(r.min_range), h.add(r.max_range), h.add(r.voxel_size), h.add(r.source_voxel_size);
+  h.add(p.deskew.enabled), h.add(p.deskew.sweep_period), h.add(p.deskew.sweep_clockwise);
+  const slam::MatcherParameters& m = p.matcher;
+  h.add(static_cast<int>(m.target)), h.add(m.max_correspondence_distance);
+  h.add(m.final_correspondence_distance), h.add(m.max_iterations);
+  h.add(m.transformation_epsilon), h.add(m.point_to_plane), h.add(m.normals_from_map);
+  h.add(m.adaptive_threshold), h.add(m.motion_prior), h.add(m.map_distance);
+  h.add(m.map_voxel_size), h.add(m.map_points_per_voxel);
+  const slam::PoseGuessParameters& g = p.guess;
+  h.add(g.guess_from_previous_scan), h.add(g.speed_hypotheses), h.add(g.pose_search);
+  h.add(g.up.x()), h.add(g.up.y()), h.add(g.up.z());
+  const slam::LoopClosureParameters& l = p.loops;
+  h.add(l.enabled), h.add(l.distance), h.add(l.min_separation), h.add(l.min_overlap);
+  h.add(l.overlap_distance), h.add(l.max_candidates), h.add(l.icp_distance);
+  h.add(l.icp_iterations), h.add(l.icp_epsilon), h.add(l.max_drift), h.add(l.distribute_error);
+  h.add(l.relax_each_loop), h.add(l.lum_iterations_per_loop), h.add(l.lum_distance);
+  h.add(l.lum_final_distance), h.add(l.lum_iterations), h.add(l.lum_epsilon);
+  h.add(l.lum_link_iterations), h.add(l.lum_point_to_plane), h.add(l.lum_queries_per_scan);
+  h.add(l.sequence_constraints), h.add(l.sequence_cauchy_scale), h.add(p.median_range);
   h.add(static_cast<std::uint64_t>(num_scans)), h.add(static_cast<std::uint64_t>(segment_size));
   h.add(static_cast<std::uint64_t>(overlap));
   return h.value;

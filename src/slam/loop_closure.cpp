@@ -27,16 +27,23 @@ struct LoopCloser::Impl {
   std::size_t kept_points = 0;                           ///< of the scans held here
 };
 
-LoopCloser::LoopCloser(const LoopClosureParameters& params)
-    : params_(params)
+LoopCloser::LoopCloser(const Parameters& resolved)
+    : params_(resolved.loops)
+    , median_range_(resolved.median_range)
+    , source_voxel_size_(resolved.reduction.source_voxel_size)
+    , num_threads_(resolved.num_threads)
     , impl_(new Impl)
 {
-  impl_->icp.setNumberOfThreads(params.num_threads);
+  if (!isResolved(resolved))
+    throw std::invalid_argument(
+        "LoopCloser: the parameters' automatic lengths are not resolved");
+  const LoopClosureParameters& params = params_;
+  impl_->icp.setNumberOfThreads(num_threads_);
   impl_->icp.setMaxCorrespondenceDistance(params.icp_distance);
   impl_->icp.setMaximumIterations(params.icp_iterations);
   impl_->icp.setTransformationEpsilon(params.icp_epsilon);
   auto& lum = impl_->lum;
-  lum.setNumberOfThreads(params.num_threads);
+  lum.setNumberOfThreads(num_threads_);
   lum.setCorrespondenceDistanceSchedule(
       params.lum_distance, std::min(params.lum_distance, params.lum_final_distance), 0.7);
   lum.setPointToPlane(params.lum_point_to_plane);
@@ -214,10 +221,9 @@ LoopCloser::matchPair(std::uint32_t i)
     const Cloud::ConstPtr target =
         scans_[i] ? scans_[i] : Cloud::ConstPtr(impl_->lum.getPointCloud(i));
     auto& icp = impl_->icp;
-    icp.setInputSource(params_.icp_source_voxel_size > 0.0
-                           ? filters::voxelCentroid(
-                                 *scans_[j], params_.icp_source_voxel_size, params_.num_threads)
-                           : scans_[j]);
+    // Centroids of the front end's source voxel: the match only decides whether the link
+    // is kept, pLUM then pairs all points.
+    icp.setInputSource(filters::voxelCentroid(*scans_[j], source_voxel_size_, num_threads_));
     icp.setInputTarget(target);
     Cloud aligned;
     icp.align(aligned, Pose(poses_[i].inverse() * poses_[j]));
@@ -243,7 +249,7 @@ LoopCloser::detect()
   if (!loop_sources_.empty() && j - loop_sources_.back() < spacing)
     return tried;
   auto candidates =
-      loopCandidates(poses_, j, params_.distance, params_.min_separation, params_.median_range);
+      loopCandidates(poses_, j, params_.distance, params_.min_separation, median_range_);
   if (candidates.empty())
     return tried;
   // Cheap first look: overlap at the current poses from a sample of the scan; only the
@@ -271,11 +277,11 @@ LoopCloser::detect()
     measured = Pose::Map(&match[1]);
     c.overlap = match[17];
     c.error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j],
-                                               params_.median_range);
+                                               median_range_);
     double path = 0.0; // what the front end travelled from i to j
     for (std::size_t k = i + 1; k <= j; ++k)
-      path += registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k],
-                                               params_.median_range);
+      path +=
+          registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k], median_range_);
     c.accepted = c.overlap >= params_.min_overlap &&
                  c.error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path);
   }

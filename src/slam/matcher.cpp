@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <vector>
 
 namespace pcl_parallel {
@@ -160,18 +161,24 @@ struct Matcher::Registration {
   std::unique_ptr<registration::AdaptiveThreshold> threshold;
 };
 
-Matcher::Matcher(const FrontEndParameters& params)
-    : params_(params)
+Matcher::Matcher(const Parameters& resolved)
+    : params_(resolved.matcher)
+    , keep_previous_(params_.target == MatchTarget::kPreviousScan ||
+                     resolved.guess.guess_from_previous_scan)
+    , num_threads_(resolved.num_threads)
     , icp_(new Registration)
-    , map_(params.map_voxel_size,
-           params.map_distance,
-           params.map_points_per_voxel,
+    , map_(params_.map_voxel_size,
+           params_.map_distance,
+           params_.map_points_per_voxel,
            LocalMap::kRefreshFraction,
-           params.num_threads)
+           num_threads_)
     , previous_tree_(new search::KdTree<MapPoint>)
 {
+  if (!isResolved(resolved))
+    throw std::invalid_argument("Matcher: the parameters' automatic lengths are not resolved");
+  const MatcherParameters& params = params_;
   for (Icp* icp : {&icp_->icp, &icp_->to_previous}) {
-    icp->setNumberOfThreads(params.num_threads);
+    icp->setNumberOfThreads(num_threads_);
     icp->setMaxCorrespondenceDistance(params.max_correspondence_distance);
     icp->setMaximumIterations(params.max_iterations);
     icp->setTransformationEpsilon(params.transformation_epsilon);
@@ -310,7 +317,7 @@ Matcher::measure(ScanRecord& r, const Cloud& source)
                                       params_.final_correspondence_distance > 0.0
                                           ? params_.final_correspondence_distance
                                           : report.gate,
-                                      params_.num_threads);
+                                      num_threads_);
   if (icp_->threshold) // how far the match moved the scan from the prior
     icp_->threshold->updateModelDeviation(r.prediction.inverse() * r.pose);
 }
@@ -325,7 +332,7 @@ Matcher::keep(const ReducedScan& scan, const Pose& pose, std::uint32_t id)
     pcl::transformPointCloudWithNormals(*world, *world, pose);
     map_.update(*world, pose.topRightCorner<3, 1>(), id);
   }
-  if (to_map && !params_.guess_from_previous_scan)
+  if (!keep_previous_)
     return; // the previous scan is not matched
   previous_.cloud = scannerFrameCloud(scan);
   previous_tree_->setInputCloudAndIndex(previous_.cloud, scan.tree);

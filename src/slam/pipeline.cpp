@@ -27,83 +27,15 @@
 namespace pcl_parallel {
 namespace slam {
 
-namespace {
-
-/** The registered sample's voxel, in reduction voxels: KISS-ICP registers a 1.5x coarser
- *  sample than it keeps; ours is coarser still. The front end and the loop pICP share it. */
-constexpr double kSourceVoxels = 3.0;
-
-/** A length: the user's if set (> 0), else `automatic`. */
-double
-orAuto(double value, double automatic)
-{
-  return value > 0.0 ? value : automatic;
-}
-
-} // namespace
-
-FrontEndParameters
-frontEndParameters(const Parameters& p, double r)
-{
-  if (!(p.sweep_period >= 0.0 && std::isfinite(p.sweep_period)))
-    throw std::invalid_argument("Parameters::sweep_period must be zero or positive");
-  FrontEndParameters f;
-  f.target = p.match_target;
-  f.voxel_size = orAuto(p.voxel_size, r / 20.0);
-  f.source_voxel_size = kSourceVoxels * f.voxel_size;
-  f.map_voxel_size = 2.0 * f.voxel_size;
-  f.map_points_per_voxel = 20;
-  // The map reaches as far as the scans (KISS-ICP: max_range): a crop inside it cuts the
-  // far walls that pin rotations (docs/design.md, "Local map"). Unbounded: 5 r.
-  f.map_distance = std::isfinite(p.max_range) ? p.max_range : 5.0 * r;
-  f.max_correspondence_distance = orAuto(p.icp_distance, 10.0 * f.voxel_size);
-  f.final_correspondence_distance =
-      std::min(f.max_correspondence_distance, orAuto(p.icp_final, 2.0 * f.voxel_size));
-  f.max_iterations = p.icp_iterations;
-  f.point_to_plane = p.point_to_plane;
-  f.normals_from_map = p.normals_from_map;
-  f.transformation_epsilon = p.icp_epsilon;
-  f.deskew = p.deskew;
-  f.sweep_period = p.sweep_period;
-  f.sweep_clockwise = p.sweep_clockwise;
-  f.pose_search = p.pose_search;
-  f.up = p.up;
-  f.num_threads = p.num_threads;
-  return f;
-}
-
-LoopClosureParameters
-loopClosureParameters(const Parameters& p, double r)
-{
-  const double voxel = orAuto(p.voxel_size, r / 20.0);
-  LoopClosureParameters l;
-  l.distance = orAuto(p.loop_distance, r);
-  l.min_separation = p.loop_size;
-  l.icp_distance = orAuto(p.icp_distance, 10.0 * voxel);
-  l.icp_iterations = std::max(p.icp_iterations, 50);
-  l.icp_epsilon = p.icp_epsilon;
-  l.icp_source_voxel_size = kSourceVoxels * voxel;
-  l.overlap_distance = 2.0 * voxel;
-  l.min_overlap = p.min_overlap;
-  l.lum_distance = orAuto(p.lum_distance, 10.0 * voxel);
-  l.lum_final_distance = std::min(l.lum_distance, orAuto(p.lum_final_distance, 2.0 * voxel));
-  l.lum_iterations = p.lum_iterations;
-  l.lum_epsilon = orAuto(p.lum_epsilon, 0.01 * voxel); // updates far below the sampling
-  l.median_range = r;
-  l.distribute_error = p.elch;
-  l.sequence_constraints = p.sequence_constraints;
-  l.num_threads = p.num_threads;
-  return l;
-}
-
 /** The front end's stages, in the order a scan passes them. */
 struct Pipeline::Stages {
-  explicit Stages(const FrontEndParameters& f)
-      : motion(f.sweep_period, f.voxel_size)
-      , deskewer(f.deskew, f.sweep_clockwise, f.voxel_size, f.num_threads)
-      , reducer(f.voxel_size, f.source_voxel_size, f.num_threads)
-      , matcher(f)
-      , guess(f, matcher, reducer, motion)
+  explicit Stages(const Parameters& p)
+      : motion(p.deskew.sweep_period, p.reduction.voxel_size)
+      , deskewer(
+            p.deskew.enabled, p.deskew.sweep_clockwise, p.reduction.voxel_size, p.num_threads)
+      , reducer(p.reduction.voxel_size, p.reduction.source_voxel_size, p.num_threads)
+      , matcher(p)
+      , guess(p, matcher, reducer, motion)
   {}
   MotionModel motion;
   Deskewer deskewer;
@@ -128,10 +60,9 @@ Pipeline::~Pipeline() = default;
 void
 Pipeline::start(double median_range)
 {
-  front_end_params_ = slam::frontEndParameters(params_, median_range);
-  loop_params_ = slam::loopClosureParameters(params_, median_range);
-  stages_.reset(new Stages(front_end_params_));
-  loops_.reset(new LoopCloser(loop_params_));
+  resolved_ = resolve(params_, median_range);
+  stages_.reset(new Stages(resolved_));
+  loops_.reset(new LoopCloser(resolved_));
 }
 
 void
@@ -229,15 +160,15 @@ Pipeline::admit(const Cloud& scan,
   last_stamp_ = stamp;
   // Sweep times over the whole scan as given, then cropped with their points.
   const std::vector<float> fractions = sweepTimes(point_times);
+  const ReductionParameters& range = params_.reduction;
   const Cloud::Ptr cropped =
-      fractions.empty()
-          ? cropRange(scan, params_.min_range, params_.max_range, params_.num_threads)
-          : cropRange(scan,
-                      params_.min_range,
-                      params_.max_range,
-                      fractions,
-                      sweep_times,
-                      params_.num_threads);
+      fractions.empty() ? cropRange(scan, range.min_range, range.max_range, params_.num_threads)
+                        : cropRange(scan,
+                                    range.min_range,
+                                    range.max_range,
+                                    fractions,
+                                    sweep_times,
+                                    params_.num_threads);
   requirePointsInRange(*cropped, index);
   requireScannerFrame(*cropped, "scan " + std::to_string(index), params_.num_threads);
   if (!stages_) // lengths from the first scan
@@ -313,7 +244,7 @@ Pipeline::reportMatch(ScanRecord& r, const Pose& before) const
   // The front end's own step: chained without the loop closures' corrections.
   r.step = tracked_ == 0 ? r.pose : Pose(before.inverse() * r.pose);
   r.report.reduced_points = r.scan.reduced->size();
-  const double range = loop_params_.median_range;
+  const double range = resolved_.median_range;
   r.report.correction =
       registration::motionDisplacement(r.prediction.inverse() * r.pose, range);
   if (tracked_ > 0)
@@ -381,14 +312,14 @@ mapFrame(const Cloud& scan,
          std::size_t k,
          const Parameters& p)
 {
-  if (!p.deskew)
+  if (!p.deskew.enabled)
     return Cloud::Ptr(new Cloud(scan));
   if (!point_times.empty())
     requireOnePerPoint(scan, point_times.size(), "scan " + std::to_string(k));
   return deskewSweep(scan,
                      sweepTimes(point_times),
-                     sweepMotionAt(poses, stamps, k, p.sweep_period),
-                     p.sweep_clockwise,
+                     sweepMotionAt(poses, stamps, k, p.deskew.sweep_period),
+                     p.deskew.sweep_clockwise,
                      p.num_threads);
 }
 
@@ -400,7 +331,7 @@ Pipeline::checkStamp(std::size_t index, const std::optional<double>& stamp) cons
     throw std::invalid_argument(scan + ": time stamp is not finite");
   if (tracked_ > 0 && stamp.has_value() != last_stamp_.has_value())
     throw std::invalid_argument(scan + ": time stamps given for some scans but not for others");
-  if (!params_.deskew || params_.sweep_period <= 0.0)
+  if (!params_.deskew.enabled || params_.deskew.sweep_period <= 0.0)
     return;
   if (!stamp)
     throw std::invalid_argument(scan + ": deskewing by a sweep period needs time stamps");
@@ -438,7 +369,8 @@ Pipeline::addToGraph(ScanRecord scan, const Pose& pose)
                   report.map_scans,
                   report.reduced_points,
                   std::move(scan.scan.tree));
-  if (params_.close_loops) {
+  const LoopClosureParameters& l = resolved_.loops;
+  if (l.enabled) {
     report.loops = loops_->detect();
     const auto found = std::find_if(
         report.loops.begin(), report.loops.end(), [](const auto& c) { return c.accepted; });
@@ -448,13 +380,13 @@ Pipeline::addToGraph(ScanRecord scan, const Pose& pose)
       // is relaxed at once; the others wait for finish().
       const bool new_loop =
           last_loop_scan_ == 0 ||
-          index - last_loop_scan_ > static_cast<std::size_t>(params_.loop_size);
-      const bool visible = found->error > loop_params_.overlap_distance;
+          index - last_loop_scan_ > static_cast<std::size_t>(l.min_separation);
+      const bool visible = found->error > l.overlap_distance;
       last_loop_scan_ = index;
       stage.reset();
-      const bool relax = new_loop && visible && params_.relax_each_loop;
+      const bool relax = new_loop && visible && l.relax_each_loop;
       if (relax) {
-        report.lum_iterations = loops_->relax(params_.lum_iterations_per_loop);
+        report.lum_iterations = loops_->relax(l.lum_iterations_per_loop);
         ++relaxations_;
       }
       if (relax || found->distributed) // the front end continues from the moved pose
@@ -472,7 +404,7 @@ Pipeline::finish()
 {
   for (ScanRecord& r : drain())
     addTracked(std::move(r));
-  if (!loops_ || !params_.close_loops)
+  if (!loops_ || !params_.loops.enabled)
     return;
   const bool any_loop = std::any_of(
       loops_->links().begin(), loops_->links().end(), [](const Link& l) { return l.loop; });

@@ -67,11 +67,11 @@ everyKth(const Cloud& points, std::size_t count)
 
 } // namespace
 
-PoseGuess::PoseGuess(const FrontEndParameters& params,
+PoseGuess::PoseGuess(const Parameters& resolved,
                      Matcher& matcher,
                      const Reducer& reducer,
                      const MotionModel& motion)
-    : params_(params)
+    : params_(resolved)
     , matcher_(matcher)
     , reducer_(reducer)
     , motion_(motion)
@@ -83,9 +83,9 @@ PoseGuess::guess(const Cloud::ConstPtr& source, ReducedScan& scan, bool odometry
   // To the local map: from the match to the previous scan (guess_from_previous_scan); to
   // the previous scan: the best start refined there. With odometry, its step.
   const bool from_previous =
-      params_.target == MatchTarget::kLocalMap
-          ? params_.guess_from_previous_scan && !matcher_.previous().empty()
-          : params_.speed_hypotheses || params_.pose_search;
+      params_.matcher.target == MatchTarget::kLocalMap
+          ? params_.guess.guess_from_previous_scan && !matcher_.previous().empty()
+          : params_.guess.speed_hypotheses || params_.guess.pose_search;
   if (odometry || !from_previous)
     return r.prediction;
   const std::optional<Pose> own =
@@ -104,13 +104,13 @@ PoseGuess::Hypotheses
 PoseGuess::hypotheses(const Cloud& source, const Pose& prediction) const
 {
   Hypotheses h;
-  if (!params_.speed_hypotheses || matcher_.previous().empty() || source.empty())
+  if (!params_.guess.speed_hypotheses || matcher_.previous().empty() || source.empty())
     return h;
   const double same = sameSolution();
   const Pose step = motion_.lastPose().inverse() * prediction;
   // Speed: along the predicted step, or the way the scanner last moved (in its frame).
   const Eigen::Vector3d t = step.topRightCorner<3, 1>();
-  h.travel = t.norm() >= params_.voxel_size ? t.normalized() : motion_.heading();
+  h.travel = t.norm() >= params_.reduction.voxel_size ? t.normalized() : motion_.heading();
   h.speed = t.dot(h.travel);
   const double sigma = matcher_.gate() / 3.0;
   if (!h.travel.isZero() && 2.0 * sigma > same)
@@ -128,7 +128,7 @@ double
 PoseGuess::sameSolution() const
 {
   // Starts or matches closer than the refinement gate lie in one basin.
-  return std::max(params_.final_correspondence_distance, params_.voxel_size);
+  return std::max(params_.matcher.final_correspondence_distance, params_.reduction.voxel_size);
 }
 
 bool
@@ -167,7 +167,7 @@ PoseGuess::bestHypothesis(const Cloud::ConstPtr& source,
   std::unique_ptr<FreeSpace> seen;
   const auto contradictsMore = [&](const Pose& other, const Pose& leader) {
     if (!seen)
-      seen.reset(new FreeSpace(*matcher_.previous().points, params_.up));
+      seen.reset(new FreeSpace(*matcher_.previous().points, params_.guess.up));
     const double a = seen->conflicts(*source, other, same),
                  b = seen->conflicts(*source, leader, same);
     return a - b > kConflictSignificance * std::sqrt((a + b) / source->size());
@@ -218,7 +218,7 @@ PoseGuess::searchPose(const Cloud::ConstPtr& source,
                       ScanRecord& r)
 {
   const PreviousScan& previous = matcher_.previous();
-  if (!params_.pose_search || previous.empty() || source->empty())
+  if (!params_.guess.pose_search || previous.empty() || source->empty())
     return std::nullopt;
   const Pose& at = motion_.lastPose();
   // In the previous scan's frame: how much of it the prediction's match sees.
@@ -237,7 +237,7 @@ PoseGuess::searchPose(const Cloud::ConstPtr& source,
   }
   r.report.pose_searched = true;
   CorrelativeSearchParameters search;
-  search.cell = 2.0 * params_.voxel_size;
+  search.cell = 2.0 * params_.reduction.voxel_size;
   search.num_threads = params_.num_threads;
   matcher_.usePrevious(source);
   if (!(range > 0.0))
@@ -248,13 +248,13 @@ PoseGuess::searchPose(const Cloud::ConstPtr& source,
   // agrees most wins (docs/design.md, "Where the site repeats").
   reducer_.describe(scan);
   const Cloud& reduced = *scan.reduced;
-  const Cloud::Ptr walls = upright(*scannerFrameCloud(scan), params_.up);
-  const Cloud::Ptr previous_walls = upright(*previous.cloud, params_.up);
+  const Cloud::Ptr walls = upright(*scannerFrameCloud(scan), params_.guess.up);
+  const Cloud::Ptr previous_walls = upright(*previous.cloud, params_.guess.up);
   const bool on_walls =
       walls->size() >= kMinUprightPoints && previous_walls->size() >= kMinUprightPoints;
   const Cloud::ConstPtr judged =
       on_walls ? Cloud::ConstPtr(everyKth(*walls, source->size())) : source;
-  const FreeSpace seen(*previous.points, params_.up);
+  const FreeSpace seen(*previous.points, params_.guess.up);
   const auto judge = [&](const Pose& local) {
     return std::make_pair(overlap(*judged, local, *previous.index, same),
                           seen.conflicts(*judged, local, same));
@@ -266,10 +266,10 @@ PoseGuess::searchPose(const Cloud::ConstPtr& source,
   std::optional<Pose> winner;
   const Cloud& searched = on_walls ? *walls : reduced;
   for (const Pose& start : correlativeSearch(
-           searched, on_walls ? *previous_walls : *previous.points, params_.up, search)) {
+           searched, on_walls ? *previous_walls : *previous.points, params_.guess.up, search)) {
     // From a candidate good to a cell: a gate of two cells, no prior (none predicted it).
     const auto m = matcher_.alignInPrevious(
-        start, std::min(params_.max_correspondence_distance, 2.0 * search.cell));
+        start, std::min(params_.matcher.max_correspondence_distance, 2.0 * search.cell));
     if (!m || (own_local && !isRival(*own_local, *m, range)))
       continue;
     const auto [agrees, conflicts] = judge(*m);
@@ -278,7 +278,8 @@ PoseGuess::searchPose(const Cloud::ConstPtr& source,
       best = agrees - conflicts;
       winner = *m;
       const Eigen::AngleAxisd turn(Eigen::Matrix3d(start.topLeftCorner<3, 3>()));
-      r.report.start_heading = turn.axis().dot(params_.up) < 0.0 ? -turn.angle() : turn.angle();
+      r.report.start_heading =
+          turn.axis().dot(params_.guess.up) < 0.0 ? -turn.angle() : turn.angle();
     }
   }
   keepOverlap(winner ? overlap(*source, *winner, *previous.index, same) : own_overlap);

@@ -36,8 +36,8 @@ splitSequence(std::size_t num_scans, std::size_t segment_size, std::size_t overl
 double
 sequenceMedianRange(const Cloud& first_scan, const Parameters& params)
 {
-  const Cloud::Ptr cropped =
-      cropRange(first_scan, params.min_range, params.max_range, params.num_threads);
+  const Cloud::Ptr cropped = cropRange(
+      first_scan, params.reduction.min_range, params.reduction.max_range, params.num_threads);
   requirePointsInRange(*cropped, 0);
   return medianRange(*cropped);
 }

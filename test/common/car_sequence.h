@@ -32,7 +32,7 @@ binPath(const std::string& dir, std::size_t i)
 
 /** The pipeline with parameters p over scans first..n-1 of DIR/bin, with their odometry
  *  and time stamps if given (and its per-scan reports if asked): the final poses, or with
- * p.close_loops false the front end's alone (`pcl_pslam run --no-loops`). */
+ * p.loops.enabled false the front end's alone (`pcl_pslam run --no-loops`). */
 inline slam::Poses
 mapSequence(const std::string& dir,
             std::size_t n,
@@ -50,7 +50,7 @@ mapSequence(const std::string& dir,
   pipeline.finish();
   if (reports)
     *reports = pipeline.reports();
-  return p.close_loops ? pipeline.poses() : pipeline.frontEndPoses();
+  return p.loops.enabled ? pipeline.poses() : pipeline.frontEndPoses();
 }
 
 /** ... with the default parameters on 2 threads. */
@@ -61,7 +61,7 @@ mapSequence(const std::string& dir,
             bool close_loops = false)
 {
   slam::Parameters p;
-  p.close_loops = close_loops;
+  p.loops.enabled = close_loops;
   p.num_threads = 2;
   return mapSequence(dir, n, p, odometry);
 }
@@ -88,10 +88,10 @@ inline slam::Parameters
 deskewedFrontEnd(double sweep_period)
 {
   slam::Parameters p;
-  p.close_loops = false;
+  p.loops.enabled = false;
   p.num_threads = 2;
-  p.deskew = true;
-  p.sweep_period = sweep_period;
+  p.deskew.enabled = true;
+  p.deskew.sweep_period = sweep_period;
   return p;
 }
 

@@ -102,13 +102,14 @@ perturb(const Eigen::Matrix4d& t, double angle, double dist, std::mt19937& rng)
   return out;
 }
 
-/** Reads the protected iteration counter of a PCL registration (PCL 1.13 has no getter). */
+/** Reads the protected iteration counter of a PCL registration (PCL 1.13 has no getter):
+ *  through a pointer to the base's member, so `r` need not be a Peek. */
 template <typename Reg>
 struct Peek : Reg {
   static int
   iterations(const Reg& r)
   {
-    return static_cast<const Peek&>(r).nr_iterations_;
+    return r.*(&Peek::nr_iterations_);
   }
 };
 

@@ -4,6 +4,7 @@
  */
 #pragma once
 
+#include <pcl_parallel/slam/parameters.h>
 #include <pcl_parallel/slam/types.h>
 
 #include <memory>
@@ -18,55 +19,6 @@ namespace slam {
 /** chi2's 99 % quantile for 6 degrees of freedom: the gate for a pose error measured in
  *  its information (16.8119). */
 constexpr double kChi2Quantile99SixDof = 16.812;
-
-/** Loop detection and closing; lengths in the scans' units (metres for the defaults). */
-struct LoopClosureParameters {
-  double distance = 5.0;     ///< cldist: scans whose positions are closer may be linked
-  int min_separation = 5;    ///< loopsize: ... if at least this many scans apart
-  double icp_distance = 1.0; ///< pICP gate when a loop pair is matched
-  int icp_iterations = 50;
-  double icp_epsilon = 1e-8; ///< stop when the transform changes by less (as the front end)
-  /** The newer scan of a loop pair is matched as a voxel sample this coarse (0: as kept),
-   *  of centroids (filters::voxelCentroid; measured points, as the front end registers,
-   *  did no better here: docs/design.md, "Sampling the registered points"): the match
-   *  only decides whether the link is kept, pLUM then pairs all points. */
-  double icp_source_voxel_size = 0.0;
-  double overlap_distance = 0.2; ///< a point overlaps if its partner is this close ...
-  double min_overlap = 0.3;      ///< ... and a loop link needs this fraction of overlap
-  int max_candidates = 16;       ///< nearest candidates looked at per scan; the best is matched
-  /** A loop's error (see LoopCandidate::error) must be explainable by the front end's
-   *  drift: at most this fraction of the path between the two scans (translation plus
-   *  rotation times the median range), or 2 overlap distances. A larger correction is a
-   *  false match (two similar rooms, a scanner turning in place) and is rejected. */
-  double max_drift = 0.05;
-  /** Spread a loop's error along it before pLUM (ELCH's idea), when the error exceeds
-   *  overlap_distance: a smaller one is within what pICP can tell on reduced scans and
-   *  well inside pLUM's gate, and moving the poses would move the front end's map. */
-  bool distribute_error = true;
-  // pLUM (Sec. III, V): pairs within a gate shrinking from lum_distance to
-  // lum_final_distance (x0.7 per iteration), point-to-plane, up to lum_iterations,
-  // stopped once the mean pose update is below lum_epsilon (3DTK's --epsSLAM).
-  double lum_distance = 1.0;
-  double lum_final_distance = 0.2;
-  int lum_iterations = 20;
-  double lum_epsilon = 1e-4;
-  int lum_link_iterations = 1;
-  bool lum_point_to_plane = true;
-  std::size_t lum_queries_per_scan = 500; ///< pairs searched per scan and link direction
-  /** The front end's matches as pose constraints between consecutive scans, beside their
-   *  scan links (addScan): each weighs as much as one pLUM link per scan its map held
-   *  (its information scaled to 2 x lum_queries_per_scan pairs per scan, the shape and
-   *  residual variance its own). docs/design.md, "Sequence constraints". */
-  bool sequence_constraints = true;
-  /** > 0: a Cauchy kernel of this chi2 scale on each constraint, the error measured in
-   *  the information of the pair's pLUM link (lum::constraintBlock), so that a match the
-   *  scans contradict yields (e.g. kChi2Quantile99SixDof). Off by default: pair-counted
-   *  information is not calibrated, and on sparse scans the links' own bias made every
-   *  constraint yield (docs/design.md). */
-  double sequence_cauchy_scale = 0.0;
-  double median_range = 10.0; ///< of the scans: converts a rotation error to a displacement
-  unsigned num_threads = 0;
-};
 
 /** A loop link that was tried, and what became of it. */
 struct LoopCandidate {
@@ -129,7 +81,10 @@ public:
  */
 class LoopCloser {
 public:
-  explicit LoopCloser(const LoopClosureParameters& params = LoopClosureParameters());
+  /** From resolved parameters (resolve): loops, median_range, the reduction's source
+   *  voxel (the loop pICP's sample) and num_threads. Throws std::invalid_argument for
+   *  unresolved ones. */
+  explicit LoopCloser(const Parameters& resolved);
   ~LoopCloser();
 
   /** Spreads the scans over processes (before the first addScan); null: all kept here. */
@@ -236,6 +191,9 @@ private:
   release(std::size_t i);
 
   LoopClosureParameters params_;
+  double median_range_;      ///< converts a rotation error to a displacement
+  double source_voxel_size_; ///< the newer scan's sample when a loop pair is matched
+  unsigned num_threads_;
   std::unique_ptr<Impl> impl_;
   std::shared_ptr<ScanExchange> exchange_;
   std::vector<Cloud::ConstPtr> scans_;  ///< own scans (null: another process's)

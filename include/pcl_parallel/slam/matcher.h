@@ -4,8 +4,8 @@
  */
 #pragma once
 
-#include <pcl_parallel/slam/front_end.h>
 #include <pcl_parallel/slam/local_map.h>
+#include <pcl_parallel/slam/parameters.h>
 #include <pcl_parallel/slam/scan_record.h>
 #include <pcl_parallel/slam/types.h>
 
@@ -42,7 +42,9 @@ struct PreviousScan {
  */
 class Matcher {
 public:
-  explicit Matcher(const FrontEndParameters& params);
+  /** From resolved parameters (resolve): matcher, guess.guess_from_previous_scan and
+   *  num_threads. Throws std::invalid_argument for unresolved ones. */
+  explicit Matcher(const Parameters& resolved);
   ~Matcher();
 
   /** The correspondence distance now: the adaptive threshold's, at most the maximum. */
@@ -118,7 +120,9 @@ private:
   std::optional<std::pair<double, double>>
   priorSpread() const;
 
-  FrontEndParameters params_;
+  MatcherParameters params_;
+  bool keep_previous_; ///< for matches to the previous scan (the target, or the guess's)
+  unsigned num_threads_;
   std::unique_ptr<Registration> icp_;
   LocalMap map_;
   PreviousScan previous_;

@@ -4,9 +4,9 @@
  */
 #pragma once
 
-#include <pcl_parallel/slam/front_end.h>
 #include <pcl_parallel/slam/loop_closure.h>
 #include <pcl_parallel/slam/motion_model.h>
+#include <pcl_parallel/slam/parameters.h>
 #include <pcl_parallel/slam/scan_record.h>
 #include <pcl_parallel/slam/types.h>
 
@@ -18,64 +18,6 @@
 
 namespace pcl_parallel {
 namespace slam {
-
-/**
- * \brief Everything the mapping pipeline can be told (the app's options, 3DTK slam6D's
- * names in brackets). Lengths are in the scans' units; a length of 0 is chosen from the
- * first scan's median range r (docs/design.md, "Automatic scale"), so one set of defaults
- * serves a tilting 2D scanner indoors (r ~ 4 m), a spinning LiDAR on a car (r ~ 15 m)
- * and a terrestrial scanner (r ~ 30 m).
- */
-struct Parameters {
-  double min_range = 0.0;                                     ///< [-M] drop closer points
-  double max_range = std::numeric_limits<double>::infinity(); ///< [-m] drop farther; map reach
-  double voxel_size = 0.0; ///< [-r] reduction kept per scan; auto r / 20
-  MatchTarget match_target =
-      MatchTarget::kLocalMap;    ///< [--metascan] vs the paper's scan-to-scan
-  double icp_distance = 0.0;     ///< [-d] pICP gate; auto 10 voxels
-  double icp_final = 0.0;        ///< [--icp-final] then refined within; auto 2 voxels
-  int icp_iterations = 50;       ///< [-i]
-  bool point_to_plane = true;    ///< front end pICP point-to-plane (else point-to-point)
-  bool normals_from_map = false; ///< see FrontEndParameters::normals_from_map
-  double icp_epsilon = 1e-8;     ///< [--epsICP] squared change of the transform
-  bool deskew = false;           ///< spinning LiDAR: deskew by the predicted motion
-  /** Seconds a sweep takes: keyframes are deskewed by one sweep's share of the step
-   *  (FrontEndParameters::sweep_period); needs every scan's time stamp. 0: the scans are
-   *  consecutive sweeps. */
-  double sweep_period = 0.0;
-  bool sweep_clockwise = true;                   ///< see FrontEndParameters::sweep_clockwise
-  bool pose_search = true;                       ///< see FrontEndParameters::pose_search
-  Eigen::Vector3d up = Eigen::Vector3d::UnitZ(); ///< the vertical axis, scanner frame
-  bool close_loops = true;
-  double loop_distance = 0.0;      ///< [--cldist] auto r
-  int loop_size = 5;               ///< [--loopsize] (3DTK: 20; the path rule does the rest)
-  double min_overlap = 0.3;        ///< loop links need this overlap after matching
-  double lum_distance = 0.0;       ///< [-D] pLUM's first gate; auto 10 voxels
-  double lum_final_distance = 0.0; ///< pLUM's last gate (x0.7 per iteration); auto 2 voxels
-  int lum_iterations = 20;         ///< [-I]
-  double lum_epsilon = 0.0; ///< [--epsSLAM] mean pose update that ends pLUM; auto voxel / 100
-  bool relax_each_loop = true; ///< pLUM when a loop is found (the paper), not only at the end
-  /** At most this many pLUM iterations when a loop closes during the run (it keeps the map
-   *  consistent for the front end; finish() converges, up to lum_iterations): bounds what
-   *  a scanner that keeps revisiting costs. <= 0: lum_iterations. */
-  int lum_iterations_per_loop = 5;
-  /** [-L] ELCH: a loop's error spread along it before pLUM (LoopClosureParameters::
-   *  distribute_error) */
-  bool elch = true;
-  /** The front end's matches as pose constraints in pLUM (LoopClosureParameters::
-   *  sequence_constraints); point-to-plane only: a point-to-point match has no
-   *  information matrix, and its constraint is left out. */
-  bool sequence_constraints = true;
-  unsigned num_threads = 0; ///< 0: all cores
-};
-
-/** The front end's and loop closing's settings for parameters p on scans of median range
- *  r (resolves the automatic lengths). frontEndParameters throws std::invalid_argument
- *  for a negative or non-finite sweep_period. */
-FrontEndParameters
-frontEndParameters(const Parameters& p, double median_range);
-LoopClosureParameters
-loopClosureParameters(const Parameters& p, double median_range);
 
 /** How far pICP moved the scans from their odometry's steps, over how long the steps are:
  *  the median ScanReport::correction over the median ScanReport::predicted_step, over the
@@ -89,9 +31,9 @@ std::optional<double>
 odometryDisagreement(const std::vector<ScanReport>& reports, double min_step);
 
 /** Scan k (scanner frame, full resolution; point_times as read, or empty) as a map at
- *  `poses` shows it: with p.deskew deskewed as the front end deskews it (deskewSweep by
- *  sweepTimes), by the motion at its pose there (sweepMotionAt with `stamps`, one per pose
- *  or none, and p.sweep_period, p.sweep_clockwise); else as given. A second streaming pass
+ *  `poses` shows it: with p.deskew.enabled deskewed as the front end deskews it
+ *  (deskewSweep by sweepTimes), by the motion at its pose there (sweepMotionAt with
+ *  `stamps`, one per pose or none, and p.deskew); else as given. A second streaming pass
  *  over the scans with the final poses builds the full-resolution map from these. */
 Cloud::Ptr
 mapFrame(const Cloud& scan,
@@ -253,21 +195,18 @@ public:
   {
     times_.add(t);
   }
+  /** The parameters as given (automatic lengths 0). */
   const Parameters&
   parameters() const
   {
     return params_;
   }
-  /** The resolved lengths (after the first scan). */
-  const FrontEndParameters&
-  frontEndParameters() const
+  /** The parameters with the automatic lengths resolved (resolve); after the first scan,
+   *  or from the median-range constructor on. */
+  const Parameters&
+  resolvedParameters() const
   {
-    return front_end_params_;
-  }
-  const LoopClosureParameters&
-  loopClosureParameters() const
-  {
-    return loop_params_;
+    return resolved_;
   }
   int
   relaxations() const
@@ -339,8 +278,7 @@ private:
   addToGraph(ScanRecord scan, const Pose& pose);
 
   Parameters params_;
-  FrontEndParameters front_end_params_;
-  LoopClosureParameters loop_params_;
+  Parameters resolved_;
   std::unique_ptr<Stages> stages_;
   std::unique_ptr<LoopCloser> loops_;
   std::optional<ScanRecord> held_; ///< the first scan, until the first step is known

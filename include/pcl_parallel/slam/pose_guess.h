@@ -4,7 +4,7 @@
  */
 #pragma once
 
-#include <pcl_parallel/slam/front_end.h>
+#include <pcl_parallel/slam/parameters.h>
 #include <pcl_parallel/slam/scan_record.h>
 #include <pcl_parallel/slam/types.h>
 
@@ -31,8 +31,9 @@ class Reducer;
 class PoseGuess {
 public:
   /** The stages it asks: the matcher's previous-scan pICP, the reducer's normals and the
-   *  motion model's last pose and heading (all outlive it). */
-  PoseGuess(const FrontEndParameters& params,
+   *  motion model's last pose and heading (all outlive it); resolved parameters
+   *  (resolve). */
+  PoseGuess(const Parameters& resolved,
             Matcher& matcher,
             const Reducer& reducer,
             const MotionModel& motion);
@@ -106,7 +107,7 @@ private:
   bool
   isRival(const Pose& leader, const Pose& other, double range) const;
 
-  FrontEndParameters params_;
+  Parameters params_; ///< resolved
   Matcher& matcher_;
   const Reducer& reducer_;
   const MotionModel& motion_;

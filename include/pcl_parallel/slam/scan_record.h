@@ -49,7 +49,7 @@ struct ScanReport {
   /** The winning turn-rate hypothesis: the predicted turn scaled by 1 + start_turn (-1:
    *  stopped, 1: doubled; 0: the prediction's, or none tried). */
   double start_turn = 0.0;
-  bool pose_searched = false; ///< the pose search ran (FrontEndParameters::pose_search)
+  bool pose_searched = false; ///< the pose search ran (PoseGuessParameters::pose_search)
   /** With deskewing: the scan was deskewed again by its matched step, which differed
    *  from the predicted one (a turn begun or ended), and matched again. */
   bool deskewed_again = false;
