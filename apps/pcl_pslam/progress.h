@@ -48,7 +48,7 @@ public:
 
   /** quiet: print nothing; live: one updating line with ETA (stderr is a terminal).
    *  capture: what PCL and the library print on stderr is collected and shown at the end of
-   *  each stage, one line per kind of message with its count (LUM can warn hundreds of
+   *  each stage, one line per kind of message with its count (LUM warns per link, many
    *  times). */
   ProgressReporter(bool quiet, bool live, bool capture = false);
   ~ProgressReporter();
