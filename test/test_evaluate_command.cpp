@@ -9,6 +9,7 @@
 #include "evaluate_command.h"
 #include "scratch_dir.h"
 
+#include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/io/pose_files.h>
 
 #include <Eigen/Geometry>

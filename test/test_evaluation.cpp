@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <gtest/gtest.h>
 #include <random>
+#include <sstream>
 
 namespace {
 
@@ -644,6 +645,63 @@ TEST(PoseFiles, KittiTimes)
   EXPECT_LT(message.size(), garbage.size() + 250) << message;
   EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir / "missing.txt"); }),
              "missing.txt: no such");
+}
+
+// `pcl_pslam evaluate`'s library face: the files read, paired and evaluated as the
+// structure, and the table printed from that same structure.
+TEST(FileEvaluation, StructureIsWhatThePairedPosesGiveAndWhatIsPrinted)
+{
+  ScratchDir dir;
+  const Poses truth = randomPoses(40, 11);
+  Poses est = truth;
+  for (std::size_t i = 0; i < est.size(); ++i)
+    est[i].topRightCorner<3, 1>() += Eigen::Vector3d(0.01 * i, -0.02, 0.005 * (i % 3));
+  std::vector<double> stamps;
+  for (std::size_t i = 0; i < est.size(); ++i)
+    stamps.push_back(0.1 * static_cast<double>(i));
+  pio::writeTumTrajectory(dir / "est.tum", est, stamps);
+  pio::writeKittiPoses(dir / "truth.txt", truth);
+  ev::FileEvaluationOptions options;
+  options.evaluation.alignment = ev::Alignment::None;
+  options.evaluation.kitti_lengths = {5.0, 10.0};
+  const ev::FileEvaluation e = ev::evaluateFiles(dir / "est.tum", dir / "truth.txt", options);
+  EXPECT_EQ(e.estimate.format, pio::PoseFileFormat::Tum);
+  EXPECT_EQ(e.truth.format, pio::PoseFileFormat::Kitti);
+  EXPECT_EQ(e.association, "by index: only one file has timestamps");
+  const ev::TrajectoryEvaluation direct =
+      ev::evaluateTrajectory(e.estimate.poses, truth, options.evaluation);
+  EXPECT_EQ(e.errors.poses, 40u);
+  EXPECT_EQ(e.errors.ate.translation.rmse, direct.ate.translation.rmse);
+  EXPECT_EQ(e.errors.kitti.lengths, (std::vector<double>{5.0, 10.0}));
+  EXPECT_GT(e.errors.ate.translation.rmse, 0.05);
+
+  std::ostringstream out, table;
+  ev::printFileEvaluation(out, e);
+  ev::printEvaluation(table, e.errors);
+  const std::string text = out.str();
+  EXPECT_EQ(text.find("estimate      " + ev::describe(dir / "est.tum", e.estimate) + "\n"), 0u)
+      << text;
+  EXPECT_HAS(text, "paired        by index: only one file has timestamps\n");
+  EXPECT_EQ(text.substr(text.size() - table.str().size()), table.str());
+  EXPECT_EQ(out.precision(), std::ostringstream().precision()); // the stream's state kept
+
+  // By time stamp where both have them; a broken pose is named by its file.
+  pio::writeTumTrajectory(dir / "truth.tum", truth, stamps);
+  EXPECT_HAS(ev::evaluateFiles(dir / "est.tum", dir / "truth.tum", options).association,
+             "by timestamp");
+  Poses bad = truth;
+  bad[3](0, 0) = 2.0;
+  pio::writeKittiPoses(dir / "bad.txt", bad);
+  EXPECT_HAS(errorOf([&] { ev::evaluateFiles(dir / "est.tum", dir / "bad.txt"); }), "bad.txt");
+}
+
+TEST(FileEvaluation, KittiLengthsFromText)
+{
+  EXPECT_TRUE(ev::kittiLengthsFromString("auto").empty());
+  EXPECT_EQ(ev::kittiLengthsFromString("kitti"), ev::kittiDefaultLengths());
+  EXPECT_EQ(ev::kittiLengthsFromString("10,2.5,40"), (std::vector<double>{10.0, 2.5, 40.0}));
+  for (const char* bad : {"", "10,-1", "10,x", "nan", "0", "10 m"})
+    EXPECT_THROW(ev::kittiLengthsFromString(bad), std::invalid_argument) << bad;
 }
 
 } // namespace

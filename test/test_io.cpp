@@ -5,6 +5,7 @@
 #include "test_data.h"
 
 #include <pcl_parallel/io/atomic_write.h>
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
@@ -1196,4 +1197,69 @@ TEST_F(TempFiles, FuzzFindingsAreHandled)
       EXPECT_TRUE(mentions(e.what(), path)) << e.what();
     }
   }
+}
+
+// The poses a mapping run leaves: scanNNN.frames per scan (initial INVALID, ICP, final LUM;
+// the fixed first scan ICPINACTIVE; translations in the frames' unit), KITTI and TUM files
+// of the final and the front end's poses; a callback after each .frames file.
+TEST_F(TempFiles, RunPosesAreFramesKittiAndTum)
+{
+  std::vector<Eigen::Matrix4d> initial, icp, final_poses;
+  for (int i = 0; i < 3; ++i) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.1 * i, Eigen::Vector3d::UnitZ()).matrix();
+    m(0, 3) = i;
+    initial.push_back(m);
+    m(1, 3) = 0.25;
+    icp.push_back(m);
+    m(2, 3) = -0.5;
+    final_poses.push_back(m);
+  }
+  const std::vector<int> numbers = {7, 8, 1234};
+  const std::vector<double> stamps = {0.5, 1.0, 1.5};
+  int files = 0;
+  const auto names = writeRunPoses(
+      dir_.string(), numbers, initial, icp, final_poses, stamps, 0.01, [&] { ++files; });
+  EXPECT_EQ(files, 3);
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"scanNNN.frames",
+                                      "poses.txt",
+                                      "poses_icp.txt",
+                                      "poses_tum.txt",
+                                      "poses_icp_tum.txt"}));
+  for (std::size_t i = 0; i < 3; ++i) {
+    const std::string name =
+        i < 2 ? "scan00" + std::to_string(numbers[i]) + ".frames" : "scan1234.frames";
+    const auto history = loadFrames((dir_ / name).string(), 0.01);
+    ASSERT_EQ(history.size(), 3u) << name;
+    EXPECT_LT((history[0] - initial[i]).norm(), 1e-9) << name;
+    EXPECT_LT((history[1] - icp[i]).norm(), 1e-9) << name;
+    EXPECT_LT((history[2] - final_poses[i]).norm(), 1e-9) << name;
+    std::ifstream in(dir_ / name);
+    std::vector<int> types;
+    for (std::string line; std::getline(in, line);)
+      types.push_back(std::stoi(line.substr(line.find_last_of(' ') + 1)));
+    EXPECT_EQ(types,
+              (i == 0 ? std::vector<int>{kFramesInvalid, kFramesIcpInactive, kFramesIcpInactive}
+                      : std::vector<int>{kFramesInvalid, kFramesIcp, kFramesLum}))
+        << name;
+  }
+  EXPECT_EQ(loadKittiPoses((dir_ / "poses.txt").string()), final_poses);
+  EXPECT_EQ(loadKittiPoses((dir_ / "poses_icp.txt").string()), icp);
+  const Trajectory tum = loadTumTrajectory((dir_ / "poses_icp_tum.txt").string());
+  EXPECT_EQ(tum.timestamps, stamps);
+  EXPECT_LT((tum.poses[2] - icp[2]).norm(), 1e-12);
+}
+
+TEST(ScanFormats, ThreeDtkNamesAndExtensions)
+{
+  EXPECT_EQ(scanFormatFromName("uos"), "3d");
+  EXPECT_EQ(scanFormatFromName("3D"), "3d");
+  EXPECT_EQ(scanFormatFromName("velodyne"), "bin");
+  EXPECT_EQ(scanFormatFromName("KITTI"), "bin");
+  EXPECT_EQ(scanFormatFromName("pcl"), "pcd");
+  EXPECT_EQ(scanFormatFromName("PLY"), "ply");
+  EXPECT_EQ(scanFormatFromName("xyz"), "xyz");
+  EXPECT_EQ(scanFormatFromName("las"), "");
+  EXPECT_EQ(scanFormatFromName(""), "");
 }

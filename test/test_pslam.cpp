@@ -2,13 +2,12 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * The pcl_pslam pipeline on the simulated scan set: pICP beats the odometry, pLUM closes
- * the loop; its outputs; bad input.
+ * The pcl_pslam pipeline (slam::mapScans) on the simulated scan set: pICP beats the
+ * odometry, pLUM closes the loop; its outputs; bad input.
  */
-#include "slam_pipeline.h"
-
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/sim/simulated_scans.h>
+#include <pcl_parallel/slam/mapping.h>
 
 #include <cmath>
 #include <filesystem>
@@ -34,20 +33,21 @@ smallSet()
   return set;
 }
 
-// pcl_pslam's run() drives slam::Pipeline (test_slam tests the stages): the front end
+// slam::mapScans drives slam::Pipeline (test_slam tests the stages): the front end
 // beats the odometry in translation and rotation, the loop closes, pLUM cuts the error.
 TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
 {
   const auto& set = smallSet();
   std::map<std::string, int> last; // per stage: the last `done` reported
   std::string final_stage;
-  const pcl_pslam::Result r = pcl_pslam::run(set.scans,
-                                             set.odometry,
-                                             pcl_parallel::slam::Parameters(),
-                                             [&](const std::string& stage, int done, int) {
-                                               last[stage] = done;
-                                               final_stage = stage;
-                                             });
+  const pcl_parallel::slam::MappingResult r =
+      pcl_parallel::slam::mapScans(set.scans,
+                                   set.odometry,
+                                   pcl_parallel::slam::Parameters(),
+                                   [&](const std::string& stage, int done, int) {
+                                     last[stage] = done;
+                                     final_stage = stage;
+                                   });
   ASSERT_EQ(r.final.size(), set.scans.size());
   EXPECT_EQ(r.final[0], set.truth[0]); // the first pose stays fixed
   EXPECT_EQ(last["icp"], static_cast<int>(set.scans.size()));
@@ -81,18 +81,21 @@ TEST(Pslam, PipelineBeatsOdometryAndClosesTheLoop)
 
 TEST(Pslam, BadInputIsAClearError)
 {
+  using pcl_parallel::slam::Cloud;
+  using pcl_parallel::slam::mapScans;
+  using pcl_parallel::slam::Poses;
   const auto& set = smallSet();
-  const std::vector<pcl_pslam::Cloud::Ptr> one(set.scans.begin(), set.scans.begin() + 1);
-  const pcl_pslam::Poses one_pose(set.truth.begin(), set.truth.begin() + 1);
-  EXPECT_THROW(pcl_pslam::run(one, one_pose, {}), std::invalid_argument);
-  std::vector<pcl_pslam::Cloud::Ptr> two(set.scans.begin(), set.scans.begin() + 2);
-  EXPECT_THROW(pcl_pslam::run(two, one_pose, {}), std::invalid_argument);
-  pcl_pslam::Poses bad(set.truth.begin(), set.truth.begin() + 2);
+  const std::vector<Cloud::Ptr> one(set.scans.begin(), set.scans.begin() + 1);
+  const Poses one_pose(set.truth.begin(), set.truth.begin() + 1);
+  EXPECT_THROW(mapScans(one, one_pose, {}), std::invalid_argument);
+  std::vector<Cloud::Ptr> two(set.scans.begin(), set.scans.begin() + 2);
+  EXPECT_THROW(mapScans(two, one_pose, {}), std::invalid_argument);
+  Poses bad(set.truth.begin(), set.truth.begin() + 2);
   bad[1](0, 3) = std::nan("");
-  EXPECT_THROW(pcl_pslam::run(two, bad, {}), std::invalid_argument);
-  two[1].reset(new pcl_pslam::Cloud);
-  const pcl_pslam::Poses two_poses(set.truth.begin(), set.truth.begin() + 2);
-  EXPECT_THROW(pcl_pslam::run(two, two_poses, {}), std::invalid_argument);
+  EXPECT_THROW(mapScans(two, bad, {}), std::invalid_argument);
+  two[1].reset(new Cloud);
+  const Poses two_poses(set.truth.begin(), set.truth.begin() + 2);
+  EXPECT_THROW(mapScans(two, two_poses, {}), std::invalid_argument);
 }
 
 } // namespace

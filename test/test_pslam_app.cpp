@@ -73,6 +73,17 @@ somePose(double a, double b, double c, const Eigen::Vector3d& t)
   return m;
 }
 
+/** The map pass as the app runs it: slam::assembleMap with the options' parameters. */
+pcl_pslam::Cloud::Ptr
+mapOf(const pcl_pslam::Options& o,
+      const pcl_pslam::Input& in,
+      const pcl_pslam::Poses& poses,
+      double voxel_size)
+{
+  return pcl_parallel::slam::assembleMap(
+      in, poses, pcl_pslam::toParameters(o, in.scale), voxel_size);
+}
+
 } // namespace
 
 // A 3DTK user's slam6D command line means the same here, in the files' units (cm).
@@ -218,7 +229,7 @@ TEST(PslamOutputs, FramesRoundTrip)
   const Eigen::Matrix4d icp = somePose(0.2, -0.05, 0.03, {1.5, -0.25, 3.125});
   const Eigen::Matrix4d final_pose = somePose(0.3, 0.1, -0.2, {-7.3, 0.04, 12.5});
   const std::string path = (dir / "scan001.frames").string();
-  pcl_pslam::writeScanFrames(path, initial, icp, final_pose, false, 0.01);
+  pcl_parallel::io::writeScanFrames(path, initial, icp, final_pose, false, 0.01);
   const Eigen::Matrix4d back = pcl_parallel::io::loadFramesFinalPose(path);
   Eigen::Matrix4d expected = final_pose;
   expected.topRightCorner<3, 1>() /= 0.01; // metres -> 3DTK's centimetres
@@ -308,7 +319,7 @@ TEST(PslamOutputs, MapShowsScansDeskewedAtTheirPoses)
         args.insert(args.end(), {"--sweep-period", "0.1"});
       const pcl_pslam::Options o = parse(args);
       const pcl_pslam::Input in = pcl_pslam::openDirectory(o);
-      const auto map = pcl_pslam::buildMap(o, in, set.truth, 0.0); // every point, in order
+      const auto map = mapOf(o, in, set.truth, 0.0); // every point, in order
       EXPECT_EQ(map->size(), 5 * world.size());
       double error = 0.0;
       for (std::size_t j = 0; j < map->size(); ++j)
@@ -323,7 +334,7 @@ TEST(PslamOutputs, MapShowsScansDeskewedAtTheirPoses)
     std::vector<pcl_pslam::Cloud::Ptr> maps;
     for (const char* threads : {"1", "3"}) {
       const pcl_pslam::Options o = parse({"run", dir.c_str(), "--deskew", "-t", threads});
-      maps.push_back(pcl_pslam::buildMap(o, pcl_pslam::openDirectory(o), set.truth, 0.5));
+      maps.push_back(mapOf(o, pcl_pslam::openDirectory(o), set.truth, 0.5));
     }
     ASSERT_EQ(maps[0]->size(), maps[1]->size());
     for (std::size_t j = 0; j < maps[0]->size(); ++j)
@@ -335,7 +346,7 @@ TEST(PslamOutputs, MapShowsScansDeskewedAtTheirPoses)
     for (const char* name : {"000002.pcd", "000003.pcd"})
       std::ofstream(dir / name) << "not a point cloud\n";
     try {
-      pcl_pslam::buildMap(o, in, set.truth, 0.5);
+      mapOf(o, in, set.truth, 0.5);
       ADD_FAILURE() << "no error";
     }
     catch (const pcl_pslam::DataError& e) {
@@ -389,7 +400,7 @@ TEST(PslamOutputs, FullDiskIsAnErrorNamingTheFileAndLeavesNoFile)
   const std::pair<const char*, std::function<void(const std::string&)>> writers[] = {
       {"scan000.frames",
        [&](const std::string& p) {
-         pcl_pslam::writeScanFrames(p, poses[1], poses[2], poses[3], false, 0.01);
+         pcl_parallel::io::writeScanFrames(p, poses[1], poses[2], poses[3], false, 0.01);
        }},
       {"poses.txt", [&](const std::string& p) { pcl_parallel::io::writeKittiPoses(p, poses); }},
       {"poses_tum.txt",
@@ -397,9 +408,7 @@ TEST(PslamOutputs, FullDiskIsAnErrorNamingTheFileAndLeavesNoFile)
       {"map.pcd", [&](const std::string& p) { pcl_parallel::io::writePcdScan(p, map); }},
       {"map.ply", [&](const std::string& p) { pcl_parallel::io::writePlyScan(p, map); }},
       {"map.png", [&](const std::string& p) {
-         pcl_parallel::io::writeAtomically(p, [&](const std::string& tmp) {
-           pcl_parallel::render::writeMapPicture(tmp, map, poses, po);
-         });
+         pcl_parallel::render::writeMapPicture(p, map, poses, po);
        }}};
   for (const auto& [name, write] : writers) {
     const std::string path = (dir / name).string();
@@ -602,13 +611,13 @@ framesAgainstSlamSixD(std::vector<const char*> args)
   EXPECT_EQ(in.size(), 3u);
   EXPECT_TRUE(in.frames_3dtk);
   const pcl_parallel::slam::Parameters p = pcl_pslam::toParameters(o, in.scale);
-  const pcl_pslam::Result r = pcl_pslam::run(
+  const pcl_pslam::Result r = pcl_parallel::slam::mapScans(
       pcl_parallel::io::readAllScans(in), in.odometry ? in.initial : pcl_pslam::Poses(), p);
   std::vector<std::pair<double, double>> errors;
   for (std::size_t i = 0; i < in.size(); ++i) {
     char name[32];
     std::snprintf(name, sizeof name, "scan%03zu.frames", i);
-    pcl_pslam::writeScanFrames(
+    pcl_parallel::io::writeScanFrames(
         (out / name).string(), in.initial[i], r.icp[i], r.final[i], i == 0, in.scale);
     errors.push_back(fromSlamSixD(out / name, data));
   }
@@ -703,7 +712,7 @@ TEST(PslamApp, StopAndGoWithoutPosesKeepsTheMatchThatContradictsLess)
   ASSERT_FALSE(in.odometry);
   pcl_parallel::slam::Parameters p = pcl_pslam::toParameters(o, in.scale);
   p.guess.up = Eigen::Vector3d::Unit(in.up); // as the app sets it: y for 3DTK's frame
-  const pcl_pslam::Result r = pcl_pslam::run(
+  const pcl_pslam::Result r = pcl_parallel::slam::mapScans(
       pcl_parallel::io::readAllScans(in), in.odometry ? in.initial : pcl_pslam::Poses(), p);
   const auto truth = pcl_parallel::io::loadKittiPoses((dir / "ground_truth.txt").string());
   ASSERT_EQ(r.icp.size(), truth.size());

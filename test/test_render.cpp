@@ -11,7 +11,9 @@
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
+#include <iterator>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <unistd.h>
 #include <vector>
@@ -113,6 +115,19 @@ TEST(MapPicture, StyleAndFile)
     char magic[8] = {};
     in.read(magic, 8);
     EXPECT_EQ(std::string(magic + 1, 3), "PNG");
+  }
+  // Written under a temporary name and renamed: nothing else is left, and a file that
+  // cannot be written is an error naming it, not its temporary.
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+  const std::string missing = (dir / "no_such_dir" / "map.png").string();
+  try {
+    render::writeMapPicture(missing, room, path, po);
+    ADD_FAILURE() << "no error";
+  }
+  catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.find(missing + ": "), 0u) << what;
+    EXPECT_EQ(what.find(".tmp"), std::string::npos) << what;
   }
   fs::remove_all(dir);
 }

@@ -10,6 +10,7 @@
 #include "test_data.h"
 
 #include <pcl_parallel/evaluation/pose_error.h>
+#include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/uos.h>
 #include <pcl_parallel/registration/icp.h>
@@ -861,5 +862,51 @@ TEST(ScanSetWriter, ErrorsNameTheProblem)
     EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
   }
   fs::remove(file);
+}
+
+// simulateToDirectory (`pcl_pslam simulate`): the directory reader gets the set back, every
+// scan with its odometry, time stamp and per-point times, and ground_truth.txt its truth.
+TEST(ScanSetWriter, SimulateToDirectoryIsWhatTheDirectoryReaderReads)
+{
+  PresetOptions o;
+  o.max_scans = 3;
+  o.beams = 16;
+  const fs::path dir = tempDir("to_directory");
+  const ScanSetSummary summary =
+      simulateToDirectory("kitti", o, dir.string(), scanSetFormatFromString("pcd"));
+  const SimulatedScanSet set = simulatePreset("kitti", o);
+  EXPECT_EQ(summary.scans, 3u);
+  EXPECT_TRUE(summary.moving);
+  pcl_parallel::io::ScanDirectoryOptions d;
+  d.dir = dir.string();
+  d.poses_file = (dir / "odometry.txt").string();
+  const pcl_parallel::io::ScanDirectory in = pcl_parallel::io::openScanDirectory(d);
+  ASSERT_EQ(in.size(), 3u);
+  EXPECT_EQ(in.format, "pcd");
+  EXPECT_TRUE(in.odometry);
+  EXPECT_TRUE(in.has_stamps);
+  std::size_t points = 0;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    std::vector<double> times;
+    const auto scan = pcl_parallel::io::readScan(in, i, &times);
+    EXPECT_EQ(scan->size(), set.scans[i]->size()) << i;
+    EXPECT_EQ(times.size(), scan->size()) << i;
+    EXPECT_EQ(in.initial[i], set.odometry[i]) << i;
+    EXPECT_EQ(in.stamps[i], set.timestamps[i]) << i;
+    points += scan->size();
+  }
+  EXPECT_EQ(summary.points, points);
+  EXPECT_EQ(pcl_parallel::io::loadKittiPoses((dir / "ground_truth.txt").string()), set.truth);
+  fs::remove_all(dir);
+}
+
+TEST(ScanSetWriter, FormatsByName)
+{
+  EXPECT_EQ(scanSetFormatFromString("auto"), ScanSetFormat::Auto);
+  EXPECT_EQ(scanSetFormatFromString("uos"), ScanSetFormat::Uos);
+  EXPECT_EQ(scanSetFormatFromString("kitti"), ScanSetFormat::Kitti);
+  EXPECT_EQ(scanSetFormatFromString("pcd"), ScanSetFormat::Pcd);
+  EXPECT_THROW(scanSetFormatFromString("las"), std::invalid_argument);
+  EXPECT_THROW(scanSetFormatFromString("PCD"), std::invalid_argument);
 }
 } // namespace

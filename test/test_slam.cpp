@@ -13,12 +13,15 @@
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/sim/presets.h>
+#include <pcl_parallel/sim/scan_set_writer.h>
 #include <pcl_parallel/sim/simulated_scans.h>
 #include <pcl_parallel/slam/correlative_search.h>
 #include <pcl_parallel/slam/local_map.h>
 #include <pcl_parallel/slam/loop_closure.h>
+#include <pcl_parallel/slam/mapping.h>
 #include <pcl_parallel/slam/pipeline.h>
 #include <pcl_parallel/slam/preprocess.h>
 #include <pcl_parallel/slam/segments.h>
@@ -30,6 +33,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <gtest/gtest.h>
 #include <limits>
 #include <map>
@@ -39,6 +43,7 @@
 #include <set>
 #include <string>
 #include <tuple>
+#include <unistd.h>
 
 namespace {
 
@@ -1722,6 +1727,63 @@ TEST(Preprocess, RequireScannerFrameRejectsScansWrittenElsewhere)
   slam::Pipeline pipeline;
   EXPECT_THROW(pipeline.addScan(moved(scan, {500000.0f, 5000000.0f, 100.0f})),
                std::invalid_argument);
+}
+
+// mapDirectory streams a directory as mapScans maps the same scans in memory; the
+// directory's map pass (assembleMap) moves every point of every scan by its pose.
+TEST(MapDirectory, IsMapScansOverTheDirectoryAndItsMapHoldsEveryScan)
+{
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() /
+      ("pcl_parallel_map_directory_" + std::to_string(::getpid()));
+  sim::PresetOptions preset;
+  preset.max_scans = 4;
+  preset.beams = 16;
+  const sim::ScanSetSummary summary =
+      sim::simulateToDirectory("kitti", preset, dir.string(), sim::ScanSetFormat::Pcd);
+  io::ScanDirectoryOptions o;
+  o.dir = dir.string();
+  o.poses_file = (dir / "odometry.txt").string();
+  const io::ScanDirectory in = io::openScanDirectory(o);
+  slam::Parameters params;
+  params.loops.enabled = false;
+  slam::DirectoryReading reading;
+  int steps = 0;
+  const slam::MappingResult r = slam::mapDirectory(
+      in, params, {}, [&](const char*, std::size_t, std::size_t) { ++steps; }, reading);
+  const slam::MappingResult same = slam::mapScans(
+      [&](std::size_t k) {
+        slam::SourceScan s;
+        s.cloud = io::readScan(in, k);
+        return s;
+      },
+      in.size(),
+      in.initial,
+      in.stamps,
+      params);
+  ASSERT_EQ(r.final.size(), 4u);
+  EXPECT_EQ(r.final, same.final);
+  EXPECT_EQ(r.icp, same.icp);
+  EXPECT_GT(steps, 4);
+  EXPECT_EQ(reading.timed_scans, 1u); // without deskewing, only the first scan's times
+  EXPECT_GT(reading.seconds, 0.0);
+  const Cloud::Ptr map = slam::assembleMap(in, r.final, params, 0.0);
+  EXPECT_EQ(map->size(), summary.points);
+  const Cloud::Ptr tail = slam::assembleMap(in, r.final, params, 0.0, {}, 3);
+  EXPECT_EQ(tail->size(), io::readScan(in, 3)->size());
+  std::filesystem::remove_all(dir);
+}
+
+// The steps the final poses contradict most, worst first, beyond the 99 % quantile or the
+// Cauchy scale where one is set.
+TEST(MapDirectory, NotableSequenceStepsAreTheWorstFirst)
+{
+  slam::MappingResult r;
+  for (double chi2 : {-1.0, 3.0, 40.0, 17.0, 200.0, 16.0})
+    r.reports.emplace_back().sequence_chi2 = chi2;
+  EXPECT_EQ(slam::notableSequenceSteps(r), (std::vector<std::size_t>{4, 2, 3}));
+  r.parameters.loops.sequence_cauchy_scale = 2.0;
+  EXPECT_EQ(slam::notableSequenceSteps(r), (std::vector<std::size_t>{4, 2, 3, 5, 1}));
 }
 
 } // namespace

@@ -4,9 +4,7 @@
  */
 #include "input.h"
 
-#include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
-#include <pcl_parallel/sim/simulated_scans.h>
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <algorithm>
@@ -18,24 +16,6 @@ namespace fs = std::filesystem;
 
 namespace pcl_pslam {
 
-pcl_parallel::io::ScanDirectoryOptions
-toScanDirectoryOptions(const Options& o)
-{
-  pcl_parallel::io::ScanDirectoryOptions d;
-  d.dir = o.dir;
-  d.poses_file = o.poses_file;
-  d.times_file = o.times_file;
-  d.format = o.format;
-  d.first = o.first;
-  d.last = o.last;
-  d.min_range = o.min_range;
-  d.max_range = o.max_range;
-  d.scale = o.scale;
-  d.up = o.up;
-  d.no_poses = o.no_poses;
-  return d;
-}
-
 Input
 openDirectory(const Options& o)
 {
@@ -44,8 +24,7 @@ openDirectory(const Options& o)
                              "would read as a scan; choose another");
   Input in;
   try {
-    static_cast<pcl_parallel::io::ScanDirectory&>(in) =
-        pcl_parallel::io::openScanDirectory(toScanDirectoryOptions(o));
+    static_cast<pcl_parallel::io::ScanDirectory&>(in) = pcl_parallel::io::openScanDirectory(o);
   }
   catch (const pcl_parallel::io::ScanDirectoryUsageError& e) {
     throw UsageError(e.what());
@@ -57,16 +36,16 @@ std::string
 deskewNote(const Input& in, bool deskew)
 {
   if (!deskew)
-    return in.timed_scans == 0
+    return in.reading.timed_scans == 0
                ? ""
                : "the scans carry per-point times: --deskew would deskew each "
                  "point by its own (unless they are motion-compensated already)";
-  if (in.timed_scans == in.size())
+  if (in.reading.timed_scans == in.size())
     return "deskewed by the points' time field";
-  if (in.timed_scans == 0)
+  if (in.reading.timed_scans == 0)
     return "deskewed by azimuth (no per-point times in the scans)";
-  return "deskewed by the points' time field in " + std::to_string(in.timed_scans) + " of " +
-         std::to_string(in.size()) + " scans, else by azimuth";
+  return "deskewed by the points' time field in " + std::to_string(in.reading.timed_scans) +
+         " of " + std::to_string(in.size()) + " scans, else by azimuth";
 }
 
 std::string
@@ -106,10 +85,9 @@ simulateDemo(Options& o)
   }
   pcl_parallel::sim::PresetOptions options;
   options.num_threads = o.threads;
-  const auto set = pcl_parallel::sim::simulatePreset(o.preset, options);
-  pcl_parallel::sim::writeScanSet(set, dir);
+  const bool moving = pcl_parallel::sim::simulateToDirectory(o.preset, options, dir).moving;
   o.dir = dir;
-  if (!set.point_times.empty()) { // KITTI-like: odometry.txt beside, raw sweeps
+  if (moving) { // KITTI-like: odometry.txt beside, raw sweeps
     if (!o.no_poses)
       o.poses_file = (fs::path(dir) / "odometry.txt").string();
     o.deskew = true;

@@ -17,6 +17,9 @@ namespace po = boost::program_options;
 
 namespace pcl_pslam {
 
+namespace {
+
+/** ASCII lower case (axis and style names). */
 std::string
 lowerCase(std::string s)
 {
@@ -25,8 +28,6 @@ lowerCase(std::string s)
   });
   return s;
 }
-
-namespace {
 
 /** The option groups; `o` receives the values (notify). Texts give unit and default;
  *  3DTK slam6D's names (src/slam6d/slam6D.cc usage()) where the meaning is the same. */
@@ -40,8 +41,14 @@ struct Descriptions {
 
   explicit Descriptions(Options& o)
   {
-    const pcl_parallel::slam::Parameters d;
-    auto text = [](const std::string& s) { return s; };
+    addInput(o);
+    addPipeline(o);
+    addOutputAndGeneral(o);
+  }
+
+  void
+  addInput(Options& o)
+  {
     // clang-format off
     input.add_options()
       ("format,f", po::value<std::string>(&o.format)->value_name("F"),
@@ -71,6 +78,15 @@ struct Descriptions {
        "coordinates times S are metres [default 1; uos: 0.01]")
       ("up", po::value<std::string>()->value_name("x|y|z"),
        "the vertical axis [default z; uos: y]");
+    // clang-format on
+  }
+
+  void
+  addPipeline(Options& o)
+  {
+    const pcl_parallel::slam::Parameters d;
+    auto text = [](const std::string& s) { return s; };
+    // clang-format off
     pipeline.add_options()
       ("reduce,voxel,r", po::value<double>()->value_name("NR"),
        "voxel size of the reduction (one centroid per voxel) before matching (also "
@@ -138,6 +154,13 @@ struct Descriptions {
        "no initial poses even where the scans have them (.pose files, odometry.txt in DIR; "
        "demo: the simulated odometry): constant-velocity guesses, as without any")
       ("no-loops", po::bool_switch(&o.no_loops), "no loop closing (front end only)");
+    // clang-format on
+  }
+
+  void
+  addOutputAndGeneral(Options& o)
+  {
+    // clang-format off
     output.add_options()
       ("out,o", po::value<std::string>(&o.out)->value_name("DIR"),
        "where outputs go, created and checked before any work [default pcl_pslam_out]")
@@ -171,9 +194,12 @@ struct Descriptions {
   }
 };
 
-double
+/** Option `name` where given, checked: positive (or with zero_ok zero too). */
+std::optional<double>
 positive(const po::variables_map& vm, const char* name, bool zero_ok = false)
 {
+  if (!vm.count(name))
+    return std::nullopt;
   const double v = vm[name].as<double>();
   if (!std::isfinite(v) || v < 0.0 || (!zero_ok && v == 0.0))
     throw UsageError(std::string("--") + name + " must be " +
@@ -183,21 +209,6 @@ positive(const po::variables_map& vm, const char* name, bool zero_ok = false)
 }
 
 } // namespace
-
-std::string
-canonicalFormat(const std::string& name)
-{
-  const std::string n = lowerCase(name);
-  if (n == "uos" || n == "3d")
-    return "3d";
-  if (n == "velodyne" || n == "kitti" || n == "bin")
-    return "bin";
-  if (n == "pcl")
-    return "pcd";
-  if (pcl_parallel::io::isScanFile("x." + n))
-    return n;
-  return "";
-}
 
 std::string
 helpText(const std::string& command)
@@ -282,7 +293,7 @@ void
 checkInputOptions(Options& o, const po::variables_map& vm)
 {
   if (vm.count("format")) {
-    const std::string f = canonicalFormat(o.format);
+    const std::string f = pcl_parallel::io::scanFormatFromName(o.format);
     if (f.empty())
       throw UsageError("--format: unknown scan format '" + o.format +
                        "' (uos, pcd, ply, xyz, txt, bin)");
@@ -292,14 +303,11 @@ checkInputOptions(Options& o, const po::variables_map& vm)
     throw UsageError("-s/--start must be >= 0");
   if (vm.count("end") && (o.last < 0 || o.last < o.first))
     throw UsageError("-e/--end must be >= -s/--start (" + std::to_string(o.first) + ")");
-  if (vm.count("max"))
-    positive(vm, "max");
-  if (vm.count("min"))
-    positive(vm, "min", true);
+  positive(vm, "max");
+  positive(vm, "min", true);
   if (o.min_range >= o.max_range)
     throw UsageError("-M/--min must be smaller than -m/--max");
-  if (vm.count("scale"))
-    o.scale = positive(vm, "scale");
+  o.scale = positive(vm, "scale");
   if (vm.count("up")) {
     const std::string axis = lowerCase(vm["up"].as<std::string>());
     if (axis != "x" && axis != "y" && axis != "z")
@@ -309,7 +317,7 @@ checkInputOptions(Options& o, const po::variables_map& vm)
   if (o.sweep_ccw && !o.deskew)
     throw UsageError("--sweep-ccw needs --deskew");
   if (vm.count("sweep-period")) {
-    o.sweep_period = positive(vm, "sweep-period");
+    o.sweep_period = *positive(vm, "sweep-period");
     if (!o.deskew)
       throw UsageError("--sweep-period needs --deskew");
   }
@@ -319,28 +327,19 @@ checkInputOptions(Options& o, const po::variables_map& vm)
 void
 checkPipelineOptions(Options& o, const po::variables_map& vm)
 {
-  if (vm.count("reduce"))
-    o.voxel = positive(vm, "reduce", true);
-  if (vm.count("dist"))
-    o.icp_distance = positive(vm, "dist");
-  if (vm.count("icp-final"))
-    o.icp_final = positive(vm, "icp-final");
-  if (vm.count("distSLAM"))
-    o.lum_distance = positive(vm, "distSLAM");
-  if (vm.count("lum-final"))
-    o.lum_final = positive(vm, "lum-final");
-  if (vm.count("cldist"))
-    o.loop_distance = positive(vm, "cldist", true);
+  o.voxel = positive(vm, "reduce", true);
+  o.icp_distance = positive(vm, "dist");
+  o.icp_final = positive(vm, "icp-final");
+  o.lum_distance = positive(vm, "distSLAM");
+  o.lum_final = positive(vm, "lum-final");
+  o.loop_distance = positive(vm, "cldist", true);
   if (o.metascan && o.scan_to_scan)
     throw UsageError("--metascan and --scan-to-scan exclude each other");
   if (o.no_poses && !o.poses_file.empty())
     throw UsageError("--poses and --no-poses exclude each other");
-  if (vm.count("map-voxel"))
-    o.map_voxel = positive(vm, "map-voxel", true);
-  if (vm.count("epsICP"))
-    o.eps_icp = positive(vm, "epsICP");
-  if (vm.count("epsSLAM"))
-    o.eps_slam = positive(vm, "epsSLAM");
+  o.map_voxel = positive(vm, "map-voxel", true);
+  o.eps_icp = positive(vm, "epsICP");
+  o.eps_slam = positive(vm, "epsSLAM");
   if (o.icp_iterations < 1)
     throw UsageError("-i/--iter must be >= 1");
   if (o.lum_iterations < 1)

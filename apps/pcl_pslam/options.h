@@ -7,9 +7,8 @@
  */
 #pragma once
 
-#include "slam_pipeline.h"
-
 #include <pcl_parallel/io/scan_directory.h>
+#include <pcl_parallel/slam/mapping.h>
 
 #include <limits>
 #include <optional>
@@ -18,6 +17,10 @@
 #include <vector>
 
 namespace pcl_pslam {
+
+using Cloud = pcl_parallel::slam::Cloud;
+using Poses = pcl_parallel::slam::Poses;
+using Result = pcl_parallel::slam::MappingResult;
 
 /** A command line pcl_pslam cannot run: the caller prints one line and exits with 2. */
 struct UsageError : std::runtime_error {
@@ -28,26 +31,14 @@ struct UsageError : std::runtime_error {
  *  directory's reader throws it. */
 using DataError = pcl_parallel::io::ScanDataError;
 
-/** What the command line asks for. Lengths the user gives are in the files' units
- *  (3DTK: the units of the scan data, e.g. cm for uos) and are scaled with the data
- *  (toParameters); unset lengths take the defaults, which are in metres. */
-struct Options {
-  std::string command; ///< demo, run, simulate, evaluate
-  bool help = false;   ///< --help: print helpText(command), exit 0
-  /** simulate / evaluate: their arguments after the command, for their own parsers. */
-  std::vector<std::string> rest;
-
-  std::string dir; ///< run: the scan directory
+/** What the command line asks for. The input's (ScanDirectoryOptions) and the lengths the
+ *  user gives are in the files' units (3DTK: those of the scan data, e.g. cm for uos) and
+ *  are scaled with the data (toParameters); unset lengths take the defaults, in metres. */
+struct Options : pcl_parallel::io::ScanDirectoryOptions {
+  std::string command;           ///< demo, run, simulate, evaluate
+  bool help = false;             ///< --help: print helpText(command), exit 0
+  std::vector<std::string> rest; ///< simulate / evaluate: their arguments, for their parsers
   std::string out = "pcl_pslam_out";
-  std::string poses_file; ///< KITTI poses, one line per scan file in dir
-  std::string times_file; ///< one timestamp per scan file (default: times.txt)
-  std::string format;     ///< scan file extension (3d, pcd, ply, xyz, txt, bin)
-  int first = 0;          ///< -s: first scan number (3DTK: counting from 0)
-  int last = -1;          ///< -e: last scan number, inclusive (-1: all)
-  double min_range = 0.0; ///< -M, files' units
-  double max_range = std::numeric_limits<double>::infinity(); ///< -m, files' units
-  std::optional<double> scale; ///< coordinates times this are metres (uos: 0.01)
-  int up = -1;                 ///< vertical axis of the picture (-1: per format)
 
   std::optional<double> voxel, icp_distance, icp_final, loop_distance, lum_distance, lum_final;
   int icp_iterations = pcl_parallel::slam::MatcherParameters().max_iterations;
@@ -61,7 +52,6 @@ struct Options {
   bool sweep_ccw = false;    ///< the head turns counter-clockwise in the scans' frame
   bool map_normals = false;  ///< point-to-plane normals on the local map (sparse scanners)
   bool no_loops = false;
-  bool no_poses = false; ///< no initial poses even where the directory has them
   bool no_pose_search = false;
   int elch = 4; ///< [-L] 3DTK's loop closing algorithm: 0 none, else ELCH
   bool no_sequence_constraints = false;
@@ -101,14 +91,5 @@ toMappingOptions(const Options& o, int ranks);
  *  the reduction voxel is automatic). */
 double
 mapVoxel(const Options& o, double scale);
-
-/** Our format name for a 3DTK -f name or an extension (uos -> 3d, velodyne/kitti -> bin);
- *  "" when unknown. */
-std::string
-canonicalFormat(const std::string& name);
-
-/** ASCII lower case (file extensions, format names). */
-std::string
-lowerCase(std::string s);
 
 } // namespace pcl_pslam

@@ -13,10 +13,8 @@
 
 #include <pcl/pcl_config.h>
 
-#include <Eigen/Geometry>
 #include <boost/version.hpp>
 
-#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -30,6 +28,7 @@
 #endif
 
 namespace fs = std::filesystem;
+using nlohmann::json;
 
 namespace pcl_pslam {
 
@@ -39,6 +38,64 @@ std::string
 join(const std::string& dir, const std::string& name)
 {
   return (fs::path(dir) / name).string();
+}
+
+/** A rank's part of the map under MPI. */
+std::string
+mapTileName(int rank, const char* extension)
+{
+  return "map_rank" + std::to_string(rank) + extension;
+}
+
+/** The map of scans [begin, end) at `poses` (slam::assembleMap), a progress step a scan. */
+Cloud::Ptr
+buildMap(const Options& o,
+         const Input& in,
+         const Poses& poses,
+         ProgressReporter& progress,
+         std::size_t begin = 0,
+         std::size_t end = std::size_t(-1))
+{
+  return pcl_parallel::slam::assembleMap(
+      in,
+      poses,
+      toParameters(o, in.scale),
+      mapVoxel(o, in.scale),
+      [&](int done, int total) { progress.update("map", done, total); },
+      begin,
+      end);
+}
+
+/** One row of errors against the simulation's truth: the console, map.png and report.json
+ *  give the same numbers. */
+struct TruthRow {
+  const char* name; ///< console and picture
+  const char* key;  ///< report.json
+  pcl_parallel::evaluation::TrajectoryEvaluation errors;
+};
+
+/** The odometry's (where the run had one), the front end's and the final poses' errors. */
+std::vector<TruthRow>
+truthErrors(const Input& in, const Result& r)
+{
+  namespace ev = pcl_parallel::evaluation;
+  std::vector<TruthRow> rows;
+  if (in.odometry)
+    rows.push_back({"odometry", "odometry", ev::evaluateTrajectory(in.initial, in.truth)});
+  rows.push_back({"front end", "front_end", ev::evaluateTrajectory(r.icp, in.truth)});
+  rows.push_back({"final", "final", ev::evaluateTrajectory(r.final, in.truth)});
+  return rows;
+}
+
+/** The loop links between scans that are not neighbours: drawn and listed. */
+std::vector<std::pair<std::uint32_t, std::uint32_t>>
+loopPairs(const Result& r)
+{
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
+  for (const auto& [i, j] : r.links)
+    if ((i > j ? i - j : j - i) > 1)
+      loops.emplace_back(i, j);
+  return loops;
 }
 
 } // namespace
@@ -53,147 +110,34 @@ prepareOutputDirectory(const std::string& dir)
   if (!existed && !fs::create_directories(dir, ec))
     throw UsageError(dir + ": cannot create the output directory (" + ec.message() + ")");
   const std::string probe = join(dir, ".pcl_pslam_probe." + std::to_string(::getpid()));
-  {
-    std::ofstream f(probe);
-    if (!(f << "probe\n")) {
-      fs::remove(probe, ec);
-      if (!existed)
-        fs::remove(dir, ec);
-      throw UsageError(dir + ": the output directory is not writable");
-    }
+  if (!(std::ofstream(probe) << "probe\n")) {
+    fs::remove(probe, ec);
+    if (!existed)
+      fs::remove(dir, ec);
+    throw UsageError(dir + ": the output directory is not writable");
   }
   fs::remove(probe, ec);
   return !existed;
 }
 
 void
-writeScanFrames(const std::string& path,
-                const Eigen::Matrix4d& initial,
-                const Eigen::Matrix4d& icp,
-                const Eigen::Matrix4d& final_pose,
-                bool fixed,
-                double scale)
-{
-  namespace io = pcl_parallel::io;
-  constexpr int kDigits = 12;
-  const std::vector<io::Frame> frames = {
-      {initial, io::kFramesInvalid},
-      {icp, fixed ? io::kFramesIcpInactive : io::kFramesIcp},
-      {final_pose, fixed ? io::kFramesIcpInactive : io::kFramesLum}};
-  io::writeFrames(path, frames, scale, kDigits);
-}
-
-namespace {
-
-/** How the map pass reads scan k of `in`: again, and with --deskew deskewed by the motion
- *  at its final pose (slam::mapFrame), on `threads` threads. Set up once per map. */
-class MapScans {
-public:
-  MapScans(const Options& o, const Input& in, const Poses& poses)
-      : in_(in)
-      , poses_(poses)
-      , params_(toParameters(o, in.scale))
-      , stamps_(in.has_stamps ? in.stamps : std::vector<double>())
-  {}
-
-  Cloud::Ptr
-  read(std::size_t k, unsigned threads) const
-  {
-    if (!params_.deskew.enabled)
-      return readScan(in_, k);
-    std::vector<double> point_times;
-    const Cloud::Ptr scan = readScan(in_, k, &point_times);
-    pcl_parallel::slam::Parameters p = params_;
-    p.num_threads = threads;
-    return pcl_parallel::slam::mapFrame(*scan, point_times, poses_, stamps_, k, p);
-  }
-
-private:
-  const Input& in_;
-  const Poses& poses_;
-  pcl_parallel::slam::Parameters params_;
-  std::vector<double> stamps_; ///< the scans' time stamps, or none
-};
-
-} // namespace
-
-Cloud::Ptr
-buildMap(const Options& o,
-         const Input& in,
-         const Poses& poses,
-         double voxel_size,
-         const std::function<void(int, int)>& step,
-         std::size_t begin,
-         std::size_t end)
-{
-  const MapScans scans(o, in, poses);
-  return pcl_parallel::slam::assembleMap(
-      [&](std::size_t k, unsigned threads) { return scans.read(k, threads); },
-      poses,
-      begin,
-      std::min(end, in.size()),
-      voxel_size,
-      o.threads,
-      step);
-}
-
-std::string
-mapTileName(int rank, const char* extension)
-{
-  return "map_rank" + std::to_string(rank) + extension;
-}
-
-void
 writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress)
 {
-  const Cloud::Ptr map = buildMap(
-      o,
-      in,
-      r.final,
-      mapVoxel(o, in.scale),
-      [&](int done, int total) { progress.update("map", done, total); },
-      r.spread.own_begin,
-      r.spread.own_end);
+  const Cloud::Ptr map =
+      buildMap(o, in, r.final, progress, r.spread.own_begin, r.spread.own_end);
   pcl_parallel::io::writePcdScan(join(o.out, mapTileName(r.spread.rank, ".pcd")), *map);
   if (o.ply)
     pcl_parallel::io::writePlyScan(join(o.out, mapTileName(r.spread.rank, ".ply")), *map);
 }
 
-namespace {
-
-/** One row of errors against the simulation's truth: the console, map.png and
- *  report.json give the same numbers. */
-struct TruthRow {
-  const char* name; ///< console and picture
-  const char* key;  ///< report.json
-  pcl_parallel::evaluation::TrajectoryEvaluation errors;
-};
-
-/** The odometry's (where the run had one), the front end's and the final poses' errors
- *  (ATE after SE(3) alignment, KITTI-style RPE, per-frame RPE). */
-std::vector<TruthRow>
-truthErrors(const Input& in, const Result& r)
-{
-  namespace ev = pcl_parallel::evaluation;
-  std::vector<TruthRow> rows;
-  if (in.odometry)
-    rows.push_back({"odometry", "odometry", ev::evaluateTrajectory(in.initial, in.truth)});
-  rows.push_back({"front end", "front_end", ev::evaluateTrajectory(r.icp, in.truth)});
-  rows.push_back({"final", "final", ev::evaluateTrajectory(r.final, in.truth)});
-  return rows;
-}
-
-} // namespace
-
 void
 printTruthErrors(std::ostream& out, const Input& in, const Result& r)
 {
-  namespace ev = pcl_parallel::evaluation;
-  char line[200];
+  const auto lengths = pcl_parallel::evaluation::kittiLengthsFor(in.truth);
   out << "errors against the simulation's truth (ATE after SE(3) alignment; RPE as the KITTI "
          "devkit, over "
-      << ev::kittiLengthsFor(in.truth).front() << ".." << ev::kittiLengthsFor(in.truth).back()
-      << " m):\n";
+      << lengths.front() << ".." << lengths.back() << " m):\n";
+  char line[200];
   std::snprintf(line,
                 sizeof line,
                 "  %-10s %10s %10s %9s %10s %12s\n",
@@ -204,12 +148,11 @@ printTruthErrors(std::ostream& out, const Input& in, const Result& r)
                 "RPE [deg/m]",
                 "frame RPE [m]");
   out << line;
-  for (const auto& row : truthErrors(in, r)) {
-    const auto& e = row.errors;
+  for (const auto& [name, key, e] : truthErrors(in, r)) {
     std::snprintf(line,
                   sizeof line,
                   "  %-10s %10.4f %10.3f %9.3f %10.5f %12.4f\n",
-                  row.name,
+                  name,
                   e.ate.translation.rmse,
                   e.ate.rotation_deg.rmse,
                   e.kitti.translation_percent,
@@ -221,8 +164,7 @@ printTruthErrors(std::ostream& out, const Input& in, const Result& r)
 
 namespace {
 
-/** scanNNN.frames (3DTK's units for data that came in them), then the KITTI and TUM pose
- *  files of the front end and the final poses. */
+/** scanNNN.frames (3DTK's units for data that came in them), KITTI and TUM poses. */
 void
 writePoseFiles(const Options& o,
                const Input& in,
@@ -232,22 +174,11 @@ writePoseFiles(const Options& o,
 {
   const double frames_scale = in.frames_3dtk ? in.scale : 1.0; // uos: cm
   progress.update("write", 0, 1);
-  for (std::size_t i = 0; i < in.size(); ++i) {
-    char name[32];
-    std::snprintf(name, sizeof name, "scan%03d.frames", in.numbers[i]);
-    writeScanFrames(
-        join(o.out, name), in.initial[i], r.icp[i], r.final[i], i == 0, frames_scale);
-    progress.update("write", 0, 1); // a signal stops between two complete files
-  }
-  written.push_back("scanNNN.frames");
-  // The io writers are atomic (temporary name, rename) and name the file on failure.
-  namespace io = pcl_parallel::io;
-  io::writeKittiPoses(join(o.out, "poses.txt"), r.final);
-  io::writeKittiPoses(join(o.out, "poses_icp.txt"), r.icp);
-  io::writeTumTrajectory(join(o.out, "poses_tum.txt"), r.final, in.stamps);
-  io::writeTumTrajectory(join(o.out, "poses_icp_tum.txt"), r.icp, in.stamps);
-  written.insert(written.end(),
-                 {"poses.txt", "poses_icp.txt", "poses_tum.txt", "poses_icp_tum.txt"});
+  const auto names = pcl_parallel::io::writeRunPoses(
+      o.out, in.numbers, in.initial, r.icp, r.final, in.stamps, frames_scale, [&] {
+        progress.update("write", 0, 1); // a signal stops between two complete files
+      });
+  written.insert(written.end(), names.begin(), names.end());
   progress.update("write", 1, 1);
 }
 
@@ -257,7 +188,6 @@ Cloud::Ptr
 writeMap(const Options& o,
          const Input& in,
          const Result& r,
-         double map_voxel,
          ProgressReporter& progress,
          std::vector<std::string>& written)
 {
@@ -275,9 +205,7 @@ writeMap(const Options& o,
     return map;
   }
   progress.update("map", 0, 1);
-  map = buildMap(o, in, r.final, map_voxel, [&](int done, int total) {
-    progress.update("map", done, total);
-  });
+  map = buildMap(o, in, r.final, progress);
   progress.update("save", 0, 1);
   pcl_parallel::io::writePcdScan(join(o.out, "map.pcd"), *map);
   written.push_back("map.pcd");
@@ -296,17 +224,16 @@ writePicture(const Options& o,
              const Input& in,
              const Result& r,
              const Cloud& map,
-             double map_voxel,
-             const std::vector<std::pair<std::uint32_t, std::uint32_t>>& loops,
              ProgressReporter& progress,
              std::vector<std::string>& written)
 {
   progress.update("picture", 0, 1);
+  const double map_voxel = mapVoxel(o, in.scale);
   pcl_parallel::render::PictureOptions po;
   po.up = in.up;
   po.style = o.style;
   po.cell = map_voxel > 0.0 ? map_voxel : 0.05;
-  po.loops = loops;
+  po.loops = loopPairs(r);
   po.num_threads = o.threads;
   char line[256];
   std::snprintf(line,
@@ -316,8 +243,8 @@ writePicture(const Options& o,
                 in.size(),
                 map.size(),
                 map_voxel,
-                loops.size(),
-                loops.size() == 1 ? "" : "s",
+                po.loops.size(),
+                po.loops.size() == 1 ? "" : "s",
                 r.lum_iterations,
                 r.lum_iterations == 1 ? "" : "s");
   po.caption.push_back(line);
@@ -332,33 +259,32 @@ writePicture(const Options& o,
     po.caption.push_back(errors);
   }
   po.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
-  std::string style;
-  pcl_parallel::io::writeAtomically(join(o.out, "map.png"), [&](const std::string& tmp) {
-    style = pcl_parallel::render::writeMapPicture(tmp, map, r.final, po);
-  });
+  const std::string style =
+      pcl_parallel::render::writeMapPicture(join(o.out, "map.png"), map, r.final, po);
   written.push_back("map.png");
   progress.update("picture", 1, 1);
   return style;
 }
 
-nlohmann::json
+json
 versionsJson()
 {
+  const auto version = [](int major, int minor, int patch) {
+    return std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(patch);
+  };
   return {{"pcl_pslam", PCL_PSLAM_VERSION},
           {"pcl", PCL_VERSION_PRETTY},
-          {"eigen",
-           std::to_string(EIGEN_WORLD_VERSION) + "." + std::to_string(EIGEN_MAJOR_VERSION) +
-               "." + std::to_string(EIGEN_MINOR_VERSION)},
+          {"eigen", version(EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION)},
           {"boost", BOOST_LIB_VERSION},
           {"cairo", pcl_parallel::render::cairoVersion()},
           {"nlohmann_json",
-           std::to_string(NLOHMANN_JSON_VERSION_MAJOR) + "." +
-               std::to_string(NLOHMANN_JSON_VERSION_MINOR) + "." +
-               std::to_string(NLOHMANN_JSON_VERSION_PATCH)},
+           version(NLOHMANN_JSON_VERSION_MAJOR,
+                   NLOHMANN_JSON_VERSION_MINOR,
+                   NLOHMANN_JSON_VERSION_PATCH)},
           {"compiler", __VERSION__}};
 }
 
-nlohmann::json
+json
 inputJson(const Options& o, const Input& in, const Result& r)
 {
   return {
@@ -371,13 +297,11 @@ inputJson(const Options& o, const Input& in, const Result& r)
       {"poses_file", o.poses_file},
       {"timestamps", in.has_stamps},
       {"scans_with_point_times", // counted where read (rank 0 alone under MPI), with --deskew
-       r.spread.ranks > 1 || !o.deskew ? nlohmann::json(nullptr)
-                                       : nlohmann::json(in.timed_scans)},
+       r.spread.ranks > 1 || !o.deskew ? json(nullptr) : json(in.reading.timed_scans)},
       {"first", o.first},
       {"last", o.last},
       {"min_range", o.min_range},
-      {"max_range",
-       std::isfinite(o.max_range) ? nlohmann::json(o.max_range) : nlohmann::json(nullptr)}};
+      {"max_range", std::isfinite(o.max_range) ? json(o.max_range) : json(nullptr)}};
 }
 
 /** The parameters as the pipeline resolved them (automatic lengths from the data). */
@@ -418,53 +342,41 @@ parametersJson(const Result& r, double map_voxel)
           {"close_loops", l.enabled}};
 }
 
-/** How many matches the pose search ran for, and how many it placed. */
-std::pair<std::size_t, std::size_t>
-poseSearches(const std::vector<pcl_parallel::slam::ScanReport>& reports)
-{
-  std::size_t searched = 0, found = 0;
-  for (const auto& rep : reports) {
-    searched += rep.pose_searched ? 1 : 0;
-    found += std::isfinite(rep.start_heading) ? 1 : 0;
-  }
-  return {searched, found};
-}
-
 /** Per scan: what it was, what the front end did with it, the loop pairs tried. */
-nlohmann::json
+json
 scansJson(const Input& in, const Result& r)
 {
-  nlohmann::json scans = nlohmann::json::array();
+  json scans = json::array();
   for (std::size_t i = 0; i < in.size(); ++i) {
     const auto& rep = r.reports.at(i); // one per scan
-    nlohmann::json s = {{"index", i},
-                        {"number", in.numbers[i]},
-                        {"stamp", in.stamps[i]},
-                        {"points", rep.points},
-                        {"points_reduced", rep.reduced_points}};
-    s["icp_converged"] = rep.converged;
-    s["icp_fitness"] = rep.fitness;
-    s["icp_gate"] = rep.gate;
-    s["icp_correction"] = rep.correction;
-    s["icp_start_offset"] = rep.start_offset;
-    s["icp_start_turn"] = rep.start_turn;
-    s["pose_searched"] = rep.pose_searched;
-    s["deskewed_again"] = rep.deskewed_again;
-    if (std::isfinite(rep.start_heading)) // the pose search's start won (degrees)
-      s["pose_search_heading_deg"] = rep.start_heading * 180.0 / M_PI;
-    s["icp_source_points"] = rep.source_points;
-    s["icp_map_scans"] = rep.map_scans;
-    s["seconds"] = rep.seconds;
-    s["lum_iterations"] = rep.lum_iterations;
-    if (rep.sequence_chi2 >= 0.0) // the front end's step against the final poses
-      s["sequence_chi2"] = rep.sequence_chi2;
-    nlohmann::json tried = nlohmann::json::array();
+    json tried = json::array();
     for (const auto& c : rep.loops)
       tried.push_back({{"target", c.link.target},
                        {"overlap", c.overlap},
                        {"error", c.error},
                        {"accepted", c.accepted}});
-    s["loops_tried"] = tried;
+    json s = {{"index", i},
+              {"number", in.numbers[i]},
+              {"stamp", in.stamps[i]},
+              {"points", rep.points},
+              {"points_reduced", rep.reduced_points},
+              {"icp_converged", rep.converged},
+              {"icp_fitness", rep.fitness},
+              {"icp_gate", rep.gate},
+              {"icp_correction", rep.correction},
+              {"icp_start_offset", rep.start_offset},
+              {"icp_start_turn", rep.start_turn},
+              {"pose_searched", rep.pose_searched},
+              {"deskewed_again", rep.deskewed_again},
+              {"icp_source_points", rep.source_points},
+              {"icp_map_scans", rep.map_scans},
+              {"seconds", rep.seconds},
+              {"lum_iterations", rep.lum_iterations},
+              {"loops_tried", tried}};
+    if (std::isfinite(rep.start_heading)) // the pose search's start won (degrees)
+      s["pose_search_heading_deg"] = rep.start_heading * 180.0 / M_PI;
+    if (rep.sequence_chi2 >= 0.0) // the front end's step against the final poses
+      s["sequence_chi2"] = rep.sequence_chi2;
     if (!in.files[i].empty())
       s["file"] = in.files[i];
     scans.push_back(s);
@@ -472,39 +384,61 @@ scansJson(const Input& in, const Result& r)
   return scans;
 }
 
-/** The front end's matches: how many, failed, placed by the pose search, deskewed again. */
-nlohmann::json
-icpJson(const Result& r, std::size_t scans)
+/** report.json: what was run, with what, and what each stage did and took; the caller
+ *  adds what was written. */
+json
+reportJson(const Options& o, const Input& in, const Result& r, const ProgressReporter& progress)
 {
-  const auto [searched, found] = poseSearches(r.reports);
-  return {
-      {"matches", scans - 1},
-      {"not_converged", r.icp_failures},
-      {"pose_searched", searched},
-      {"pose_search_won", found},
-      {"deskewed_again",
-       std::count_if(
-           r.reports.begin(),
-           r.reports.end(),
-           [](const pcl_parallel::slam::ScanReport& rep) { return rep.deskewed_again; })},
-      {"odometry_disagreement",
-       r.odometry_disagreement ? nlohmann::json(*r.odometry_disagreement) : nlohmann::json()}};
-}
-
-/** The errors against the simulation's truth, per row (truthErrors). */
-nlohmann::json
-truthJson(const Input& in, const Result& r)
-{
-  nlohmann::json truth;
-  for (const auto& row : truthErrors(in, r)) {
-    const auto& e = row.errors;
-    truth[row.key] = {{"ate_m", e.ate.translation.rmse},
-                      {"ate_deg", e.ate.rotation_deg.rmse},
-                      {"kitti_rpe_percent", e.kitti.translation_percent},
-                      {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
-                      {"frame_rpe_m", e.rpe.translation.rmse}};
-  }
-  return truth;
+  json j = {{"program", "pcl_pslam"},
+            {"versions", versionsJson()},
+            {"threads", pcl_parallel::resolveNumberOfThreads(o.threads)},
+            {"input", inputJson(o, in, r)},
+            {"parameters", parametersJson(r, mapVoxel(o, in.scale))},
+            {"pipeline_seconds",
+             {{"read", in.reading.seconds},
+              {"preprocess", r.times.preprocess},
+              {"front_end", r.times.front_end},
+              {"loop_detection", r.times.loop_detection},
+              {"loop_closing", r.times.loop_closing}}},
+            {"bytes_kept_per_scan", r.bytes_per_scan},
+            {"relaxations", r.relaxations},
+            {"stages", json::array()},
+            {"total_seconds", progress.elapsed()},
+            {"scans", scansJson(in, r)},
+            {"icp",
+             {{"matches", in.size() - 1},
+              {"not_converged", r.icp_failures},
+              {"pose_searched", r.pose_searched},
+              {"pose_search_won", r.pose_search_won},
+              {"deskewed_again", r.deskewed_again},
+              {"odometry_disagreement",
+               r.odometry_disagreement ? json(*r.odometry_disagreement) : json()}}},
+            {"loops", json::array()},
+            {"links", r.links.size()},
+            {"lum",
+             {{"iterations", r.lum_iterations},
+              {"iteration_cap", r.parameters.loops.lum_iterations}}}};
+  if (r.spread.segments > 0)
+    j["segments"] = {{"segments", r.spread.segments},
+                     {"segment_size", r.spread.segment_size},
+                     {"overlap", r.mapping.segment_overlap},
+                     {"ranks", r.spread.ranks},
+                     {"rank0_wait_seconds", r.spread.wait_seconds},
+                     {"bytes_shared", r.spread.bytes_shared},
+                     {"scans_sent", r.spread.scans_sent},
+                     {"max_kept_scans", r.spread.max_kept_scans}};
+  for (const auto& s : progress.stages())
+    j["stages"].push_back({{"name", s.name}, {"seconds", s.seconds}, {"steps", s.steps}});
+  for (const auto& [a, b] : loopPairs(r))
+    j["loops"].push_back({a, b});
+  if (!in.truth.empty())
+    for (const auto& [name, key, e] : truthErrors(in, r))
+      j["errors_against_truth"][key] = {{"ate_m", e.ate.translation.rmse},
+                                        {"ate_deg", e.ate.rotation_deg.rmse},
+                                        {"kitti_rpe_percent", e.kitti.translation_percent},
+                                        {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
+                                        {"frame_rpe_m", e.rpe.translation.rmse}};
+  return j;
 }
 
 } // namespace
@@ -517,68 +451,62 @@ writeOutputs(const Options& o,
              const std::string& command_line)
 {
   std::vector<std::string> written;
-  const std::size_t n = in.size();
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
-  for (const auto& [i, j] : r.links)
-    if ((i > j ? i - j : j - i) > 1)
-      loops.emplace_back(i, j);
-
   writePoseFiles(o, in, r, progress, written);
-  const double map_voxel = mapVoxel(o, in.scale);
-  const Cloud::Ptr map = writeMap(o, in, r, map_voxel, progress, written);
-  const std::string style =
-      o.picture ? writePicture(o, in, r, *map, map_voxel, loops, progress, written) : "";
+  const Cloud::Ptr map = writeMap(o, in, r, progress, written);
+  const std::string style = o.picture ? writePicture(o, in, r, *map, progress, written) : "";
   progress.finish();
-
-  // report.json: what was run, with what, and what each stage did and took.
-  nlohmann::json j;
-  j["program"] = "pcl_pslam";
+  json j = reportJson(o, in, r, progress);
   j["command_line"] = command_line;
-  j["versions"] = versionsJson();
-  j["threads"] = pcl_parallel::resolveNumberOfThreads(o.threads);
-  j["input"] = inputJson(o, in, r);
-  j["parameters"] = parametersJson(r, map_voxel);
-  j["pipeline_seconds"] = {{"read", in.read_seconds},
-                           {"preprocess", r.times.preprocess},
-                           {"front_end", r.times.front_end},
-                           {"loop_detection", r.times.loop_detection},
-                           {"loop_closing", r.times.loop_closing}};
-  j["bytes_kept_per_scan"] = r.bytes_per_scan;
-  if (r.spread.segments > 0)
-    j["segments"] = {{"segments", r.spread.segments},
-                     {"segment_size", r.spread.segment_size},
-                     {"overlap", r.mapping.segment_overlap},
-                     {"ranks", r.spread.ranks},
-                     {"rank0_wait_seconds", r.spread.wait_seconds},
-                     {"bytes_shared", r.spread.bytes_shared},
-                     {"scans_sent", r.spread.scans_sent},
-                     {"max_kept_scans", r.spread.max_kept_scans}};
-  j["relaxations"] = r.relaxations;
-  nlohmann::json stages = nlohmann::json::array();
-  for (const auto& s : progress.stages())
-    stages.push_back({{"name", s.name}, {"seconds", s.seconds}, {"steps", s.steps}});
-  j["stages"] = stages;
-  j["total_seconds"] = progress.elapsed();
-  j["scans"] = scansJson(in, r);
-  j["icp"] = icpJson(r, n);
-  nlohmann::json loop_list = nlohmann::json::array();
-  for (const auto& [a, b] : loops)
-    loop_list.push_back({a, b});
-  j["loops"] = loop_list;
-  j["links"] = r.links.size();
-  j["lum"] = {{"iterations", r.lum_iterations},
-              {"iteration_cap", r.parameters.loops.lum_iterations}};
-  j["map"] = {{"points", map->size()}, {"voxel_m", map_voxel}};
+  j["map"] = {{"points", map->size()}, {"voxel_m", mapVoxel(o, in.scale)}};
   if (!style.empty())
     j["picture_style"] = style;
-  if (!in.truth.empty())
-    j["errors_against_truth"] = truthJson(in, r);
   j["outputs"] = written;
   pcl_parallel::io::writeStreamAtomically(join(o.out, "report.json"),
                                           [&](std::ostream& out) { out << j.dump(2) << '\n'; });
   written.push_back("report.json");
   return written;
 }
+
+namespace {
+
+/** Warnings about the run's results: on stdout where the user should look, on stderr
+ *  where the input is likely wrong. */
+void
+printFindings(const Input& in, const Result& r)
+{
+  // Matches the pose search placed came from nothing but the scans: right on a distinct
+  // site, possibly a room or corridor away where the site repeats.
+  if (r.pose_search_won > 0)
+    std::printf("pose search: %zu of %zu matches searched (no initial poses), %zu placed by "
+                "it; where the site repeats (rooms, corridors) check them in map.png, or "
+                "give --poses\n",
+                r.pose_searched,
+                in.size() - 1,
+                r.pose_search_won);
+  // Odometry the scans contradict step after step is in another frame, or broken.
+  if (r.odometry_disagreement &&
+      *r.odometry_disagreement > pcl_parallel::slam::kOdometryDisagreementLimit)
+    std::fprintf(stderr,
+                 "pcl_pslam: warning: pICP moved the scans %.2f times as far from the "
+                 "odometry's steps as the steps are long (median of the first %zu steps): "
+                 "is the odometry in the scanner's frame? (KITTI's poses.txt is the left "
+                 "camera's: apply calib.txt's Tr.) Without it the front end predicts by "
+                 "constant velocity\n",
+                 *r.odometry_disagreement,
+                 pcl_parallel::slam::kOdometryDisagreementSteps);
+  const std::vector<std::size_t> notable = pcl_parallel::slam::notableSequenceSteps(r);
+  if (!notable.empty()) {
+    std::string worst;
+    for (std::size_t k = 0; k < notable.size() && k < 3; ++k)
+      worst += (k ? ", " : "") + std::to_string(in.numbers[notable[k]]) + " (chi2 " +
+               std::to_string(std::lround(r.reports[notable[k]].sequence_chi2)) + ")";
+    std::printf("loop closing disagreed most with the front end's steps to scans %s; "
+                "report.json: sequence_chi2\n",
+                worst.c_str());
+  }
+}
+
+} // namespace
 
 void
 printSummary(const Options& o,
@@ -597,48 +525,7 @@ printSummary(const Options& o,
               in.size() - 1,
               r.lum_iterations,
               r.lum_iterations == 1 ? "" : "s");
-  // Matches the pose search found came from nothing but the scans: right on a distinct
-  // site, possibly a room or corridor away where the site repeats (docs/design.md,
-  // "Pose search").
-  if (const auto [searched, found] = poseSearches(r.reports); found > 0)
-    std::printf("pose search: %zu of %zu matches searched (no initial poses), %zu placed by "
-                "it; where the site repeats (rooms, corridors) check them in map.png, or "
-                "give --poses\n",
-                searched,
-                in.size() - 1,
-                found);
-  // Odometry the scans contradict step after step is in another frame, or broken
-  // (docs/design.md, "Odometry in another frame").
-  if (r.odometry_disagreement &&
-      *r.odometry_disagreement > pcl_parallel::slam::kOdometryDisagreementLimit)
-    std::fprintf(stderr,
-                 "pcl_pslam: warning: pICP moved the scans %.2f times as far from the "
-                 "odometry's steps as the steps are long (median of the first %zu steps): "
-                 "is the odometry in the scanner's frame? (KITTI's poses.txt is the left "
-                 "camera's: apply calib.txt's Tr.) Without it the front end predicts by "
-                 "constant velocity\n",
-                 *r.odometry_disagreement,
-                 pcl_parallel::slam::kOdometryDisagreementSteps);
-  // Where the relaxation and the front end disagree most: the first places to look at in
-  // a map. Steps beyond chi2's 99 % quantile for 6 degrees of freedom, or the kernel's
-  // scale where one is set.
-  const double notable = r.parameters.loops.sequence_cauchy_scale > 0.0
-                             ? r.parameters.loops.sequence_cauchy_scale
-                             : pcl_parallel::slam::kChi2Quantile99SixDof;
-  std::vector<std::pair<double, std::size_t>> chi2;
-  for (std::size_t i = 0; i < r.reports.size(); ++i)
-    if (r.reports[i].sequence_chi2 > notable)
-      chi2.emplace_back(r.reports[i].sequence_chi2, i);
-  std::sort(chi2.rbegin(), chi2.rend());
-  if (!chi2.empty()) {
-    std::string worst;
-    for (std::size_t k = 0; k < chi2.size() && k < 3; ++k)
-      worst += (k ? ", " : "") + std::to_string(in.numbers[chi2[k].second]) + " (chi2 " +
-               std::to_string(static_cast<long long>(std::lround(chi2[k].first))) + ")";
-    std::printf("loop closing disagreed most with the front end's steps to scans %s; "
-                "report.json: sequence_chi2\n",
-                worst.c_str());
-  }
+  printFindings(in, r);
   if (!o.quiet) {
     const auto& t = r.times;
     std::printf("%s: front end %.2f s, loop detection %.2f s, loop closing %.2f s "
@@ -655,7 +542,7 @@ printSummary(const Options& o,
                 r.bytes_per_scan);
   }
   if (!in.truth.empty())
-    pcl_pslam::printTruthErrors(std::cout, in, r);
+    printTruthErrors(std::cout, in, r);
   std::string names;
   for (const auto& w : written)
     names += (names.empty() ? "" : ", ") + w;

@@ -21,16 +21,13 @@ volatile std::sig_atomic_t g_quiet = 0;     // 1: no message (not MPI rank 0)
 volatile std::sig_atomic_t g_ranks = 1;     // MPI ranks of the job
 volatile std::sig_atomic_t g_stderr_fd = 2; // the real stderr while PCL's is captured
 char g_remove_dir[4096] = {0};              // an --out this run created, removed if empty
-// Set by the first handler that ends the run. coreutils' timeout (and a terminal's ^C to
-// the process group) delivers a signal twice, and each may land on another thread while
-// the first is still in the handler: only one may write the message. Lock-free, so
-// async-signal-safe.
+// Set by the first handler that ends the run: a signal may come twice (timeout, a ^C to the
+// process group), each on another thread, and only one may write the message.
 std::atomic<int> g_ending{0};
 static_assert(std::atomic<int>::is_always_lock_free, "signal handlers need a lock-free flag");
 
-/** Before the outputs nothing exists to leave half-written, and one pICP match or pLUM
- *  iteration can take seconds, so the run ends at once (only async-signal-safe calls:
- *  write, rmdir, _exit). While writing, the flag stops it between two complete files. */
+/** Before the outputs nothing can be left half-written and a match can take seconds: the
+ *  run ends at once (write, rmdir, _exit: async-signal-safe). While writing, the flag. */
 extern "C" void
 onSignal(int s)
 {
@@ -181,13 +178,11 @@ ProgressReporter::update(const std::string& stage, int done, int total)
   const auto now = Clock::now();
   if (!open_ || stages_.back().name != stage) {
     finish();
-    stages_.push_back(Stage{stage, 0.0, 0, {}});
+    stages_.push_back(Stage{stage, 0.0, 0});
     stage_start_ = last_; // the stage began when the one before it last reported
     open_ = true;
   }
   Stage& s = stages_.back();
-  if (done > 0) // done = 0 only opens the stage
-    s.step_seconds.push_back(std::chrono::duration<double>(now - last_).count());
   s.steps = done;
   s.seconds = std::chrono::duration<double>(now - stage_start_).count();
   total_ = total;
@@ -202,9 +197,9 @@ ProgressReporter::update(const std::string& stage, int done, int total)
 }
 
 void
-ProgressReporter::note(const std::string& text, bool even_if_quiet)
+ProgressReporter::note(const std::string& text)
 {
-  if (quiet_ && !even_if_quiet)
+  if (quiet_)
     return;
   if (live_ && open_)
     std::fprintf(out_, "\r\033[K");

@@ -2,11 +2,10 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * pcl_pslam's progress on stderr (a live line with ETA on a terminal, one line per stage
- * otherwise), the time of every stage and step, and SIGINT/SIGTERM: before the outputs
- * are written the run ends at once (there is nothing to leave half-written); while they
- * are written the handler only sets a flag, every progress update checks it and throws
- * Interrupted, so the run stops between two complete files.
+ * pcl_pslam's progress on stderr (a live line with ETA on a terminal, else a line per
+ * stage), the time of every stage and step, and SIGINT/SIGTERM: before the outputs the run
+ * ends at once (nothing is half-written); while they are written a signal only sets a flag
+ * that the next progress update throws as Interrupted, between two complete files.
  */
 #pragma once
 
@@ -14,23 +13,20 @@
 
 #include <chrono>
 #include <cstdio>
-#include <map>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace pcl_pslam {
 
-/** A signal: io::writeAtomically passes it on unchanged (a WriteAborted), so the message
- *  stays the signal's, not the file's. */
+/** A signal: io::writeAtomically passes a WriteAborted on unchanged, so the message stays
+ *  the signal's, not the file's. */
 struct Interrupted : pcl_parallel::io::WriteAborted {
   explicit Interrupted(int signal);
   int signal; ///< SIGINT or SIGTERM; exit status 128 + signal
 };
 
-/** Routes SIGINT and SIGTERM to the flag checkInterrupt() reads; `quiet`: without the
- *  message (an MPI rank other than 0: the launcher signals every rank); `ranks`: the
- *  job's size (the SIGTERM message then says why mpirun ends a job). */
+/** Routes SIGINT and SIGTERM to checkInterrupt()'s flag; `quiet`: without the message (MPI
+ *  ranks but 0); `ranks`: the job's size (the SIGTERM message then names mpirun). */
 void
 installSignalHandlers(bool quiet = false, int ranks = 1);
 
@@ -51,9 +47,8 @@ public:
   using Clock = std::chrono::steady_clock;
 
   /** quiet: print nothing; live: one updating line with ETA (stderr is a terminal).
-   *  capture: what PCL (and our library through PCL's console) prints on stderr during
-   *  the run is collected and, at the end of each stage, shown condensed: one line per
-   *  kind of message with its count and first instance (LUM alone can warn hundreds of
+   *  capture: what PCL and the library print on stderr is collected and shown at the end of
+   *  each stage, one line per kind of message with its count (LUM warns per link, many
    *  times). */
   ProgressReporter(bool quiet, bool live, bool capture = false);
   ~ProgressReporter();
@@ -61,8 +56,8 @@ public:
   ProgressReporter&
   operator=(const ProgressReporter&) = delete;
 
-  /** `done` of `total` steps of `stage` are done. A new stage name ends the previous
-   *  stage; its clock started at the previous update. Checks for a signal first. */
+  /** `done` of `total` steps of `stage` are done; a new name ends the previous stage (its
+   *  clock started at the previous update). Checks for a signal first. */
   void
   update(const std::string& stage, int done, int total);
 
@@ -74,7 +69,6 @@ public:
     std::string name;
     double seconds = 0.0;
     int steps = 0;
-    std::vector<double> step_seconds; ///< time of each update since the one before
   };
   const std::vector<Stage>&
   stages() const
@@ -85,15 +79,15 @@ public:
   double
   elapsed() const;
 
-  /** A line for the user (on the real stderr), unless quiet and not even_if_quiet. */
+  /** A line for the user (on the real stderr), unless quiet. */
   void
-  note(const std::string& text, bool even_if_quiet = false);
+  note(const std::string& text);
 
-  /** Prints the captured messages so far, condensed (also done by finish()). */
+private:
+  /** Prints the captured messages so far, condensed. */
   void
   drainWarnings();
 
-private:
   bool quiet_, live_;
   int saved_stderr_ = -1;   ///< the real stderr while fd 2 goes to capture_
   std::FILE* out_ = stderr; ///< where progress goes (the real stderr)

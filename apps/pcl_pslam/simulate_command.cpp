@@ -4,17 +4,14 @@
  */
 #include "simulate_command.h"
 
-#include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 
 #include <boost/program_options.hpp>
 
 #include <algorithm>
 #include <chrono>
-#include <cstdint>
-#include <iterator>
+#include <stdexcept>
 #include <string>
-#include <utility>
 
 namespace pcl_pslam {
 
@@ -27,9 +24,7 @@ using pcl_parallel::sim::ScanSetFormat;
 /** What `simulate` is told. */
 struct SimulateArguments {
   std::string preset, dir, format = "auto";
-  std::uint32_t seed = 1;
-  unsigned threads = 0;
-  int beams = 0;
+  pcl_parallel::sim::PresetOptions options; ///< seed, threads, beams
 };
 
 const char* const kUsage =
@@ -40,23 +35,27 @@ po::options_description
 simulateOptions(SimulateArguments& a)
 {
   po::options_description visible("simulate options");
-  visible.add_options()("preset,p",
-                        po::value(&a.preset)->value_name("NAME"),
-                        "office, hannover, riegl or kitti (see --list)")(
-      "seed",
-      po::value(&a.seed)->default_value(1),
-      "random seed; the same seed, the same files")(
-      "format,f",
+  auto add = visible.add_options();
+  add("preset,p",
+      po::value(&a.preset)->value_name("NAME"),
+      "office, hannover, riegl or kitti (see --list)");
+  add("seed",
+      po::value(&a.options.seed)->default_value(1),
+      "random seed; the same seed, the same files");
+  add("format,f",
       po::value(&a.format)->value_name("F")->default_value("auto"),
       "auto (uos for stop-and-go presets, kitti for kitti), uos, kitti (NNNNNN.bin), or pcd "
       "(NNNNNN.pcd with each point's time in a uint32 field t, ns from the sweep's start, as "
-      "Ouster's driver writes it)")(
-      "beams",
-      po::value(&a.beams)->default_value(0),
+      "Ouster's driver writes it)");
+  add("beams",
+      po::value(&a.options.beams)->default_value(0),
       "beams (rows) of the scanner over the preset's field of view, e.g. 16 with kitti for a "
-      "VLP-16-like sparse lidar; 0 = the preset's")(
-      "threads,t", po::value(&a.threads)->default_value(0), "threads, 0 = all cores")(
-      "list", "the presets, one line each")("help,h", "this text");
+      "VLP-16-like sparse lidar; 0 = the preset's");
+  add("threads,t",
+      po::value(&a.options.num_threads)->default_value(0),
+      "threads, 0 = all cores");
+  add("list", "the presets, one line each");
+  add("help,h", "this text");
   return visible;
 }
 
@@ -69,19 +68,15 @@ checkSimulateArguments(const SimulateArguments& a, ScanSetFormat& format)
   const auto names = pcl_parallel::sim::presetNames();
   if (std::find(names.begin(), names.end(), a.preset) == names.end())
     return "unknown preset '" + a.preset + "' (see --list)\n";
-  const std::pair<const char*, ScanSetFormat> formats[] = {{"auto", ScanSetFormat::Auto},
-                                                           {"uos", ScanSetFormat::Uos},
-                                                           {"kitti", ScanSetFormat::Kitti},
-                                                           {"pcd", ScanSetFormat::Pcd}};
-  const auto chosen = std::find_if(std::begin(formats), std::end(formats), [&](const auto& f) {
-    return a.format == f.first;
-  });
-  if (chosen == std::end(formats))
+  try {
+    format = pcl_parallel::sim::scanSetFormatFromString(a.format);
+  }
+  catch (const std::invalid_argument&) {
     return "unknown --format '" + a.format + "' (auto, uos, kitti, pcd)\n";
-  if (a.beams < 0 || a.beams == 1)
-    return "--beams must be 0 (the preset's) or at least 2, got " + std::to_string(a.beams) +
-           '\n';
-  format = chosen->second;
+  }
+  if (a.options.beams < 0 || a.options.beams == 1)
+    return "--beams must be 0 (the preset's) or at least 2, got " +
+           std::to_string(a.options.beams) + '\n';
   return {};
 }
 
@@ -90,17 +85,9 @@ void
 simulateAndWrite(const SimulateArguments& a, ScanSetFormat format, std::ostream& out)
 {
   const auto start = std::chrono::steady_clock::now();
-  pcl_parallel::sim::PresetOptions options;
-  options.seed = a.seed;
-  options.num_threads = a.threads;
-  options.beams = a.beams;
-  const auto set = pcl_parallel::sim::simulatePreset(a.preset, options);
-  pcl_parallel::sim::writeScanSet(set, a.dir, format);
-  std::size_t points = 0;
-  for (const auto& s : set.scans)
-    points += s->size();
-  out << "simulate: " << a.preset << " (seed " << a.seed << "): " << set.scans.size()
-      << " scans, " << points << " points, written to " << a.dir << " in "
+  const auto set = pcl_parallel::sim::simulateToDirectory(a.preset, a.options, a.dir, format);
+  out << "simulate: " << a.preset << " (seed " << a.options.seed << "): " << set.scans
+      << " scans, " << set.points << " points, written to " << a.dir << " in "
       << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
       << " s\n";
 }

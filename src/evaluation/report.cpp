@@ -5,7 +5,10 @@
 #include <pcl_parallel/evaluation/report.h>
 
 #include <algorithm>
+#include <cmath>
 #include <iomanip>
+#include <locale>
+#include <sstream>
 #include <stdexcept>
 
 namespace pcl_parallel {
@@ -120,6 +123,67 @@ printEvaluation(std::ostream& out, const TrajectoryEvaluation& e)
       out << '\n';
     }
   }
+  out.flags(flags);
+  out.precision(precision);
+}
+
+std::vector<double>
+kittiLengthsFromString(const std::string& text)
+{
+  if (text == "auto")
+    return {};
+  if (text == "kitti")
+    return kittiDefaultLengths();
+  std::vector<double> lengths;
+  std::stringstream ss(text);
+  ss.imbue(std::locale::classic());
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    std::istringstream is(item);
+    is.imbue(std::locale::classic());
+    double v;
+    if (!(is >> v) || !(is >> std::ws).eof() || !(v > 0.0) || !std::isfinite(v))
+      throw std::invalid_argument("\"" + item +
+                                  "\" is not a positive number (give auto, kitti, or "
+                                  "lengths in metres like 10,20,40)");
+    lengths.push_back(v);
+  }
+  if (lengths.empty())
+    throw std::invalid_argument("no length given");
+  return lengths;
+}
+
+FileEvaluation
+evaluateFiles(const std::string& estimate_path,
+              const std::string& truth_path,
+              const FileEvaluationOptions& options)
+{
+  FileEvaluation e;
+  e.estimate_path = estimate_path;
+  e.truth_path = truth_path;
+  e.estimate = io::loadTrajectory(estimate_path, options.frames_unit);
+  e.truth = io::loadTrajectory(truth_path, options.frames_unit);
+  requireRigidMotions(e.estimate.poses, estimate_path); // named by file, before pairing
+  requireRigidMotions(e.truth.poses, truth_path);
+  const PairedTrajectories paired = pairTrajectories(
+      e.estimate, estimate_path, e.truth, truth_path, options.max_diff, options.truncate);
+  e.association = paired.association;
+  e.errors = evaluateTrajectory(paired.estimate, paired.truth, options.evaluation);
+  return e;
+}
+
+void
+printFileEvaluation(std::ostream& out, const FileEvaluation& e)
+{
+  const std::ios::fmtflags flags = out.flags();
+  const std::streamsize precision = out.precision();
+  out << "estimate      " << describe(e.estimate_path, e.estimate) << '\n'
+      << "ground truth  " << describe(e.truth_path, e.truth) << '\n'
+      << "paired        " << e.association << '\n'
+      << "path length   " << std::fixed << std::setprecision(3)
+      << e.errors.reference_path_length << " m (ground truth)\n"
+      << std::defaultfloat << '\n';
+  printEvaluation(out, e.errors);
   out.flags(flags);
   out.precision(precision);
 }

@@ -272,6 +272,51 @@ writeFrames(const std::string& path,
   writeFrames(path, frames, unit, 0);
 }
 
+void
+writeScanFrames(const std::string& path,
+                const Eigen::Matrix4d& initial,
+                const Eigen::Matrix4d& icp,
+                const Eigen::Matrix4d& final_pose,
+                bool fixed,
+                double unit)
+{
+  constexpr int kDigits = 12;
+  const std::vector<Frame> frames = {{initial, kFramesInvalid},
+                                     {icp, fixed ? kFramesIcpInactive : kFramesIcp},
+                                     {final_pose, fixed ? kFramesIcpInactive : kFramesLum}};
+  writeFrames(path, frames, unit, kDigits);
+}
+
+std::vector<std::string>
+writeRunPoses(const std::string& dir,
+              const std::vector<int>& numbers,
+              const std::vector<Eigen::Matrix4d>& initial,
+              const std::vector<Eigen::Matrix4d>& icp,
+              const std::vector<Eigen::Matrix4d>& final_poses,
+              const std::vector<double>& stamps,
+              double frames_unit,
+              const std::function<void()>& each)
+{
+  const auto path = [&](const std::string& name) { return (fs::path(dir) / name).string(); };
+  for (std::size_t i = 0; i < numbers.size(); ++i) {
+    std::string number = std::to_string(numbers[i]);
+    number.insert(0, number.size() < 3 ? 3 - number.size() : 0, '0');
+    writeScanFrames(path("scan" + number + ".frames"),
+                    initial[i],
+                    icp[i],
+                    final_poses[i],
+                    i == 0,
+                    frames_unit);
+    if (each)
+      each();
+  }
+  writeKittiPoses(path("poses.txt"), final_poses);
+  writeKittiPoses(path("poses_icp.txt"), icp);
+  writeTumTrajectory(path("poses_tum.txt"), final_poses, stamps);
+  writeTumTrajectory(path("poses_icp_tum.txt"), icp, stamps);
+  return {"scanNNN.frames", "poses.txt", "poses_icp.txt", "poses_tum.txt", "poses_icp_tum.txt"};
+}
+
 Eigen::Matrix4d
 loadFramesFinalPose(const std::string& path)
 {

@@ -245,5 +245,21 @@ isScanFile(const std::string& path)
   return findExtension(path) != nullptr;
 }
 
+std::string
+scanFormatFromName(const std::string& name)
+{
+  std::string n = name;
+  std::transform(n.begin(), n.end(), n.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
+  if (n == "uos" || n == "3d")
+    return "3d";
+  if (n == "velodyne" || n == "kitti" || n == "bin")
+    return "bin";
+  if (n == "pcl")
+    return "pcd";
+  return isScanFile("x." + n) ? n : "";
+}
+
 } // namespace io
 } // namespace pcl_parallel

@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/render/map_picture.h>
 
@@ -554,6 +555,18 @@ captionLines(const PictureOptions& opt, const View& view, double width)
   return lines;
 }
 
+/** The surface as a PNG, under a temporary name renamed to `path` (io::writeAtomically). */
+void
+writePng(cairo_surface_t* surface, const std::string& path)
+{
+  io::writeAtomically(path, [&](const std::string& tmp) {
+    const cairo_status_t status = cairo_surface_write_to_png(surface, tmp.c_str());
+    if (status != CAIRO_STATUS_SUCCESS)
+      throw std::runtime_error(tmp + ": cannot write the picture (" +
+                               cairo_status_to_string(status) + ")");
+  });
+}
+
 } // namespace
 
 std::string
@@ -622,10 +635,7 @@ writeMapPicture(const std::string& path,
   }
   drawLegend(cr, style, grid.lo, grid.hi, W - pad, pad + h + 8);
   cairo_surface_flush(surface.get());
-  const cairo_status_t status = cairo_surface_write_to_png(surface.get(), path.c_str());
-  if (status != CAIRO_STATUS_SUCCESS)
-    throw std::runtime_error(path + ": cannot write the picture (" +
-                             cairo_status_to_string(status) + ")");
+  writePng(surface.get(), path);
   return style;
 }
 

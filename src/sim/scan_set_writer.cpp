@@ -268,5 +268,36 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
   io::writeKittiPoses((root / "ground_truth.txt").string(), truth);
 }
 
+ScanSetFormat
+scanSetFormatFromString(const std::string& name)
+{
+  if (name == "auto")
+    return ScanSetFormat::Auto;
+  if (name == "uos")
+    return ScanSetFormat::Uos;
+  if (name == "kitti")
+    return ScanSetFormat::Kitti;
+  if (name == "pcd")
+    return ScanSetFormat::Pcd;
+  throw std::invalid_argument("pcl_parallel::sim: unknown scan set format '" + name +
+                              "' (auto, uos, kitti, pcd)");
+}
+
+ScanSetSummary
+simulateToDirectory(const std::string& preset,
+                    const PresetOptions& options,
+                    const std::string& dir,
+                    ScanSetFormat format)
+{
+  const SimulatedScanSet set = simulatePreset(preset, options);
+  writeScanSet(set, dir, format);
+  ScanSetSummary summary;
+  summary.scans = set.scans.size();
+  for (const auto& s : set.scans)
+    summary.points += s->size();
+  summary.moving = !set.point_times.empty();
+  return summary;
+}
+
 } // namespace sim
 } // namespace pcl_parallel

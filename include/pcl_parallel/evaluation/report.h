@@ -4,6 +4,7 @@
  *
  * Two trajectory files compared as `pcl_pslam evaluate` compares them: their poses paired
  * (by time stamp as evo associates them, else by index) and the evaluation as a table.
+ * evaluateFiles returns what the command prints, as a structure.
  */
 #pragma once
 
@@ -12,6 +13,7 @@
 
 #include <ostream>
 #include <string>
+#include <vector>
 
 namespace pcl_parallel {
 namespace evaluation {
@@ -41,6 +43,39 @@ describe(const std::string& path, const io::Trajectory& trajectory);
 /** The evaluation as a table: ATE (aligned and not), per-frame RPE, KITTI RPE per length. */
 void
 printEvaluation(std::ostream& out, const TrajectoryEvaluation& evaluation);
+
+/** KITTI RPE segment lengths from text: "auto" none (kittiLengthsFor decides), "kitti" the
+ *  devkit's, else comma-separated positive lengths in metres. Throws std::invalid_argument. */
+std::vector<double>
+kittiLengthsFromString(const std::string& text);
+
+/** How evaluateFiles reads, pairs and evaluates two trajectory files. */
+struct FileEvaluationOptions {
+  EvaluationOptions evaluation;
+  double max_diff = 0.01;               ///< pairing by time stamp: largest difference (s)
+  double frames_unit = io::kFramesUnit; ///< metres per unit of .frames translations
+  bool truncate = false;                ///< pairing by index: the first min(n, m) poses
+};
+
+/** Two trajectory files evaluated: what was read, how it was paired, the errors. */
+struct FileEvaluation {
+  std::string estimate_path, truth_path;
+  io::Trajectory estimate, truth;
+  std::string association; ///< pairTrajectories' words
+  TrajectoryEvaluation errors;
+};
+
+/** Reads both files (io::loadTrajectory), checks every pose (requireRigidMotions, named by
+ *  file), pairs them (pairTrajectories) and evaluates the pairs (evaluateTrajectory).
+ *  Throws std::runtime_error or std::invalid_argument naming the file. */
+FileEvaluation
+evaluateFiles(const std::string& estimate_path,
+              const std::string& truth_path,
+              const FileEvaluationOptions& options = {});
+
+/** The files (describe), the pairing, the truth's path length, then printEvaluation. */
+void
+printFileEvaluation(std::ostream& out, const FileEvaluation& evaluation);
 
 } // namespace evaluation
 } // namespace pcl_parallel

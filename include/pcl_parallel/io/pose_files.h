@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -96,6 +97,32 @@ writeFrames(const std::string& path,
             const std::vector<Eigen::Matrix4d>& history,
             double unit = kFramesUnit,
             int type = kFramesIcp);
+
+/** One scan's .frames as slam6D leaves it: the initial pose (kFramesInvalid), after ICP
+ *  (kFramesIcp), the final pose (kFramesLum); a scan held fixed kFramesIcpInactive after
+ *  the first. 12 significant digits, translations divided by `unit`. */
+void
+writeScanFrames(const std::string& path,
+                const Eigen::Matrix4d& initial,
+                const Eigen::Matrix4d& icp,
+                const Eigen::Matrix4d& final_pose,
+                bool fixed,
+                double unit);
+
+/** The poses a mapping run leaves in dir: scanNNN.frames per scan (writeScanFrames, NNN =
+ *  numbers[i] with 3 digits at least, the first scan held fixed; `each` after every file),
+ *  then the final and the front end's poses as poses.txt, poses_icp.txt (KITTI) and
+ *  poses_tum.txt, poses_icp_tum.txt (TUM at `stamps`). Returns the names, scanNNN.frames
+ *  for the lot. */
+std::vector<std::string>
+writeRunPoses(const std::string& dir,
+              const std::vector<int>& numbers,
+              const std::vector<Eigen::Matrix4d>& initial,
+              const std::vector<Eigen::Matrix4d>& icp,
+              const std::vector<Eigen::Matrix4d>& final_poses,
+              const std::vector<double>& stamps,
+              double frames_unit,
+              const std::function<void()>& each = {});
 
 /** The final poses of the scanNNN.frames files in a directory, in scan-number order (files
  *  not named scanNNN.frames after them, by name), as a trajectory. Throws when the directory

@@ -142,5 +142,11 @@ loadScan(const std::string& path,
 bool
 isScanFile(const std::string& path);
 
+/** The scan format (extension, lower case) for a 3DTK -f name or an extension, any case:
+ *  uos and 3d -> 3d, velodyne, kitti and bin -> bin, pcl -> pcd, else the extension where
+ *  loadScan reads it, else "". */
+std::string
+scanFormatFromName(const std::string& name);
+
 } // namespace io
 } // namespace pcl_parallel

@@ -53,8 +53,9 @@ struct PictureOptions {
   unsigned num_threads = 0; ///< for the per-point passes; 0: all cores
 };
 
-/** Writes the PNG (map and trajectory in metres). Returns the style used ("height" or
- *  "floorplan"). Throws std::runtime_error naming the file when it cannot be written. */
+/** Writes the PNG (map and trajectory in metres) under a temporary name, then renamed (io::
+ *  writeAtomically). Returns the style used ("height" or "floorplan"). Throws
+ *  std::runtime_error naming the file when it cannot be written. */
 std::string
 writeMapPicture(const std::string& path,
                 const Cloud& map,

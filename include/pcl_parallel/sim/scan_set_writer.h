@@ -4,10 +4,12 @@
  */
 #pragma once
 
+#include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/simulated_scans.h>
 
 #include <Eigen/Core>
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -17,6 +19,10 @@ namespace sim {
 /** Which files writeScanSet writes: Auto is Kitti for a set taken while moving (it has
  *  point_times), Uos otherwise. */
 enum class ScanSetFormat { Auto, Uos, Kitti, Pcd };
+
+/** The format named "auto", "uos", "kitti" or "pcd"; throws std::invalid_argument. */
+ScanSetFormat
+scanSetFormatFromString(const std::string& name);
 
 /** 3DTK's left-handed frame (x right, y up, z forward) from ours (x forward, y left, z
  *  up): x' = -y, y' = z, z' = x (a reflection, det -1). */
@@ -52,6 +58,20 @@ void
 writeScanSet(const SimulatedScanSet& set,
              const std::string& dir,
              ScanSetFormat format = ScanSetFormat::Auto);
+
+/** What simulateToDirectory wrote. */
+struct ScanSetSummary {
+  std::size_t scans = 0, points = 0;
+  bool moving = false; ///< taken while moving (point_times): Kitti's files by default
+};
+
+/** Simulates a preset (simulatePreset) and writes it to dir (writeScanSet), as `pcl_pslam
+ *  simulate` does; throws as those do. */
+ScanSetSummary
+simulateToDirectory(const std::string& preset,
+                    const PresetOptions& options,
+                    const std::string& dir,
+                    ScanSetFormat format = ScanSetFormat::Auto);
 
 } // namespace sim
 } // namespace pcl_parallel

@@ -14,9 +14,16 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
 
 namespace pcl_parallel {
+namespace io {
+struct ScanDirectory;
+}
 namespace slam {
 
 enum class MappingBackend {
@@ -57,6 +64,84 @@ mapSequence(const Parameters& params,
             const ScanSource& source,
             MappingReport* report = nullptr,
             const SegmentProgress& progress = {});
+
+/** A sequence as mapScans leaves it: the poses, the loop links and what the run reports. */
+struct MappingResult {
+  Poses icp;                                                  ///< the front end's poses
+  Poses final;                                                ///< after the last pLUM
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> links; ///< loop links (source, target)
+  int icp_failures = 0; ///< matches that did not converge (their initial step kept)
+  int lum_iterations = 0;
+  std::size_t pose_searched = 0;   ///< matches the pose search ran for
+  std::size_t pose_search_won = 0; ///< matches it placed
+  std::size_t deskewed_again = 0;  ///< scans deskewed again after their match
+  StageTimes times;
+  std::vector<ScanReport> reports; ///< per scan
+  int relaxations = 0;             ///< pLUM runs
+  /** With odometry: odometryDisagreement (none: too few steps, or too short). */
+  std::optional<double> odometry_disagreement;
+  std::size_t bytes_per_scan = 0; ///< kept by the pipeline
+  Parameters parameters;          ///< as resolved (lengths in m)
+  MappingOptions mapping;         ///< how the sequence was spread
+  MappingReport spread;           ///< what the backend did
+};
+
+/** mapSequence over scans 0..n-1 of `read`, each given its pose of `odometry` (a pose per
+ *  scan, the first kept fixed; empty: constant velocity from the identity) and its time of
+ *  `stamps` (s; or none), then the pipeline's figures. Throws std::invalid_argument for
+ *  fewer than 2 scans, mismatched sizes, an empty scan or non-finite poses. */
+MappingResult
+mapScans(const ScanSource& read,
+         std::size_t n,
+         const Poses& odometry,
+         const std::vector<double>& stamps,
+         const Parameters& params,
+         const MappingOptions& options = {},
+         const SegmentProgress& progress = {});
+
+/** The same over scans in memory, online, without stamps. */
+MappingResult
+mapScans(const std::vector<Cloud::Ptr>& scans,
+         const Poses& odometry,
+         const Parameters& params,
+         const SegmentProgress& progress = {});
+
+/** The scans whose step from their predecessor the final poses contradict most, worst
+ *  first: ScanReport::sequence_chi2 beyond the loop closing's Cauchy scale where it has
+ *  one, else beyond kChi2Quantile99SixDof. The first places to look at in a map. */
+std::vector<std::size_t>
+notableSequenceSteps(const MappingResult& result);
+
+/** What mapDirectory's reading saw. */
+struct DirectoryReading {
+  /** Scans whose per-point times span a sweep, each counted once (a segment reads its
+   *  overlap again). */
+  std::size_t timed_scans = 0;
+  double seconds = 0.0; ///< spent reading
+};
+
+/** mapScans over a directory's scans, each read (io::readScan) when the pipeline takes it,
+ *  with the directory's odometry and time stamps where it has them. Per-point times are
+ *  read with params.deskew; without it the first scan's only, so that `reading` tells the
+ *  caller whether the scans carry them. */
+MappingResult
+mapDirectory(const io::ScanDirectory& scans,
+             const Parameters& params,
+             const MappingOptions& options,
+             const SegmentProgress& progress,
+             DirectoryReading& reading);
+
+/** The merged map (assembleMap) of a directory's scans [begin, end) at `poses`: each read
+ *  again at full resolution (io::readScan) and, with params.deskew, deskewed by the motion
+ *  at its pose (mapFrame), on params.num_threads threads. */
+Cloud::Ptr
+assembleMap(const io::ScanDirectory& scans,
+            const Poses& poses,
+            const Parameters& params,
+            double voxel_size,
+            const std::function<void(int, int)>& step = {},
+            std::size_t begin = 0,
+            std::size_t end = std::size_t(-1));
 
 /** The online backend: every scan through Pipeline::addScan, the next one read while one
  *  is matched (ReadAhead); finish() is left to the caller. */
