@@ -13,7 +13,7 @@
 #   tsan     build-tsan/  ThreadSanitizer (clang-14, LLVM libomp + Archer, -O1 -g1, no MPI),
 #                         only the tests labelled "tsan" in test/CMakeLists.txt
 #   fuzz     build-fuzz/  libFuzzer + ASan/UBSan (clang-14) on every file reader
-#                         (test/fuzz), FUZZ_SECONDS (default 15) each, nproc at a time,
+#                         (test/fuzz), FUZZ_SECONDS (default 10) each, nproc at a time,
 #                         from seeds written by test/fuzz/write_fuzz_seeds; a finding
 #                         fails the stage and leaves its input in build-fuzz/crashes/
 # Prints the time of each stage at the end. Dependencies: scripts/install-deps.sh.
@@ -56,27 +56,28 @@ asan() {
   export LSAN_OPTIONS=suppressions=$PWD/test/sanitizers/lsan.supp:print_suppressions=0
   export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
   # No MPI: its tests run only in the release stage (test/CMakeLists.txt), so its units
-  # would be compiled for nothing.
+  # would be compiled for nothing; the templates for the tests' point types only.
   stage asan-build cmake_build build-asan -DCMAKE_BUILD_TYPE=Debug \
     -DPCL_PARALLEL_SANITIZE=address,undefined -DPCL_PARALLEL_BUILD_APPS=OFF \
-    -DPCL_PARALLEL_WITH_MPI=OFF
+    -DPCL_PARALLEL_WITH_MPI=OFF -DPCL_PARALLEL_MINIMAL_POINT_TYPES=ON
   stage asan-ctest ctest --test-dir build-asan --output-on-failure --no-tests=error -j2 -L asan
   unset ASAN_OPTIONS LSAN_OPTIONS UBSAN_OPTIONS
 }
 
 tsan() {
-  # OMP_TOOL_LIBRARIES (Archer) is set on the tests by test/CMakeLists.txt. No MPI, as in
-  # asan.
+  # OMP_TOOL_LIBRARIES (Archer) is set on the tests by test/CMakeLists.txt. No MPI and the
+  # tests' point types only, as in asan.
   export TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 ignore_noninstrumented_modules=1 suppressions=$PWD/test/sanitizers/tsan.supp"
   export CC=clang-14 CXX=clang++-14
   stage tsan-build cmake_build build-tsan -DCMAKE_BUILD_TYPE=Debug \
-    -DPCL_PARALLEL_SANITIZE=thread -DPCL_PARALLEL_BUILD_APPS=OFF -DPCL_PARALLEL_WITH_MPI=OFF
+    -DPCL_PARALLEL_SANITIZE=thread -DPCL_PARALLEL_BUILD_APPS=OFF -DPCL_PARALLEL_WITH_MPI=OFF \
+    -DPCL_PARALLEL_MINIMAL_POINT_TYPES=ON
   stage tsan-ctest ctest --test-dir build-tsan --output-on-failure --no-tests=error -j2 -L tsan
   unset TSAN_OPTIONS CC CXX
 }
 
 fuzz() {
-  local dir=build-fuzz bin=build-fuzz/test/fuzz secs=${FUZZ_SECONDS:-15}
+  local dir=build-fuzz bin=build-fuzz/test/fuzz secs=${FUZZ_SECONDS:-10}
   local targets=(uos_scan uos_pose frames xyz kitti_scan kitti_poses stanford_conf pcd ply
     kitti_times tum frames_history trajectory frames_dir evaluate)
   export CC=clang-14 CXX=clang++-14

@@ -171,38 +171,6 @@ TEST(RealSequences, CarFrontEndFollowsTheDriveWithoutOdometry)
   EXPECT_GT(end_to_start, 500.0);
 }
 
-// The same keyframes with their time stamps (times.txt): 0.4-5.5 s apart, each one raw
-// 10 Hz sweep. Constant velocity per second, not per keyframe, predicts each keyframe
-// where pICP then finds it, where the prediction per keyframe was 1.28 m off (1.26-1.31).
-// Deskewed by one sweep's share of the step (--deskew --sweep-period 0.1) it stays there;
-// deskewed by the whole step (--deskew alone, right only for consecutive sweeps) the
-// scans are bent and it is more than 1.5 times as far. Here the drive from keyframe
-// kCarCruiseFrom on, past the pull-away (keyframes 1-20, 0.3-5 m/s along a street whose
-// length the scans hardly constrain, asserted in the next test); `pcl_parallel_bench
-// real-car` maps all 332 (docs/benchmarks.md, "Real sequences").
-constexpr std::size_t kCarCruiseFrom = 200;
-TEST(RealSequences, CarKeyframesPredictedByTheirTimes)
-{
-  PCL_PARALLEL_REQUIRE_DATA(dir, "mulran_riverside02_keyframes/bin");
-  PCL_PARALLEL_REQUIRE_DATA(times_file, "mulran_riverside02_keyframes/times.txt");
-  if (kSanitized)
-    GTEST_SKIP() << "Ouster sweeps: too slow under the sanitizers; test_slam's "
-                    "ConstantVelocityFollowsTheTimeStamps runs the same code there";
-  const std::vector<double> times = io::loadKittiTimes(times_file);
-  const std::size_t n = 332;
-  ASSERT_EQ(times.size(), n);
-  const test::CarCorrections c = test::carCorrections(dir, times, n, kCarCruiseFrom);
-  std::printf("mulran keyframes %zu-%zu, median correction: deskewed by one sweep %.3f m, "
-              "by the whole step %.3f m\n",
-              kCarCruiseFrom,
-              n - 1,
-              c.one_sweep,
-              c.whole_step);
-  EXPECT_TRUE(c.complete);
-  EXPECT_LT(c.one_sweep, 0.6);
-  EXPECT_GT(c.whole_step, 1.5 * c.one_sweep);
-}
-
 // The pull-away with the time stamps, deskewed by one sweep (`pcl_pslam run BIN -s S
 // --deskew --sweep-period 0.1 --no-loops`). Constant velocity lags the car as it speeds
 // up to ~14 m/s, and along the street a match started metres short converges to a false
