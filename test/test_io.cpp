@@ -231,6 +231,45 @@ TEST_F(TempFiles, ScanDirectoryNumbersSelectsAndTypesItsErrors)
                        "missing: no such directory"));
 }
 
+// Every initial pose is checked where it is read, naming its file: not finite, not a
+// rigid motion (a mirrored, scaled or sheared rotation), or beyond 1e9 m (after the
+// format's unit: a 3DTK .pose is in centimetres). A good pose file passes unchanged.
+TEST_F(TempFiles, ScanDirectoryRefusesPosesThatAreNoPoses)
+{
+  for (const char* name : {"scan0.xyz", "scan1.xyz"})
+    write(name, "1 0 0\n0 1 0\n0 0 1\n2 2 2\n");
+  ScanDirectoryOptions o;
+  o.dir = dir_.string();
+  const std::string identity = "1 0 0 0 0 1 0 0 0 0 1 0\n";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"-1 0 0 0 0 1 0 0 0 0 1 0\n", "pose 2 is not a rigid motion"},  // mirrored
+      {"2 0 0 0 0 2 0 0 0 0 2 0\n", "pose 2 is not a rigid motion"},   // scaled
+      {"1 0.5 0 0 0 1 0 0 0 0 1 0\n", "pose 2 is not a rigid motion"}, // sheared
+      {"1 0 0 1e10 0 1 0 0 0 0 1 0\n", "pose 2 lies beyond 1e9 m"}};
+  for (const auto& [line, problem] : bad) {
+    o.poses_file = write("poses.txt", identity + line);
+    const std::string msg = messageOf<ScanDataError>([&] { openScanDirectory(o); });
+    EXPECT_TRUE(mentions(msg, "poses.txt: " + problem)) << msg;
+  }
+  o.poses_file = write("poses.txt", identity + "0 -1 0 5 1 0 0 6 0 0 1 7\n");
+  const ScanDirectory good = openScanDirectory(o);
+  ASSERT_TRUE(good.odometry);
+  EXPECT_EQ(good.initial[1](0, 3), 5.0);
+
+  std::filesystem::remove_all(dir_);
+  std::filesystem::create_directories(dir_);
+  for (const char* name : {"scan000.3d", "scan001.3d"})
+    write(name, "3 x 1\n100 0 0\n0 100 0\n0 0 100\n");
+  write("scan000.pose", "0 0 0\n0 0 0\n");
+  write("scan001.pose", "1e300 0 0\n0 0 0\n");
+  ScanDirectoryOptions u;
+  u.dir = dir_.string();
+  const std::string msg = messageOf<ScanDataError>([&] { openScanDirectory(u); });
+  EXPECT_TRUE(mentions(msg, "scan001.pose: the pose lies beyond 1e9 m")) << msg;
+  write("scan001.pose", "1e10 0 0\n0 0 0\n"); // 1e8 m
+  EXPECT_EQ(openScanDirectory(u).initial[1](0, 3), 1e8);
+}
+
 TEST_F(TempFiles, UosScanSkipsHeaderAndFiltersRange)
 {
   const auto path = write("s.3d", "360 x 225\n1 0 0\n\n0 20 0 7\n3276.7 0 0\n0 0 0.05\n");
@@ -343,6 +382,46 @@ TEST_F(TempFiles, XyzScanMalformedLineThrowsWithTheLine)
   EXPECT_THROW(loadXyzScan(suffix), std::runtime_error);
   const auto overflow = write("overflow.xyz", "1 2 1e999\n");
   EXPECT_THROW(loadXyzScan(overflow), std::runtime_error);
+}
+
+// Every line end convention ends a line: "\n", "\r\n" and "\r" alone (classic Mac), so a
+// CR-only file is not read as one point, and an error names the line counted so. A line
+// longer than 64 KiB (a file without line ends: binary data, NUL bytes) is refused naming
+// the file and line, before the rest of the file is read.
+TEST_F(TempFiles, TextReadersTakeEveryLineEndAndRefuseEndlessLines)
+{
+  for (const std::string end : {"\n", "\r\n", "\r"}) {
+    SCOPED_TRACE(end == "\r" ? "CR" : end == "\n" ? "LF" : "CRLF");
+    const auto cloud =
+        loadXyzScan(write("ends.xyz", "1 2 3" + end + "4 5 6" + end + end + "7 8 9"));
+    ASSERT_EQ(cloud->size(), 3u);
+    expectPoint((*cloud)[2], 7, 8, 9);
+    const auto bad = write("bad.xyz", "1 2 3" + end + end + "4 5" + end);
+    EXPECT_TRUE(
+        mentions(messageOf<std::runtime_error>([&] { loadXyzScan(bad); }), "bad.xyz:3:"));
+    const auto uos = loadUosScan(write("s.3d", "2 x 1" + end + "1 2 3" + end + "4 5 6" + end));
+    EXPECT_EQ(uos->size(), 2u);
+    const auto poses = loadKittiPoses(
+        write("poses.txt", "1 0 0 1 0 1 0 2 0 0 1 3" + end + "1 0 0 4 0 1 0 5 0 0 1 6" + end));
+    ASSERT_EQ(poses.size(), 2u);
+    EXPECT_EQ(poses[1](2, 3), 6.0);
+    const auto pcd = loadPcdScan(
+        write("s.pcd",
+              "VERSION .7" + end + "FIELDS x y z" + end + "SIZE 4 4 4" + end + "TYPE F F F" +
+                  end + "COUNT 1 1 1" + end + "WIDTH 2" + end + "HEIGHT 1" + end + "POINTS 2" +
+                  end + "DATA ascii" + end + "1 2 3" + end + "4 5 6" + end));
+    ASSERT_EQ(pcd->size(), 2u);
+    expectPoint((*pcd)[1], 4, 5, 6);
+  }
+  const auto nul = write("nul.3d", std::string(1 << 20, '\0'));
+  std::string msg = messageOf<std::runtime_error>([&] { loadUosScan(nul); });
+  EXPECT_TRUE(mentions(msg, "nul.3d:1: line longer than 65536 bytes")) << msg;
+  const auto wide = write("wide.xyz", "1 2 3\n" + std::string(70000, ' ') + "4 5 6\n");
+  msg = messageOf<std::runtime_error>([&] { loadXyzScan(wide); });
+  EXPECT_TRUE(mentions(msg, "wide.xyz:2: line longer")) << msg;
+  const auto pcd_header = write("h.pcd", "VERSION .7\n# " + std::string(70000, 'x'));
+  msg = messageOf<std::runtime_error>([&] { loadPcdScan(pcd_header); });
+  EXPECT_TRUE(mentions(msg, "h.pcd:2: line longer")) << msg;
 }
 
 TEST_F(TempFiles, XyzScanUnreadablePathThrows)

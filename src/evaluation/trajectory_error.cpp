@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/evaluation/trajectory_error.h>
+#include <pcl_parallel/io/pose_files.h>
 
 #include <Eigen/LU> // determinant
 
@@ -202,21 +203,9 @@ associateByTimestamp(const std::vector<double>& estimate_stamps,
 void
 requireRigidMotions(const Poses& poses, const std::string& name)
 {
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    const Eigen::Matrix4d& p = poses[i];
-    const Eigen::Matrix3d r = p.topLeftCorner<3, 3>();
-    auto fail = [&](const std::string& what) {
-      throw std::invalid_argument(name + ": pose " + std::to_string(i + 1) + " " + what);
-    };
-    if (!p.allFinite())
-      fail("is not finite");
-    if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-3) ||
-        !(r.determinant() > 0.0) || p.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
-      fail("is not a rigid motion (its rotation is not orthonormal within 1e-3, or a "
-           "reflection)");
-    if (!(p.topRightCorner<3, 1>().cwiseAbs().maxCoeff() <= 1e9))
-      fail("lies beyond 1e9 m");
-  }
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    if (const std::string problem = io::poseProblem(poses[i]); !problem.empty())
+      throw std::invalid_argument(name + ": pose " + std::to_string(i + 1) + " " + problem);
 }
 
 TrajectoryEvaluation

@@ -267,9 +267,43 @@ readRest(const std::string& path, std::ifstream& in)
   return rest;
 }
 
-/** Calls f(line, line_no) for every line of a text file that holds more than white space,
- *  with the line number as an editor shows it (from 1, blank lines counted), so a reader's
- *  errors point at the right line. Throws when the file cannot be opened or read. */
+/** The longest line a text reader takes (bytes): longer is no point, pose or header
+ *  line, and a file without line ends (binary data, a corrupt file) is refused after this
+ *  much instead of read whole into memory. */
+constexpr std::size_t kMaxLineLength = 65536;
+
+/** Reads the next line of `in` into `line` (without its end): a line ends at "\n",
+ *  "\r\n" or "\r" (Unix, Windows and classic Mac text); a last line without an end
+ *  counts. False at the end of the input. Throws for a line over kMaxLineLength, naming
+ *  `path` and the line `line_no`. Headers before binary data too: only a header ending in
+ *  a lone "\r" loses its data's first byte if that is "\n" (PCL's reader, ending lines at
+ *  "\n" alone, reads no such file either). */
+inline bool
+readLine(std::istream& in, std::string& line, const std::string& path, std::size_t line_no)
+{
+  line.clear();
+  std::streambuf& buf = *in.rdbuf();
+  constexpr int kEof = std::char_traits<char>::eof();
+  for (int c = buf.sbumpc(); c != kEof; c = buf.sbumpc()) {
+    if (c == '\n')
+      return true;
+    if (c == '\r') {
+      if (buf.sgetc() == '\n')
+        buf.sbumpc();
+      return true;
+    }
+    if (line.size() == kMaxLineLength)
+      fail(path, line_no, "line longer than " + std::to_string(kMaxLineLength) + " bytes");
+    line.push_back(static_cast<char>(c));
+  }
+  in.setstate(std::ios::eofbit);
+  return !line.empty();
+}
+
+/** Calls f(line, line_no) for every line of a text file (readLine's line ends and limit)
+ *  that holds more than white space, with the line number as an editor shows it (from 1,
+ *  blank lines counted), so a reader's errors point at the right line. Throws when the file
+ *  cannot be opened. */
 template <typename F>
 void
 forEachLine(const std::string& path, F&& f)
@@ -277,13 +311,11 @@ forEachLine(const std::string& path, F&& f)
   std::ifstream in = openOrThrow(path);
   std::string line;
   std::size_t line_no = 0;
-  while (std::getline(in, line)) {
+  while (readLine(in, line, path, line_no + 1)) {
     ++line_no;
     if (line.find_first_not_of(kSpace) != std::string::npos)
       f(line, line_no);
   }
-  if (in.bad())
-    fail(path, line_no, "read error");
 }
 
 constexpr std::size_t kNoField = static_cast<std::size_t>(-1);

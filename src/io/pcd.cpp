@@ -34,6 +34,7 @@ namespace {
 using detail::fail;
 using detail::Fields;
 using detail::parseNumber;
+using detail::readLine;
 
 /** One FIELDS entry with its SIZE, TYPE and COUNT. */
 struct PcdField {
@@ -206,10 +207,8 @@ readPcdHeader(const std::string& path, std::ifstream& in)
   PcdHeader h;
   PcdHeaderLines s;
   std::string line;
-  while (!s.has_data && std::getline(in, line))
+  while (!s.has_data && readLine(in, line, path, h.lines + 1))
     readPcdHeaderLine(path, line, ++h.lines, h, s);
-  if (in.bad())
-    fail(path, h.lines, "read error");
   if (!s.has_data)
     fail(path, 0, "PCD header without a DATA line (not a PCD file, or a truncated one)");
   if (h.fields.empty())
@@ -248,7 +247,7 @@ readAscii(const std::string& path,
   const std::size_t per_line = first.back();
   std::size_t line_no = h.lines, read = 0;
   std::string line;
-  while (std::getline(in, line)) {
+  while (readLine(in, line, path, line_no + 1)) {
     ++line_no;
     Fields fields(line);
     std::string_view v;

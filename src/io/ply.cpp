@@ -184,7 +184,7 @@ readPlyHeader(const std::string& path, std::ifstream& in, std::uintmax_t file_si
   PlyHeader h;
   std::string line;
   bool has_format = false, ended = false;
-  while (!ended && std::getline(in, line)) {
+  while (!ended && detail::readLine(in, line, path, h.lines + 1)) {
     const std::size_t line_no = ++h.lines;
     if (!line.empty() && line.back() == '\r')
       line.pop_back();
@@ -195,8 +195,6 @@ readPlyHeader(const std::string& path, std::ifstream& in, std::uintmax_t file_si
     if (line_no > 1)
       ended = readPlyHeaderLine(path, line, line_no, file_size, h, has_format);
   }
-  if (in.bad())
-    fail(path, h.lines, "read error");
   if (h.lines == 0)
     fail(path, 0, "not a PLY file: empty");
   if (!ended)
@@ -221,7 +219,7 @@ readAscii(const std::string& path,
     const PlyElement& element = h.elements[e];
     for (std::size_t i = 0; i < element.count; ++i) {
       do {
-        if (!std::getline(in, line))
+        if (!detail::readLine(in, line, path, line_no + 1))
           fail(path,
                line_no,
                "truncated: the file ends in element " + std::to_string(i + 1) + " of " +

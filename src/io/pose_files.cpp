@@ -425,5 +425,21 @@ loadTrajectory(const std::string& path, double frames_unit)
   return t;
 }
 
+std::string
+poseProblem(const Eigen::Matrix4d& pose)
+{
+  const Eigen::Matrix3d r = pose.topLeftCorner<3, 3>();
+  if (!pose.allFinite())
+    return "is not finite";
+  if (!((r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <=
+        kRigidMotionTolerance) ||
+      !(r.determinant() > 0.0) || pose.row(3) != Eigen::RowVector4d(0, 0, 0, 1))
+    return "is not a rigid motion (its rotation is not orthonormal within 1e-3, or a "
+           "reflection)";
+  if (!(pose.topRightCorner<3, 1>().cwiseAbs().maxCoeff() <= kMaxPoseTranslation))
+    return "lies beyond 1e9 m";
+  return {};
+}
+
 } // namespace io
 } // namespace pcl_parallel

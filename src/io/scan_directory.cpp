@@ -194,6 +194,18 @@ readScanTimes(const ScanDirectoryOptions& o, std::size_t files)
   return times;
 }
 
+/** `pose` (translation in metres), the `n`th of `file` (0: its only one), or a
+ *  ScanDataError naming both when it is no pose (poseProblem). */
+Eigen::Matrix4d
+checkedPose(const Eigen::Matrix4d& pose, const std::string& file, std::size_t n)
+{
+  const std::string problem = poseProblem(pose);
+  if (!problem.empty())
+    throw ScanDataError(file + ": " +
+                        (n > 0 ? "pose " + std::to_string(n) + " " : "the pose ") + problem);
+  return pose;
+}
+
 /** The 3DTK .pose file beside a .3d scan, translation times `scale`; none if absent. */
 std::optional<Eigen::Matrix4d>
 uosPose(const fs::path& scan, double scale)
@@ -210,7 +222,7 @@ uosPose(const fs::path& scan, double scale)
     throw ScanDataError(withoutPrefix(e.what()));
   }
   m.topRightCorner<3, 1>() *= scale;
-  return m;
+  return checkedPose(m, pose.string(), 0);
 }
 
 /** The request's own checks, before the directory is listed. */
@@ -282,7 +294,7 @@ openScanDirectory(const ScanDirectoryOptions& o)
     else if (!all_poses.empty()) {
       Eigen::Matrix4d m = all_poses[i];
       m.topRightCorner<3, 1>() *= in.scale;
-      in.initial.push_back(m);
+      in.initial.push_back(checkedPose(m, o.poses_file, i + 1));
     }
   }
   in.has_stamps = !all_times.empty();

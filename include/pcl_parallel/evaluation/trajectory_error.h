@@ -125,9 +125,8 @@ struct TrajectoryEvaluation {
   FrameRelativeError rpe;   ///< likewise
 };
 
-/** What the errors can be computed from: every pose a rigid motion (rotation block
- *  orthonormal within 1e-3 per entry of RᵀR - I, determinant positive; last row 0 0 0 1)
- *  with a translation within 1e9 m (beyond, differences and squares lose everything or
+/** What the errors can be computed from: every pose one a file may give (io::poseProblem:
+ *  a rigid motion within 1e9 m; beyond, differences and squares lose everything or
  *  overflow to inf). Throws std::invalid_argument "NAME: pose I (from 1) ...". */
 void
 requireRigidMotions(const Poses& poses, const std::string& name);

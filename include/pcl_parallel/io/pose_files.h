@@ -33,6 +33,17 @@ constexpr double kFramesUnit = 0.01;
 /** 3DTK's frame type codes (Scan::AlgoType), which its viewer colours. */
 constexpr int kFramesInvalid = 0, kFramesIcp = 1, kFramesIcpInactive = 2, kFramesLum = 3;
 
+/** A pose file's pose is a rigid motion: its rotation orthonormal within this (every
+ *  entry of R^T R - I), det R > 0, last row 0 0 0 1. */
+constexpr double kRigidMotionTolerance = 1e-3;
+/** ... and lies within this of the origin (in metres: no trajectory on Earth lies beyond). */
+constexpr double kMaxPoseTranslation = 1e9;
+
+/** Why `pose` is no pose a file may give (not finite, not a rigid motion, too far: the
+ *  bounds above), as the end of a sentence ("is not finite"); empty for a pose. */
+std::string
+poseProblem(const Eigen::Matrix4d& pose);
+
 /** A trajectory as read from a file: poses (p_world = T·p), and one timestamp per pose (in
  *  seconds) where the format has them (TUM), else none. */
 struct Trajectory {
