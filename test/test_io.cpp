@@ -270,6 +270,37 @@ TEST_F(TempFiles, ScanDirectoryRefusesPosesThatAreNoPoses)
   EXPECT_EQ(openScanDirectory(u).initial[1](0, 3), 1e8);
 }
 
+// What comes with the scans must fit them, wherever it comes from: a times.txt found
+// beside them with another count is an error as the same file given as times_file is; a
+// missing .pose is an error where other scans have theirs (the first one too); a directory
+// that is a link loop is a usage error naming it, not a raw filesystem exception.
+TEST_F(TempFiles, ScanDirectoryRefusesTimesAndPosesThatDoNotFit)
+{
+  for (const char* name : {"scan000.3d", "scan001.3d", "scan002.3d"})
+    write(name, "3 x 1\n100 0 0\n0 100 0\n0 0 100\n");
+  ScanDirectoryOptions o;
+  o.dir = dir_.string();
+  EXPECT_FALSE(openScanDirectory(o).odometry);
+  write("scan001.pose", "0 0 0\n0 0 0\n");
+  write("scan002.pose", "0 0 0\n0 0 0\n");
+  std::string msg = messageOf<ScanDataError>([&] { openScanDirectory(o); });
+  EXPECT_TRUE(mentions(msg, "scan000.pose: missing (other scans have .pose files)")) << msg;
+  o.no_poses = true;
+  EXPECT_FALSE(openScanDirectory(o).odometry);
+
+  write("times.txt", "0.1\n0.2\n");
+  msg = messageOf<ScanDataError>([&] { openScanDirectory(o); });
+  EXPECT_TRUE(mentions(msg, "times.txt: 2 timestamps for 3 scans")) << msg;
+  write("times.txt", "0.1\n0.2\n0.3\n");
+  EXPECT_EQ(openScanDirectory(o).stamps, (std::vector<double>{0.1, 0.2, 0.3}));
+
+  const std::filesystem::path loop = dir_ / "loop";
+  std::filesystem::create_symlink(loop, loop);
+  o.dir = loop.string();
+  msg = messageOf<ScanDirectoryUsageError>([&] { openScanDirectory(o); });
+  EXPECT_TRUE(mentions(msg, "loop: ")) << msg;
+}
+
 TEST_F(TempFiles, UosScanSkipsHeaderAndFiltersRange)
 {
   const auto path = write("s.3d", "360 x 225\n1 0 0\n\n0 20 0 7\n3276.7 0 0\n0 0 0.05\n");

@@ -164,15 +164,16 @@ readPosesFile(const ScanDirectoryOptions& o, std::size_t files, const std::strin
   return odometry;
 }
 
-/** o.times_file, else times.txt in the directory or its parent: one stamp per scan file;
- *  a times.txt found by itself that does not fit is not ours and ignored. */
+/** o.times_file, else times.txt in the directory or its parent: one stamp per scan file
+ *  in the directory (before first/last), whichever file gives them. */
 std::vector<double>
 readScanTimes(const ScanDirectoryOptions& o, std::size_t files)
 {
   std::string path = o.times_file;
+  std::error_code ec;
   if (path.empty())
     for (const fs::path& d : {fs::path(o.dir), fs::absolute(o.dir).parent_path()})
-      if (fs::is_regular_file(d / "times.txt")) {
+      if (fs::is_regular_file(d / "times.txt", ec)) {
         path = (d / "times.txt").string();
         break;
       }
@@ -185,12 +186,12 @@ readScanTimes(const ScanDirectoryOptions& o, std::size_t files)
   catch (const std::runtime_error& e) {
     throw ScanDataError(withoutPrefix(e.what()));
   }
-  if (times.size() != files) {
-    if (!o.times_file.empty())
-      throw ScanDataError(path + ": " + std::to_string(times.size()) + " timestamps for " +
-                          std::to_string(files) + " scans in " + o.dir);
-    times.clear();
-  }
+  if (times.size() != files)
+    throw ScanDataError(path + ": " + std::to_string(times.size()) + " timestamps for " +
+                        std::to_string(files) + " scans in " + o.dir +
+                        (o.times_file.empty() ? " (a times.txt in their directory or its "
+                                                "parent is taken as theirs)"
+                                              : ""));
   return times;
 }
 
@@ -225,15 +226,29 @@ uosPose(const fs::path& scan, double scale)
   return checkedPose(m, pose.string(), 0);
 }
 
+/** Whether any of the scan files has a 3DTK .pose file beside it. */
+bool
+anyUosPose(const std::vector<fs::path>& files)
+{
+  std::error_code ec;
+  return std::any_of(files.begin(), files.end(), [&](fs::path f) {
+    return fs::exists(f.replace_extension(".pose"), ec);
+  });
+}
+
 /** The request's own checks, before the directory is listed. */
 void
 checkRequest(const ScanDirectoryOptions& o)
 {
-  if (!fs::is_directory(o.dir))
-    throw ScanDirectoryUsageError(
-        o.dir + ": " + (fs::exists(o.dir) ? "not a directory" : "no such directory"));
+  std::error_code ec;
+  const fs::file_status dir = fs::status(o.dir, ec);
+  if (ec && ec != std::errc::no_such_file_or_directory) // a link loop, no permission
+    throw ScanDirectoryUsageError(o.dir + ": " + ec.message());
+  if (!fs::is_directory(dir))
+    throw ScanDirectoryUsageError(o.dir + ": " +
+                                  (fs::exists(dir) ? "not a directory" : "no such directory"));
   for (const std::string& f : {o.poses_file, o.times_file})
-    if (!f.empty() && !fs::is_regular_file(f))
+    if (!f.empty() && !fs::is_regular_file(f, ec))
       throw ScanDirectoryUsageError(f + ": no such file");
 }
 
@@ -285,9 +300,9 @@ openScanDirectory(const ScanDirectoryOptions& o)
     if (have_uos_poses) {
       if (const auto pose = uosPose(files[i], in.scale))
         in.initial.push_back(*pose);
-      else if (!in.initial.empty())
+      else if (!in.initial.empty() || anyUosPose(files))
         throw ScanDataError(fs::path(files[i]).replace_extension(".pose").string() +
-                            ": missing (the scans before it have .pose files)");
+                            ": missing (other scans have .pose files)");
       else
         have_uos_poses = false;
     }

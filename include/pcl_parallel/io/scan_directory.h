@@ -42,7 +42,7 @@ struct ScanDirectoryOptions {
    *  directory (before -s/-e); "": none, or the .pose files beside 3DTK .3d scans. */
   std::string poses_file;
   /** One time stamp (s) per scan file; "": times.txt in dir or its parent (KITTI's
-   *  sequences/NN/ beside velodyne/) where it has one stamp per scan file. */
+   *  sequences/NN/ beside velodyne/), which is then the scans' and must have as many. */
   std::string times_file;
   std::string format;     ///< scan extension; "": the most common (.txt only when named)
   int first = 0;          ///< -s: first scan number
