@@ -272,8 +272,9 @@ TEST_F(TempFiles, ScanDirectoryRefusesPosesThatAreNoPoses)
 
 // What comes with the scans must fit them, wherever it comes from: a times.txt found
 // beside them with another count is an error as the same file given as times_file is; a
-// missing .pose is an error where other scans have theirs (the first one too); a directory
-// that is a link loop is a usage error naming it, not a raw filesystem exception.
+// missing .pose is an error where other scans have theirs (the first one too); so is an
+// empty scan file, before any scan is read; a directory that is a link loop is a usage
+// error naming it, not a raw filesystem exception.
 TEST_F(TempFiles, ScanDirectoryRefusesTimesAndPosesThatDoNotFit)
 {
   for (const char* name : {"scan000.3d", "scan001.3d", "scan002.3d"})
@@ -293,6 +294,10 @@ TEST_F(TempFiles, ScanDirectoryRefusesTimesAndPosesThatDoNotFit)
   EXPECT_TRUE(mentions(msg, "times.txt: 2 timestamps for 3 scans")) << msg;
   write("times.txt", "0.1\n0.2\n0.3\n");
   EXPECT_EQ(openScanDirectory(o).stamps, (std::vector<double>{0.1, 0.2, 0.3}));
+
+  write("scan001.3d", ""); // an empty scan: refused before the first is read
+  msg = messageOf<ScanDataError>([&] { openScanDirectory(o); });
+  EXPECT_TRUE(mentions(msg, "scan001.3d: empty file")) << msg;
 
   const std::filesystem::path loop = dir_ / "loop";
   std::filesystem::create_symlink(loop, loop);
@@ -322,7 +327,7 @@ TEST_F(TempFiles, MalformedAndTruncatedFilesThrowWithTheLine)
   catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("bad.3d:2"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(loadUosScan(write("nan.3d", "1 2 3\nnan 1 1\n")), std::runtime_error);
+  EXPECT_EQ(loadUosScan(write("nan.3d", "1 2 3\nnan 1 1\n1 inf 1\n"))->size(), 1u); // dropped
   EXPECT_THROW(loadUosPose(write("short.pose", "1 2 3\n4 5\n")), std::runtime_error);
   EXPECT_THROW(loadFramesFinalPose(write("short.frames", "1 0 0 0 0 1 0 0\n")),
                std::runtime_error);
@@ -1156,8 +1161,11 @@ TEST_F(TempFiles, KittiScanRejectsWhatIsNotFloat32Records)
   std::string ply = "ply\nformat binary_little_endian 1.0\n";
   ply.resize(64, ' ');
   EXPECT_THROW(loadKittiScan(write("y.bin", ply)), std::runtime_error);
-  EXPECT_THROW(loadKittiScan(write("inf.bin", kittiBytes({1, 2, 3, 0, 1, 2, INFINITY, 0}))),
-               std::runtime_error);
+  // NaN and inf mark a no-return as in every format: dropped.
+  EXPECT_EQ(
+      loadKittiScan(write("inf.bin", kittiBytes({1, 2, 3, 0, 1, 2, INFINITY, 0, NAN, 1, 1, 0})))
+          ->size(),
+      1u);
   // Real-looking records, including a point at the origin and one close by, still read
   // (the one at the origin dropped: a driver's no-return).
   EXPECT_EQ(loadKittiScan(

@@ -294,6 +294,9 @@ openScanDirectory(const ScanDirectoryOptions& o)
     all_times = odometry.timestamps;
   bool have_uos_poses = uos && all_poses.empty() && !o.no_poses;
   for (const std::size_t i : selectScans(o, numbers, format)) {
+    std::error_code ec; // an empty file has no points in any format: refused before the work
+    if (fs::is_regular_file(files[i], ec) && fs::file_size(files[i], ec) == 0)
+      throw ScanDataError(files[i].string() + ": empty file (no points)");
     in.files.push_back(files[i].string());
     in.numbers.push_back(static_cast<int>(numbers[i]));
     in.stamps.push_back(all_times.empty() ? static_cast<double>(numbers[i]) : all_times[i]);

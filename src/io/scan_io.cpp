@@ -80,8 +80,9 @@ findExtension(const std::string& path)
 }
 
 /** KITTI plausibility (the format has no header or magic number, so only the values can
- *  tell): a Velodyne HDL-64E reports up to 120 m (KITTI, Geiger et al. 2013), so a
- *  coordinate or reflectance beyond kKittiMaxValue or infinite is not a KITTI scan, and
+ *  tell): a Velodyne HDL-64E reports up to 120 m (KITTI, Geiger et al. 2013), so a finite
+ *  coordinate or reflectance beyond kKittiMaxValue is not a KITTI scan (NaN and inf mark a
+ *  no-return, dropped as in every format), and
  *  a file where most points have all three coordinates nonzero below kKittiTiny (1 mm from
  *  the sensor, inside its minimum range) is text read as floats: digits, spaces, signs,
  *  points and line ends as the high byte of a float32 give 1e-19..2.4e-4. */
@@ -156,7 +157,7 @@ loadKittiScan(const std::string& path, double min_range, double max_range)
     float v[4];
     for (int a = 0; a < 4; ++a) {
       v[a] = static_cast<float>(detail::binaryValue(record + 4 * a, {'F', 4})); // little-endian
-      if (std::isinf(v[a]) || std::abs(v[a]) > kKittiMaxValue)
+      if (std::isfinite(v[a]) && std::abs(v[a]) > kKittiMaxValue)
         fail(path,
              0,
              "point " + std::to_string(i + 1) + ": value " + std::to_string(v[a]) +

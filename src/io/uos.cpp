@@ -60,10 +60,8 @@ loadUosScan(const std::string& path, double min_range, double max_range)
     double v[3];
     if (detail::parseNumbers(line, v, 3) != 3)
       fail(path, line_no, "expected three numbers \"x y z\", got " + detail::quoted(line));
-    if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2]))
-      fail(path, line_no, "non-finite coordinate in " + detail::quoted(line));
     ++points;
-    cloud.add(v[0], v[1], v[2], line_no);
+    cloud.add(v[0], v[1], v[2], line_no); // NaN or inf: a no-return, dropped as everywhere
   });
   if (points == 0)
     fail(path, 0, "no points (an empty or header-only .3d file)");

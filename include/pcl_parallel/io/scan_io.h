@@ -45,11 +45,11 @@ loadXyzScan(const std::string& path,
 /** Reads a KITTI Velodyne scan (.bin): little-endian float32 records (x, y, z,
  *  reflectance), 16 bytes a point, in metres in the sensor frame; the reflectance is
  *  dropped. The file is read in one block (a KITTI scan is ~120k points, ~2 MB). Range
- *  filter and non-finite points as loadXyzScan; a kept x, y or z NaN is dropped. An empty
+ *  filter and non-finite points as loadXyzScan: a NaN or inf value is dropped. An empty
  *  file gives an empty cloud (a sensor that saw nothing is not an error). The format has
  *  no header, so only the values can be validated; throws std::runtime_error naming the
  *  file when it cannot be read, when its size is not a multiple of 16 bytes (a truncated
- *  download), when a value is infinite or beyond 1e5 in magnitude (the HDL-64E reaches
+ *  download), when a finite value is beyond 1e5 in magnitude (the HDL-64E reaches
  *  120 m; reflectance is in [0, 1]), when more than half of the points have all three
  *  coordinates nonzero and below 1 mm (text read as float32), or when it starts like a PCD
  *  or PLY header. What cannot be detected: other float32 data of plausible magnitude (e.g.
