@@ -21,6 +21,7 @@
 #include <cmath>
 #include <filesystem>
 #include <gtest/gtest.h>
+#include <iomanip>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
@@ -757,6 +758,26 @@ TEST(FileEvaluation, JsonHoldsTheStructuresNumbers)
   EXPECT_EQ(j["estimate"]["format"], "kitti");
   EXPECT_EQ(j["estimate"]["poses"], 30);
   EXPECT_EQ(j["ground_truth"]["timestamps"], false);
+}
+
+// The run summary's table: a header and a line per trajectory, in fixed columns whatever
+// the stream's own format.
+TEST(FileEvaluation, ErrorRowsInFixedColumns)
+{
+  ev::NamedEvaluation a{"front end", {}}, b{"final", {}};
+  a.errors.ate.translation.rmse = 1.23456;
+  a.errors.ate.rotation_deg.rmse = 2.5;
+  a.errors.kitti.translation_percent = 3.25;
+  a.errors.kitti.rotation_deg_per_m = 0.012345;
+  a.errors.rpe.translation.rmse = 0.5;
+  b.errors.ate.translation.rmse = 10.0;
+  std::ostringstream out;
+  out << std::scientific << std::setprecision(1);
+  ev::printErrorRows(out, {a, b});
+  EXPECT_EQ(out.str(),
+            "                ATE [m]  ATE [deg]   RPE [%] RPE [deg/m] frame RPE [m]\n"
+            "  front end      1.2346      2.500     3.250    0.01235       0.5000\n"
+            "  final         10.0000      0.000     0.000    0.00000       0.0000\n");
 }
 
 TEST(FileEvaluation, KittiLengthsFromText)

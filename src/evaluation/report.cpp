@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <locale>
 #include <nlohmann/json.hpp> // here only: the installed headers do not need it
@@ -260,6 +261,34 @@ toJson(const FileEvaluation& f, int indent)
                   {"ground_truth", file(f.truth_path, f.truth)},
                   {"association", f.association}};
   return j.dump(indent);
+}
+
+void
+printErrorRows(std::ostream& out, const std::vector<NamedEvaluation>& rows)
+{
+  char line[200]; // printf's fixed widths: the columns line up whatever the stream's state
+  std::snprintf(line,
+                sizeof line,
+                "  %-10s %10s %10s %9s %10s %12s\n",
+                "",
+                "ATE [m]",
+                "ATE [deg]",
+                "RPE [%]",
+                "RPE [deg/m]",
+                "frame RPE [m]");
+  out << line;
+  for (const auto& [name, e] : rows) {
+    std::snprintf(line,
+                  sizeof line,
+                  "  %-10s %10.4f %10.3f %9.3f %10.5f %12.4f\n",
+                  name.c_str(),
+                  e.ate.translation.rmse,
+                  e.ate.rotation_deg.rmse,
+                  e.kitti.translation_percent,
+                  e.kitti.rotation_deg_per_m,
+                  e.rpe.translation.rmse);
+    out << line;
+  }
 }
 
 } // namespace evaluation

@@ -82,5 +82,16 @@ printFileEvaluation(std::ostream& out, const FileEvaluation& evaluation);
 std::string
 toJson(const FileEvaluation& evaluation, int indent = 2);
 
+/** A trajectory's errors under a name: a row of printErrorRows. */
+struct NamedEvaluation {
+  std::string name;
+  TrajectoryEvaluation errors;
+};
+
+/** Several trajectories' errors side by side, a header line and a line each: the ATE's
+ *  RMSE (m, deg), the KITTI RPE (%, deg/m) and the per-frame RPE's RMSE (m). */
+void
+printErrorRows(std::ostream& out, const std::vector<NamedEvaluation>& rows);
+
 } // namespace evaluation
 } // namespace pcl_parallel
