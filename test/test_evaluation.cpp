@@ -21,6 +21,8 @@
 #include <cmath>
 #include <filesystem>
 #include <gtest/gtest.h>
+#include <iomanip>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
 
@@ -693,6 +695,89 @@ TEST(FileEvaluation, StructureIsWhatThePairedPosesGiveAndWhatIsPrinted)
   bad[3](0, 0) = 2.0;
   pio::writeKittiPoses(dir / "bad.txt", bad);
   EXPECT_HAS(errorOf([&] { ev::evaluateFiles(dir / "est.tum", dir / "bad.txt"); }), "bad.txt");
+}
+
+// `evaluate --json`: every number the structure holds, under its name, and null (not a
+// number) for a KITTI rate no segment gives.
+TEST(FileEvaluation, JsonHoldsTheStructuresNumbers)
+{
+  ScratchDir dir;
+  const Poses truth = randomPoses(30, 5);
+  Poses est = truth;
+  for (std::size_t i = 0; i < est.size(); ++i)
+    est[i].topRightCorner<3, 1>() += Eigen::Vector3d(0.02 * i, 0.01, -0.003 * (i % 4));
+  pio::writeKittiPoses(dir / "est.txt", est);
+  pio::writeKittiPoses(dir / "truth.txt", truth);
+  ev::FileEvaluationOptions options;
+  options.evaluation.alignment = ev::Alignment::Sim3;
+  options.evaluation.kitti_lengths = {2.0, 1e6}; // the second fits no segment
+  const ev::FileEvaluation e = ev::evaluateFiles(dir / "est.txt", dir / "truth.txt", options);
+  const std::string text = ev::toJson(e);
+  EXPECT_EQ(text.rfind("{\n  \"association\": \"by index", 0), 0u) << text; // indented by 2
+  EXPECT_EQ(ev::toJson(e, -1).find('\n'), std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(text);
+  const ev::TrajectoryEvaluation& t = e.errors;
+  EXPECT_EQ(j["poses"], t.poses);
+  EXPECT_EQ(j["path_length_m"], t.reference_path_length);
+  EXPECT_EQ(j["association"].get<std::string>(), e.association);
+  EXPECT_EQ(j["ate"]["alignment"], "sim3");
+  EXPECT_EQ(j["ate"]["scale"], t.ate.similarity.scale);
+  EXPECT_EQ(j["ate_unaligned"]["alignment"].get<std::string>(),
+            ev::toString(t.ate_unaligned.alignment));
+  const auto expectStats = [](const nlohmann::json& js, const ev::Statistics& s) {
+    EXPECT_EQ(js["count"], s.count);
+    EXPECT_EQ(js["rmse"], s.rmse);
+    EXPECT_EQ(js["mean"], s.mean);
+    EXPECT_EQ(js["median"], s.median);
+    EXPECT_EQ(js["std"], s.std);
+    EXPECT_EQ(js["min"], s.min);
+    EXPECT_EQ(js["max"], s.max);
+  };
+  expectStats(j["ate"]["translation_m"], t.ate.translation);
+  expectStats(j["ate"]["rotation_deg"], t.ate.rotation_deg);
+  expectStats(j["ate_unaligned"]["translation_m"], t.ate_unaligned.translation);
+  expectStats(j["rpe_frame"]["translation_m"], t.rpe.translation);
+  expectStats(j["rpe_frame"]["rotation_deg"], t.rpe.rotation_deg);
+  expectStats(j["rpe_frame"]["point_distance_m"], t.rpe.point_distance);
+  EXPECT_EQ(j["rpe_frame"]["delta_frames"], t.rpe.delta);
+  const nlohmann::json& k = j["rpe_kitti"];
+  ASSERT_TRUE(t.kitti.valid());
+  EXPECT_EQ(k["translation_percent"], t.kitti.translation_percent);
+  EXPECT_EQ(k["rotation_deg_per_m"], t.kitti.rotation_deg_per_m);
+  EXPECT_EQ(k["segments"], t.kitti.segments.size());
+  EXPECT_EQ(k["step_frames"], t.kitti.step);
+  EXPECT_EQ(k["lengths_m"].get<std::vector<double>>(), t.kitti.lengths);
+  ASSERT_EQ(k["per_length"].size(), 2u);
+  EXPECT_EQ(k["per_length"][0]["segments"], t.kitti.per_length[0].segments);
+  EXPECT_EQ(k["per_length"][0]["translation_percent"],
+            t.kitti.per_length[0].translation_percent);
+  EXPECT_EQ(k["per_length"][1]["segments"], 0);
+  EXPECT_TRUE(k["per_length"][1]["translation_percent"].is_null());
+  EXPECT_TRUE(k["per_length"][1]["rotation_deg_per_m"].is_null());
+  EXPECT_EQ(j["estimate"]["path"].get<std::string>(), std::string(dir / "est.txt"));
+  EXPECT_EQ(j["estimate"]["format"], "kitti");
+  EXPECT_EQ(j["estimate"]["poses"], 30);
+  EXPECT_EQ(j["ground_truth"]["timestamps"], false);
+}
+
+// The run summary's table: a header and a line per trajectory, in fixed columns whatever
+// the stream's own format.
+TEST(FileEvaluation, ErrorRowsInFixedColumns)
+{
+  ev::NamedEvaluation a{"front end", {}}, b{"final", {}};
+  a.errors.ate.translation.rmse = 1.23456;
+  a.errors.ate.rotation_deg.rmse = 2.5;
+  a.errors.kitti.translation_percent = 3.25;
+  a.errors.kitti.rotation_deg_per_m = 0.012345;
+  a.errors.rpe.translation.rmse = 0.5;
+  b.errors.ate.translation.rmse = 10.0;
+  std::ostringstream out;
+  out << std::scientific << std::setprecision(1);
+  ev::printErrorRows(out, {a, b});
+  EXPECT_EQ(out.str(),
+            "                ATE [m]  ATE [deg]   RPE [%] RPE [deg/m] frame RPE [m]\n"
+            "  front end      1.2346      2.500     3.250    0.01235       0.5000\n"
+            "  final         10.0000      0.000     0.000    0.00000       0.0000\n");
 }
 
 TEST(FileEvaluation, KittiLengthsFromText)

@@ -9,6 +9,7 @@
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
+#include <pcl_parallel/io/stderr_capture.h>
 #include <pcl_parallel/io/uos.h>
 
 #include <pcl/io/auto_io.h>
@@ -19,16 +20,19 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <exception>
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <initializer_list>
+#include <iostream>
 #include <limits>
 #include <locale>
 #include <random>
 #include <string>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <utility>
 #include <vector>
@@ -1380,4 +1384,41 @@ TEST(ScanFormats, ThreeDtkNamesAndExtensions)
   EXPECT_EQ(scanFormatFromName("xyz"), "xyz");
   EXPECT_EQ(scanFormatFromName("las"), "");
   EXPECT_EQ(scanFormatFromName(""), "");
+}
+
+namespace {
+
+/** The inode of what descriptor `fd` writes to. */
+ino_t
+inodeOf(int fd)
+{
+  struct stat s {};
+  return ::fstat(fd, &s) == 0 ? s.st_ino : 0;
+}
+
+} // namespace
+
+// What PCL prints on stderr comes back condensed by kind, each line once, and stderr is
+// the terminal's again afterwards.
+TEST(StderrCapture, CondensesRepeatsAndRestoresStderr)
+{
+  const ino_t before = inodeOf(2);
+  {
+    StderrCapture capture;
+    ASSERT_TRUE(capture.active());
+    EXPECT_NE(inodeOf(2), before);
+    EXPECT_NE(capture.terminalDescriptor(), 2);
+    EXPECT_EQ(inodeOf(capture.terminalDescriptor()), before);
+    std::fprintf(stderr, "Link 3 -> 9 dropped\n\nother 1\nLink 40 -> 120 dropped\r\n");
+    std::cerr << "Link 5 -> 6 dropped\nLink x dropped\n";
+    EXPECT_EQ(capture.take(),
+              (std::vector<std::string>{
+                  "Link 3 -> 9 dropped  (and 2 more like it)", "other 1", "Link x dropped"}));
+    EXPECT_TRUE(capture.take().empty()); // each line once
+    const std::string write_through = "written 7 after a take\n";
+    ASSERT_EQ(::write(2, write_through.data(), write_through.size()),
+              static_cast<ssize_t>(write_through.size()));
+    EXPECT_EQ(capture.take(), (std::vector<std::string>{"written 7 after a take"}));
+  }
+  EXPECT_EQ(inodeOf(2), before);
 }

@@ -5,19 +5,15 @@
 #include "evaluate_command.h"
 
 #include <pcl_parallel/evaluation/report.h>
-#include <pcl_parallel/io/pose_files.h>
 
 #include <boost/program_options.hpp>
 
-#include <nlohmann/json.hpp>
 #include <stdexcept>
 
 namespace pcl_pslam {
 
 namespace po = boost::program_options;
 namespace ev = pcl_parallel::evaluation;
-namespace pio = pcl_parallel::io;
-using nlohmann::json;
 
 namespace {
 
@@ -34,77 +30,6 @@ constexpr const char* kUsage =
 struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
-
-json
-statsJson(const ev::Statistics& s)
-{
-  return {{"count", s.count},
-          {"rmse", s.rmse},
-          {"mean", s.mean},
-          {"median", s.median},
-          {"std", s.std},
-          {"min", s.min},
-          {"max", s.max}};
-}
-
-json
-ateJson(const ev::AbsoluteError& a)
-{
-  return {{"alignment", ev::toString(a.alignment)},
-          {"scale", a.similarity.scale},
-          {"translation_m", statsJson(a.translation)},
-          {"rotation_deg", statsJson(a.rotation_deg)}};
-}
-
-/** The KITTI RPE; its rates are null where no segment fits. */
-json
-kittiJson(const ev::KittiRelativeError& k)
-{
-  const auto rates = [](json j, bool valid, double translation, double rotation) {
-    j["translation_percent"] = valid ? json(translation) : json(nullptr);
-    j["rotation_deg_per_m"] = valid ? json(rotation) : json(nullptr);
-    return j;
-  };
-  json per_length = json::array();
-  for (const auto& l : k.per_length)
-    per_length.push_back(rates({{"length_m", l.length}, {"segments", l.segments}},
-                               l.segments > 0,
-                               l.translation_percent,
-                               l.rotation_deg_per_m));
-  return rates({{"lengths_m", k.lengths},
-                {"step_frames", k.step},
-                {"segments", k.segments.size()},
-                {"per_length", per_length}},
-               k.valid(),
-               k.translation_percent,
-               k.rotation_deg_per_m);
-}
-
-/** `evaluate --json`: the evaluation and the files it read. */
-json
-evaluationJson(const ev::FileEvaluation& f)
-{
-  const auto file = [](const std::string& path, const pio::Trajectory& tr) {
-    return json{{"path", path},
-                {"format", pio::toString(tr.format)},
-                {"poses", tr.poses.size()},
-                {"timestamps", !tr.timestamps.empty()}};
-  };
-  const ev::TrajectoryEvaluation& e = f.errors;
-  return {{"poses", e.poses},
-          {"path_length_m", e.reference_path_length},
-          {"ate", ateJson(e.ate)},
-          {"ate_unaligned", ateJson(e.ate_unaligned)},
-          {"rpe_frame",
-           {{"delta_frames", e.rpe.delta},
-            {"translation_m", statsJson(e.rpe.translation)},
-            {"rotation_deg", statsJson(e.rpe.rotation_deg)},
-            {"point_distance_m", statsJson(e.rpe.point_distance)}}},
-          {"rpe_kitti", kittiJson(e.kitti)},
-          {"estimate", file(f.estimate_path, f.estimate)},
-          {"ground_truth", file(f.truth_path, f.truth)},
-          {"association", f.association}};
-}
 
 /** What `evaluate` is told. */
 struct EvaluateArguments {
@@ -214,7 +139,7 @@ evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
   try {
     const ev::FileEvaluation e = ev::evaluateFiles(a.estimate_path, a.truth_path, a.files);
     if (a.as_json)
-      out << evaluationJson(e).dump(2) << '\n';
+      out << ev::toJson(e) << '\n';
     else
       ev::printFileEvaluation(out, e);
     return 0;

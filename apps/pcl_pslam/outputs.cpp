@@ -4,7 +4,7 @@
  */
 #include "outputs.h"
 
-#include <pcl_parallel/evaluation/trajectory_error.h>
+#include <pcl_parallel/evaluation/report.h>
 #include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
@@ -15,6 +15,7 @@
 
 #include <boost/version.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -28,6 +29,7 @@
 #endif
 
 namespace fs = std::filesystem;
+namespace ev = pcl_parallel::evaluation;
 using nlohmann::json;
 
 namespace pcl_pslam {
@@ -66,24 +68,16 @@ buildMap(const Options& o,
       end);
 }
 
-/** One row of errors against the simulation's truth: the console, map.png and report.json
- *  give the same numbers. */
-struct TruthRow {
-  const char* name; ///< console and picture
-  const char* key;  ///< report.json
-  pcl_parallel::evaluation::TrajectoryEvaluation errors;
-};
-
-/** The odometry's (where the run had one), the front end's and the final poses' errors. */
-std::vector<TruthRow>
+/** The odometry's (where the run had one), the front end's and the final poses' errors
+ *  against the simulation's truth: the console, map.png and report.json give the same. */
+std::vector<ev::NamedEvaluation>
 truthErrors(const Input& in, const Result& r)
 {
-  namespace ev = pcl_parallel::evaluation;
-  std::vector<TruthRow> rows;
+  std::vector<ev::NamedEvaluation> rows;
   if (in.odometry)
-    rows.push_back({"odometry", "odometry", ev::evaluateTrajectory(in.initial, in.truth)});
-  rows.push_back({"front end", "front_end", ev::evaluateTrajectory(r.icp, in.truth)});
-  rows.push_back({"final", "final", ev::evaluateTrajectory(r.final, in.truth)});
+    rows.push_back({"odometry", ev::evaluateTrajectory(in.initial, in.truth)});
+  rows.push_back({"front end", ev::evaluateTrajectory(r.icp, in.truth)});
+  rows.push_back({"final", ev::evaluateTrajectory(r.final, in.truth)});
   return rows;
 }
 
@@ -133,33 +127,11 @@ writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporte
 void
 printTruthErrors(std::ostream& out, const Input& in, const Result& r)
 {
-  const auto lengths = pcl_parallel::evaluation::kittiLengthsFor(in.truth);
+  const auto lengths = ev::kittiLengthsFor(in.truth);
   out << "errors against the simulation's truth (ATE after SE(3) alignment; RPE as the KITTI "
          "devkit, over "
       << lengths.front() << ".." << lengths.back() << " m):\n";
-  char line[200];
-  std::snprintf(line,
-                sizeof line,
-                "  %-10s %10s %10s %9s %10s %12s\n",
-                "",
-                "ATE [m]",
-                "ATE [deg]",
-                "RPE [%]",
-                "RPE [deg/m]",
-                "frame RPE [m]");
-  out << line;
-  for (const auto& [name, key, e] : truthErrors(in, r)) {
-    std::snprintf(line,
-                  sizeof line,
-                  "  %-10s %10.4f %10.3f %9.3f %10.5f %12.4f\n",
-                  name,
-                  e.ate.translation.rmse,
-                  e.ate.rotation_deg.rmse,
-                  e.kitti.translation_percent,
-                  e.kitti.rotation_deg_per_m,
-                  e.rpe.translation.rmse);
-    out << line;
-  }
+  ev::printErrorRows(out, truthErrors(in, r));
 }
 
 namespace {
@@ -252,7 +224,7 @@ writePicture(const Options& o,
     std::string errors = "ATE against the truth (SE(3)-aligned):";
     for (const auto& row : truthErrors(in, r)) {
       std::snprintf(
-          line, sizeof line, " %s %.3f m,", row.name, row.errors.ate.translation.rmse);
+          line, sizeof line, " %s %.3f m,", row.name.c_str(), row.errors.ate.translation.rmse);
       errors += line;
     }
     errors.pop_back();
@@ -432,12 +404,14 @@ reportJson(const Options& o, const Input& in, const Result& r, const ProgressRep
   for (const auto& [a, b] : loopPairs(r))
     j["loops"].push_back({a, b});
   if (!in.truth.empty())
-    for (const auto& [name, key, e] : truthErrors(in, r))
+    for (auto [key, e] : truthErrors(in, r)) {
+      std::replace(key.begin(), key.end(), ' ', '_'); // "front end": front_end
       j["errors_against_truth"][key] = {{"ate_m", e.ate.translation.rmse},
                                         {"ate_deg", e.ate.rotation_deg.rmse},
                                         {"kitti_rpe_percent", e.kitti.translation_percent},
                                         {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
                                         {"frame_rpe_m", e.rpe.translation.rmse}};
+    }
   return j;
 }
 

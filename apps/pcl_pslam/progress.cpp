@@ -5,10 +5,8 @@
 #include "progress.h"
 
 #include <atomic>
-#include <cctype>
 #include <csignal>
 #include <cstdio>
-#include <map>
 #include <unistd.h>
 
 namespace pcl_pslam {
@@ -95,21 +93,9 @@ ProgressReporter::ProgressReporter(bool quiet, bool live, bool capture)
 {
   if (!capture)
     return;
-  std::fflush(stderr);
-  capture_ = std::tmpfile();
-  saved_stderr_ = capture_ ? ::dup(2) : -1;
-  std::FILE* out = saved_stderr_ >= 0 ? ::fdopen(::dup(saved_stderr_), "w") : nullptr;
-  if (!out || ::dup2(::fileno(capture_), 2) < 0) { // no capture: print as PCL does
-    if (out)
-      std::fclose(out);
-    if (saved_stderr_ >= 0)
-      ::close(saved_stderr_), saved_stderr_ = -1;
-    if (capture_)
-      std::fclose(capture_), capture_ = nullptr;
-    return;
-  }
-  out_ = out;
-  g_stderr_fd = saved_stderr_;
+  capture_ = std::make_unique<pcl_parallel::io::StderrCapture>();
+  out_ = capture_->terminal();
+  g_stderr_fd = capture_->terminalDescriptor();
 }
 
 ProgressReporter::~ProgressReporter()
@@ -117,12 +103,7 @@ ProgressReporter::~ProgressReporter()
   if (!capture_)
     return;
   drainWarnings();
-  std::fflush(stderr);
-  g_stderr_fd = 2;
-  ::dup2(saved_stderr_, 2);
-  ::close(saved_stderr_);
-  std::fclose(out_);
-  std::fclose(capture_);
+  g_stderr_fd = 2; // before the capture ends
 }
 
 void
@@ -130,38 +111,8 @@ ProgressReporter::drainWarnings()
 {
   if (!capture_)
     return;
-  std::fflush(stderr);
-  std::fseek(capture_, read_, SEEK_SET);
-  // Group by the message with its numbers blanked: "Link 3 -> 9 dropped" and "Link 4 ->
-  // 12 dropped" are one kind.
-  std::map<std::string, std::pair<int, std::string>> kinds;
-  std::vector<std::string> order;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof buffer, capture_)) {
-    std::string line(buffer);
-    while (!line.empty() && (line.back() == '\n' || line.back() == '\r'))
-      line.pop_back();
-    if (line.empty())
-      continue;
-    std::string key;
-    for (char c : line)
-      if (!std::isdigit(static_cast<unsigned char>(c)))
-        key += c;
-      else if (key.empty() || key.back() != '#')
-        key += '#';
-    auto& k = kinds[key];
-    if (k.first++ == 0)
-      k.second = line, order.push_back(key);
-  }
-  read_ = std::ftell(capture_);
-  std::fseek(capture_, 0, SEEK_END);
-  for (const auto& key : order) {
-    const auto& [count, first] = kinds[key];
-    if (count == 1)
-      std::fprintf(out_, "%s\n", first.c_str());
-    else
-      std::fprintf(out_, "%s  (and %d more like it)\n", first.c_str(), count - 1);
-  }
+  for (const std::string& line : capture_->take())
+    std::fprintf(out_, "%s\n", line.c_str());
   std::fflush(out_);
 }
 

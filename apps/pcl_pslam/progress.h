@@ -10,9 +10,11 @@
 #pragma once
 
 #include <pcl_parallel/io/atomic_write.h>
+#include <pcl_parallel/io/stderr_capture.h>
 
 #include <chrono>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -48,8 +50,7 @@ public:
 
   /** quiet: print nothing; live: one updating line with ETA (stderr is a terminal).
    *  capture: what PCL and the library print on stderr is collected and shown at the end of
-   *  each stage, one line per kind of message with its count (LUM warns per link, many
-   *  times). */
+   *  each stage, condensed (io::StderrCapture). */
   ProgressReporter(bool quiet, bool live, bool capture = false);
   ~ProgressReporter();
   ProgressReporter(const ProgressReporter&) = delete;
@@ -89,10 +90,8 @@ private:
   drainWarnings();
 
   bool quiet_, live_;
-  int saved_stderr_ = -1;   ///< the real stderr while fd 2 goes to capture_
+  std::unique_ptr<pcl_parallel::io::StderrCapture> capture_;
   std::FILE* out_ = stderr; ///< where progress goes (the real stderr)
-  std::FILE* capture_ = nullptr;
-  long read_ = 0; ///< bytes of capture_ already shown
   Clock::time_point start_, stage_start_, last_;
   bool open_ = false;
   int total_ = 0;

@@ -6,8 +6,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <locale>
+#include <nlohmann/json.hpp> // here only: the installed headers do not need it
 #include <sstream>
 #include <stdexcept>
 
@@ -32,6 +34,53 @@ statsHeader(std::ostream& out, const std::string& title)
   for (const char* c : {"rmse", "mean", "median", "std", "min", "max"})
     out << std::setw(10) << c;
   out << '\n';
+}
+
+using nlohmann::json;
+
+json
+statsJson(const Statistics& s)
+{
+  return {{"count", s.count},
+          {"rmse", s.rmse},
+          {"mean", s.mean},
+          {"median", s.median},
+          {"std", s.std},
+          {"min", s.min},
+          {"max", s.max}};
+}
+
+json
+ateJson(const AbsoluteError& a)
+{
+  return {{"alignment", toString(a.alignment)},
+          {"scale", a.similarity.scale},
+          {"translation_m", statsJson(a.translation)},
+          {"rotation_deg", statsJson(a.rotation_deg)}};
+}
+
+/** The KITTI RPE; its rates are null where no segment fits. */
+json
+kittiJson(const KittiRelativeError& k)
+{
+  const auto rates = [](json j, bool valid, double translation, double rotation) {
+    j["translation_percent"] = valid ? json(translation) : json(nullptr);
+    j["rotation_deg_per_m"] = valid ? json(rotation) : json(nullptr);
+    return j;
+  };
+  json per_length = json::array();
+  for (const auto& l : k.per_length)
+    per_length.push_back(rates({{"length_m", l.length}, {"segments", l.segments}},
+                               l.segments > 0,
+                               l.translation_percent,
+                               l.rotation_deg_per_m));
+  return rates({{"lengths_m", k.lengths},
+                {"step_frames", k.step},
+                {"segments", k.segments.size()},
+                {"per_length", per_length}},
+               k.valid(),
+               k.translation_percent,
+               k.rotation_deg_per_m);
 }
 
 } // namespace
@@ -186,6 +235,60 @@ printFileEvaluation(std::ostream& out, const FileEvaluation& e)
   printEvaluation(out, e.errors);
   out.flags(flags);
   out.precision(precision);
+}
+
+std::string
+toJson(const FileEvaluation& f, int indent)
+{
+  const auto file = [](const std::string& path, const io::Trajectory& tr) {
+    return json{{"path", path},
+                {"format", io::toString(tr.format)},
+                {"poses", tr.poses.size()},
+                {"timestamps", !tr.timestamps.empty()}};
+  };
+  const TrajectoryEvaluation& e = f.errors;
+  const json j = {{"poses", e.poses},
+                  {"path_length_m", e.reference_path_length},
+                  {"ate", ateJson(e.ate)},
+                  {"ate_unaligned", ateJson(e.ate_unaligned)},
+                  {"rpe_frame",
+                   {{"delta_frames", e.rpe.delta},
+                    {"translation_m", statsJson(e.rpe.translation)},
+                    {"rotation_deg", statsJson(e.rpe.rotation_deg)},
+                    {"point_distance_m", statsJson(e.rpe.point_distance)}}},
+                  {"rpe_kitti", kittiJson(e.kitti)},
+                  {"estimate", file(f.estimate_path, f.estimate)},
+                  {"ground_truth", file(f.truth_path, f.truth)},
+                  {"association", f.association}};
+  return j.dump(indent);
+}
+
+void
+printErrorRows(std::ostream& out, const std::vector<NamedEvaluation>& rows)
+{
+  char line[200]; // printf's fixed widths: the columns line up whatever the stream's state
+  std::snprintf(line,
+                sizeof line,
+                "  %-10s %10s %10s %9s %10s %12s\n",
+                "",
+                "ATE [m]",
+                "ATE [deg]",
+                "RPE [%]",
+                "RPE [deg/m]",
+                "frame RPE [m]");
+  out << line;
+  for (const auto& [name, e] : rows) {
+    std::snprintf(line,
+                  sizeof line,
+                  "  %-10s %10.4f %10.3f %9.3f %10.5f %12.4f\n",
+                  name.c_str(),
+                  e.ate.translation.rmse,
+                  e.ate.rotation_deg.rmse,
+                  e.kitti.translation_percent,
+                  e.kitti.rotation_deg_per_m,
+                  e.rpe.translation.rmse);
+    out << line;
+  }
 }
 
 } // namespace evaluation

@@ -4,7 +4,7 @@
  *
  * Two trajectory files compared as `pcl_pslam evaluate` compares them: their poses paired
  * (by time stamp as evo associates them, else by index) and the evaluation as a table.
- * evaluateFiles returns what the command prints, as a structure.
+ * evaluateFiles returns what the command prints, as a structure; toJson writes it as JSON.
  */
 #pragma once
 
@@ -76,6 +76,22 @@ evaluateFiles(const std::string& estimate_path,
 /** The files (describe), the pairing, the truth's path length, then printEvaluation. */
 void
 printFileEvaluation(std::ostream& out, const FileEvaluation& evaluation);
+
+/** The evaluation and the files it read as JSON text (`pcl_pslam evaluate --json`), objects
+ *  indented by `indent` spaces (-1: one line). A KITTI rate is null where no segment fits. */
+std::string
+toJson(const FileEvaluation& evaluation, int indent = 2);
+
+/** A trajectory's errors under a name: a row of printErrorRows. */
+struct NamedEvaluation {
+  std::string name;
+  TrajectoryEvaluation errors;
+};
+
+/** Several trajectories' errors side by side, a header line and a line each: the ATE's
+ *  RMSE (m, deg), the KITTI RPE (%, deg/m) and the per-frame RPE's RMSE (m). */
+void
+printErrorRows(std::ostream& out, const std::vector<NamedEvaluation>& rows);
 
 } // namespace evaluation
 } // namespace pcl_parallel
