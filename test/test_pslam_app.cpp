@@ -32,6 +32,7 @@
 #include <fstream>
 #include <gtest/gtest.h>
 #include <iomanip>
+#include <iterator>
 #include <random>
 #include <sstream>
 #include <sys/resource.h>
@@ -680,6 +681,33 @@ TEST(PslamApp, ThreeDtkFramesWithinTwoCentimetres)
     EXPECT_LT(angle, 0.5) << name;
   }
   fs::remove_all(out);
+}
+
+// A scan file or --out whose name is not UTF-8 (a Latin-1 name on Linux) is mapped and
+// reported: report.json, which must be UTF-8, carries U+FFFD for the byte, instead of the
+// run failing in the JSON writer after all the work with report.json missing.
+TEST(PslamApp, NamesThatAreNotUtf8AreReportedNotFatal)
+{
+  const fs::path dir = scratch("latin1_\xe9");
+  std::ostringstream points; // three walls of a corner, 10 x 10 points each
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j)
+      points << i + 0.5 << ' ' << j << " 0\n"
+             << i << " 0.5 " << j << '\n'
+             << "0.5 " << i << ' ' << j << '\n';
+  for (const char* name : {"scan_\xe9_0.xyz", "scan_\xe9_1.xyz"})
+    std::ofstream(dir / name) << points.str();
+  const fs::path out = dir / "out_\xe9";
+  const std::string command = std::string(PCL_PSLAM_EXE) + " run -q --no-picture --out '" +
+                              out.string() + "' '" + dir.string() + "' > /dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  ASSERT_TRUE(WIFEXITED(status)) << command;
+  EXPECT_EQ(WEXITSTATUS(status), 0) << command;
+  std::ifstream report(out / "report.json");
+  ASSERT_TRUE(report.good());
+  const std::string text((std::istreambuf_iterator<char>(report)), {});
+  EXPECT_NE(text.find("scan_\xef\xbf\xbd_0.xyz"), std::string::npos); // U+FFFD in UTF-8
+  fs::remove_all(dir);
 }
 
 // A rotating 2D scanner carried 1.4 m a station down corridors (hannover, seed 2), its

@@ -435,8 +435,10 @@ writeOutputs(const Options& o,
   if (!style.empty())
     j["picture_style"] = style;
   j["outputs"] = written;
-  pcl_parallel::io::writeStreamAtomically(join(o.out, "report.json"),
-                                          [&](std::ostream& out) { out << j.dump(2) << '\n'; });
+  pcl_parallel::io::writeStreamAtomically(join(o.out, "report.json"), [&](std::ostream& out) {
+    // A name that is not UTF-8 (JSON's encoding) gets U+FFFD, never a failure after the work.
+    out << j.dump(2, ' ', false, json::error_handler_t::replace) << '\n';
+  });
   written.push_back("report.json");
   return written;
 }

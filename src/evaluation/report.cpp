@@ -260,7 +260,7 @@ toJson(const FileEvaluation& f, int indent)
                   {"estimate", file(f.estimate_path, f.estimate)},
                   {"ground_truth", file(f.truth_path, f.truth)},
                   {"association", f.association}};
-  return j.dump(indent);
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace); // as report.json
 }
 
 void
