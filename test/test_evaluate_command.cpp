@@ -238,6 +238,21 @@ TEST(EvaluateCommand, FuzzFindingPosesThatAreNotRigidMotions)
                std::invalid_argument);
 }
 
+// A statistic without a single pair is an error, not a perfect score: --delta as long as
+// the trajectory left the per-frame RPE with no pair, printed as 0.0000 with exit 0.
+TEST(EvaluateCommand, NoPairForTheFrameRpeExitsOne)
+{
+  ScratchDir dir;
+  pio::writeKittiPoses(dir / "gt.txt", circle());
+  const std::string gt = dir / "gt.txt";
+  const std::size_t n = circle().size();
+  EXPECT_EQ(evaluate({gt, gt, "--delta", std::to_string(n - 1)}).code, 0);
+  const Outcome none = evaluate({gt, gt, "--delta", std::to_string(n)});
+  EXPECT_EQ(none.code, 1);
+  EXPECT_HAS(none.err, "has no pose pair in " + std::to_string(n) + " poses");
+  EXPECT_TRUE(none.out.empty()) << none.out;
+}
+
 TEST(EvaluateCommand, BadUsageExitsTwo)
 {
   ScratchDir dir;
@@ -250,6 +265,11 @@ TEST(EvaluateCommand, BadUsageExitsTwo)
   EXPECT_HAS(align.err, "unknown alignment \"sim2\"");
   EXPECT_EQ(evaluate({gt, gt, "--lengths", "10,x"}).code, 2);
   EXPECT_EQ(evaluate({gt, gt, "--delta", "0"}).code, 2);
+  for (const char* option : {"--delta", "--step"}) { // a negative count wrapped to 2^64 - 1
+    const Outcome negative = evaluate({gt, gt, option, "-1"});
+    EXPECT_EQ(negative.code, 2) << option;
+    EXPECT_HAS(negative.err, "frame count from 1 to 1e9");
+  }
   EXPECT_EQ(evaluate({gt, gt, "a-third-file"}).code, 2);
   const Outcome help = evaluate({"--help"});
   EXPECT_EQ(help.code, 0);

@@ -113,8 +113,9 @@ parseEvaluateArguments(const std::vector<std::string>& args,
   ev::EvaluationOptions& eo = a.files.evaluation;
   eo.alignment = parseOption("--align", a.align, ev::alignmentFromString);
   eo.kitti_lengths = parseOption("--lengths", a.lengths_text, ev::kittiLengthsFromString);
-  if (a.step == 0 || a.delta == 0)
-    throw UsageError("--step and --delta must be at least 1");
+  constexpr std::size_t kMaxFrames = 1000000000; // a negative count wraps far beyond
+  if (a.step == 0 || a.delta == 0 || a.step > kMaxFrames || a.delta > kMaxFrames)
+    throw UsageError("--step and --delta take a frame count from 1 to 1e9");
   if (!(a.files.max_diff >= 0.0) || !(a.files.frames_unit > 0.0))
     throw UsageError("--max-diff must be >= 0 and --frames-unit > 0");
   eo.kitti_step = a.step;

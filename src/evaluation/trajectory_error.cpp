@@ -233,6 +233,12 @@ evaluateTrajectory(const Poses& estimate,
     for (auto& p : aligned)
       p = ev.ate.similarity.apply(p);
   ev.kitti = kittiRelativeError(aligned, reference, options.kitti_lengths, options.kitti_step);
+  if (options.rpe_delta >= estimate.size()) // no pair: a table of zeros would be a lie
+    throw std::invalid_argument("pcl_parallel::evaluation::evaluateTrajectory: the per-frame "
+                                "RPE over " +
+                                std::to_string(options.rpe_delta) +
+                                " frames has no pose pair in " +
+                                std::to_string(estimate.size()) + " poses");
   ev.rpe = frameRelativeError(aligned, reference, options.rpe_delta);
   return ev;
 }
