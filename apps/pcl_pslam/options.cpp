@@ -353,6 +353,8 @@ checkPipelineOptions(Options& o, const po::variables_map& vm)
     throw UsageError("--threads: " + std::to_string(o.threads) + " is not a thread count");
   if (vm.count("segment-size"))
     o.segment_size = vm["segment-size"].as<std::size_t>();
+  if (o.segment_size.value_or(0) > 100000000) // also a negative one, wrapped
+    throw UsageError("--segment-size takes a scan count from 0 (one front end) to 1e8");
   if (o.segment_overlap < 1 || o.segment_overlap > 100000) // also a negative one, wrapped
     throw UsageError("--segment-overlap needs a scan count >= 1 (a segment joins the one "
                      "before through it)");
