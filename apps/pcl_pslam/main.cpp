@@ -54,8 +54,8 @@ int
 fail(const Session& ranks, int status, const std::string& message, const std::exception& error)
 {
   if (ranks.size() > 1) { // the run is over: the launcher's SIGTERM to the others adds nothing
-    std::signal(SIGINT, SIG_IGN);
-    std::signal(SIGTERM, SIG_IGN);
+    for (const int s : {SIGINT, SIGTERM, SIGHUP})
+      std::signal(s, SIG_IGN);
   }
   if (ranks.rank() == 0)
     std::fprintf(stderr, "pcl_pslam: %s\n", message.c_str());

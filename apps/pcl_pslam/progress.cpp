@@ -24,6 +24,15 @@ char g_remove_dir[4096] = {0};              // an --out this run created, remove
 std::atomic<int> g_ending{0};
 static_assert(std::atomic<int>::is_always_lock_free, "signal handlers need a lock-free flag");
 
+/** What ended the run, as the messages name it. */
+const char*
+signalName(int s)
+{
+  return s == SIGTERM  ? "terminated (SIGTERM)"
+         : s == SIGHUP ? "hung up (SIGHUP)"
+                       : "interrupted (SIGINT)";
+}
+
 /** Before the outputs nothing can be left half-written and a match can take seconds: the
  *  run ends at once (write, rmdir, _exit: async-signal-safe). While writing, the flag. */
 extern "C" void
@@ -32,11 +41,12 @@ onSignal(int s)
   g_signal = s;
   if (g_writing || g_ending.exchange(1) != 0)
     return; // the other handler exits for both
-  const char* msg = s != SIGTERM ? "pcl_pslam: interrupted (SIGINT); no outputs were written\n"
-                    : g_ranks > 1
-                        ? "pcl_pslam: terminated (SIGTERM) by mpirun: a rank died (mpirun's "
-                          "message names it) or the job was stopped; no outputs were written\n"
-                        : "pcl_pslam: terminated (SIGTERM); no outputs were written\n";
+  const char* msg =
+      s == SIGHUP    ? "pcl_pslam: hung up (SIGHUP); no outputs were written\n"
+      : s != SIGTERM ? "pcl_pslam: interrupted (SIGINT); no outputs were written\n"
+      : g_ranks > 1  ? "pcl_pslam: terminated (SIGTERM) by mpirun: a rank died (mpirun's "
+                       "message names it) or the job was stopped; no outputs were written\n"
+                     : "pcl_pslam: terminated (SIGTERM); no outputs were written\n";
   std::size_t n = 0;
   while (msg[n])
     ++n;
@@ -50,8 +60,7 @@ onSignal(int s)
 } // namespace
 
 Interrupted::Interrupted(int s)
-    : pcl_parallel::io::WriteAborted(s == SIGTERM ? "terminated (SIGTERM)"
-                                                  : "interrupted (SIGINT)")
+    : pcl_parallel::io::WriteAborted(signalName(s))
     , signal(s)
 {}
 
@@ -60,8 +69,8 @@ installSignalHandlers(bool quiet, int ranks)
 {
   g_quiet = quiet ? 1 : 0;
   g_ranks = ranks;
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
+  for (const int s : {SIGINT, SIGTERM, SIGHUP}) // a closed terminal ends the run as ^C does
+    std::signal(s, onSignal);
 }
 
 void

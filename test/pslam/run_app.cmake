@@ -3,7 +3,7 @@
 #         [-DEXPECT_FILES="a|b"] [-DEXPECT_ABSENT="a|b"] [-DCLEAN=D] [-DCHECK_REPORT=1]
 #         [-DEXPECT_JSON="KEY... =VALUE"] [-DINTERRUPT_AFTER=S] [-DFILE_SIZE_LIMIT=BLOCKS] [-DSTDOUT=FILE] -P run_app.cmake
 # '|' separates list items (ctest would split ';'). INTERRUPT_AFTER sends SIGINT after S
-# seconds (coreutils timeout). FILE_SIZE_LIMIT: files limited to BLOCKS x 512 bytes, as on
+# seconds (coreutils timeout); S:HUP (or another name) that signal instead. FILE_SIZE_LIMIT: files limited to BLOCKS x 512 bytes, as on
 # a full disk (file_size_limit.sh). STDOUT: standard output goes there (e.g. /dev/full), not
 # into the checked output. CHECK_REPORT: OUT_DIR/report.json parses, has scan 1's
 # sequence_chi2 and holds a time for
@@ -18,7 +18,12 @@ if(CLEAN)
   file(REMOVE_RECURSE "${CLEAN}")
 endif()
 if(INTERRUPT_AFTER)
-  set(cmd timeout --preserve-status -s INT ${INTERRUPT_AFTER} ${cmd})
+  set(signal INT)
+  if(INTERRUPT_AFTER MATCHES "^([0-9.]+):([A-Z]+)$") # S:SIGNAL
+    set(INTERRUPT_AFTER ${CMAKE_MATCH_1})
+    set(signal ${CMAKE_MATCH_2})
+  endif()
+  set(cmd timeout --preserve-status -s ${signal} ${INTERRUPT_AFTER} ${cmd})
 endif()
 if(NOT "${FILE_SIZE_LIMIT}" STREQUAL "")
   set(cmd sh ${CMAKE_CURRENT_LIST_DIR}/file_size_limit.sh ${FILE_SIZE_LIMIT} ${cmd})
