@@ -192,7 +192,8 @@ TEST(EvaluateCommand, BadDataExitsOneNamingFileAndLine)
   EXPECT_EQ(r.code, 1);
   EXPECT_HAS(r.err, "est.txt:2:");
   EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
-  EXPECT_EQ(evaluate({dir / "none.txt", dir / "gt.txt"}).code, 1);
+  EXPECT_EQ(evaluate({dir / "none.txt", dir / "gt.txt"}).code,
+            2); // usage, as run's missing DIR
 }
 
 // Fuzz-stage finding (fuzz_evaluate): a KITTI line is any 12 finite numbers; a rotation
@@ -271,6 +272,9 @@ TEST(EvaluateCommand, BadUsageExitsTwo)
     EXPECT_HAS(negative.err, "frame count from 1 to 1e9");
   }
   EXPECT_EQ(evaluate({gt, gt, "a-third-file"}).code, 2);
+  const Outcome missing = evaluate({"/nonexistent", gt}); // as run's missing directory
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_HAS(missing.err, "/nonexistent: no such file or directory");
   const Outcome help = evaluate({"--help"});
   EXPECT_EQ(help.code, 0);
   EXPECT_HAS(help.out, "--align");

@@ -179,6 +179,16 @@ TEST(PslamOptions, BadUsageIsOneLine)
   EXPECT_NE(message({"run", "a", "b"}).find("one directory"), std::string::npos);
   EXPECT_NE(message({"frob"}).find("unknown command 'frob'"), std::string::npos);
   EXPECT_NE(message({"run", "-L", "7", "d"}).find("-L/--loop6DAlgo"), std::string::npos);
+  // Every numeric option has a stated range (an internal error deep in the run before).
+  EXPECT_NE(message({"run", "-r", "1e-9", "d"}).find("--reduce takes 1e-06 to 1e+09 or 0"),
+            std::string::npos);
+  for (const char* scale : {"1e-30", "1e30"})
+    EXPECT_NE(message({"run", "--scale", scale, "d"}).find("--scale takes 1e-06 to 1e+06"),
+              std::string::npos);
+  for (const char* threads : {"1025", "10000"})
+    EXPECT_NE(
+        message({"run", "-t", threads, "d"}).find("--threads takes 0 (all cores) to 1024"),
+        std::string::npos);
   EXPECT_NE(message({"run", "--segment-overlap", "0", "d"}).find("--segment-overlap"),
             std::string::npos);
   EXPECT_NE(message({"run", "--segment-overlap", "-1", "d"}).find("--segment-overlap"),

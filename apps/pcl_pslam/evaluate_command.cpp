@@ -8,6 +8,7 @@
 
 #include <boost/program_options.hpp>
 
+#include <filesystem>
 #include <stdexcept>
 
 namespace pcl_pslam {
@@ -110,6 +111,9 @@ parseEvaluateArguments(const std::vector<std::string>& args,
   po::notify(vm);
   if (a.estimate_path.empty() || a.truth_path.empty())
     throw UsageError("needs ESTIMATE and GROUND_TRUTH");
+  for (const std::string& path : {a.estimate_path, a.truth_path}) // as run's missing DIR
+    if (std::error_code ec; !std::filesystem::exists(path, ec))
+      throw UsageError(path + ": no such file or directory");
   ev::EvaluationOptions& eo = a.files.evaluation;
   eo.alignment = parseOption("--align", a.align, ev::alignmentFromString);
   eo.kitti_lengths = parseOption("--lengths", a.lengths_text, ev::kittiLengthsFromString);

@@ -5,6 +5,7 @@
 #include "options.h"
 
 #include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/parallel.h>
 
 #include <boost/program_options.hpp>
 
@@ -194,17 +195,28 @@ struct Descriptions {
   }
 };
 
-/** Option `name` where given, checked: positive (or with zero_ok zero too). */
+/** A numeric option's stated range: [lo, hi], and with zero_ok 0 too. */
+struct Range {
+  double lo, hi;
+  bool zero_ok = false;
+};
+/** Lengths in the files' units: beyond, the voxel grids' integer keys (2^31 voxels an axis)
+ *  or float's 7 digits end before the scans do. */
+constexpr Range kLength{1e-6, 1e9}, kLengthOrZero{1e-6, 1e9, true};
+
+/** Option `name` where given, checked against its stated range (exit 2 naming it). */
 std::optional<double>
-positive(const po::variables_map& vm, const char* name, bool zero_ok = false)
+inRange(const po::variables_map& vm, const char* name, Range r)
 {
   if (!vm.count(name))
     return std::nullopt;
   const double v = vm[name].as<double>();
-  if (!std::isfinite(v) || v < 0.0 || (!zero_ok && v == 0.0))
-    throw UsageError(std::string("--") + name + " must be " +
-                     (zero_ok ? "zero or positive" : "positive") + ", got " +
-                     std::to_string(v));
+  if (!(v >= r.lo && v <= r.hi) && !(r.zero_ok && v == 0.0)) {
+    std::ostringstream msg;
+    msg << "--" << name << " takes " << r.lo << " to " << r.hi << (r.zero_ok ? " or 0" : "")
+        << ", got " << v;
+    throw UsageError(msg.str());
+  }
   return v;
 }
 
@@ -303,11 +315,11 @@ checkInputOptions(Options& o, const po::variables_map& vm)
     throw UsageError("-s/--start must be >= 0");
   if (vm.count("end") && (o.last < 0 || o.last < o.first))
     throw UsageError("-e/--end must be >= -s/--start (" + std::to_string(o.first) + ")");
-  positive(vm, "max");
-  positive(vm, "min", true);
+  inRange(vm, "max", kLength);
+  inRange(vm, "min", kLengthOrZero);
   if (o.min_range >= o.max_range)
     throw UsageError("-M/--min must be smaller than -m/--max");
-  o.scale = positive(vm, "scale");
+  o.scale = inRange(vm, "scale", {1e-6, 1e6}); // e.g. 0.001 for mm, 1000 for km
   if (vm.count("up")) {
     const std::string axis = lowerCase(vm["up"].as<std::string>());
     if (axis != "x" && axis != "y" && axis != "z")
@@ -317,7 +329,7 @@ checkInputOptions(Options& o, const po::variables_map& vm)
   if (o.sweep_ccw && !o.deskew)
     throw UsageError("--sweep-ccw needs --deskew");
   if (vm.count("sweep-period")) {
-    o.sweep_period = *positive(vm, "sweep-period");
+    o.sweep_period = *inRange(vm, "sweep-period", {1e-4, 3600.0});
     if (!o.deskew)
       throw UsageError("--sweep-period needs --deskew");
   }
@@ -327,19 +339,19 @@ checkInputOptions(Options& o, const po::variables_map& vm)
 void
 checkPipelineOptions(Options& o, const po::variables_map& vm)
 {
-  o.voxel = positive(vm, "reduce", true);
-  o.icp_distance = positive(vm, "dist");
-  o.icp_final = positive(vm, "icp-final");
-  o.lum_distance = positive(vm, "distSLAM");
-  o.lum_final = positive(vm, "lum-final");
-  o.loop_distance = positive(vm, "cldist", true);
+  o.voxel = inRange(vm, "reduce", kLengthOrZero);
+  o.icp_distance = inRange(vm, "dist", kLength);
+  o.icp_final = inRange(vm, "icp-final", kLength);
+  o.lum_distance = inRange(vm, "distSLAM", kLength);
+  o.lum_final = inRange(vm, "lum-final", kLength);
+  o.loop_distance = inRange(vm, "cldist", kLengthOrZero);
   if (o.metascan && o.scan_to_scan)
     throw UsageError("--metascan and --scan-to-scan exclude each other");
   if (o.no_poses && !o.poses_file.empty())
     throw UsageError("--poses and --no-poses exclude each other");
-  o.map_voxel = positive(vm, "map-voxel", true);
-  o.eps_icp = positive(vm, "epsICP");
-  o.eps_slam = positive(vm, "epsSLAM");
+  o.map_voxel = inRange(vm, "map-voxel", kLengthOrZero);
+  o.eps_icp = inRange(vm, "epsICP", {1e-30, 1.0});
+  o.eps_slam = inRange(vm, "epsSLAM", {1e-30, 1.0});
   if (o.icp_iterations < 1)
     throw UsageError("-i/--iter must be >= 1");
   if (o.lum_iterations < 1)
@@ -349,8 +361,10 @@ checkPipelineOptions(Options& o, const po::variables_map& vm)
   if (o.elch < 0 || o.elch > 4)
     throw UsageError("-L/--loop6DAlgo needs 0 (none) to 4 (ELCH), got " +
                      std::to_string(o.elch));
-  if (o.threads > 4096)
-    throw UsageError("--threads: " + std::to_string(o.threads) + " is not a thread count");
+  if (o.threads > pcl_parallel::kMaxThreads) // the library's own limit, not clamped silently
+    throw UsageError("--threads takes 0 (all cores) to " +
+                     std::to_string(pcl_parallel::kMaxThreads) + ", got " +
+                     std::to_string(o.threads));
   if (vm.count("segment-size"))
     o.segment_size = vm["segment-size"].as<std::size_t>();
   if (o.segment_size.value_or(0) > 100000000) // also a negative one, wrapped
