@@ -557,7 +557,7 @@ TEST(Presets, BeamsResampleTheFieldOfView)
   EXPECT_NEAR(lowest, full.scanner.min_elevation * 180.0 / M_PI, 0.01);
   EXPECT_NEAR(highest, full.scanner.max_elevation * 180.0 / M_PI, 0.01);
   EXPECT_LT(sparse.scans[0]->size(), full.scans[0]->size() / 3);
-  for (int bad : {1, -1}) {
+  for (int bad : {1, -1, 4097}) { // 4097: a sweep that grows without end
     o.beams = bad;
     EXPECT_THROW(simulatePreset("kitti", o), std::invalid_argument) << bad;
   }

@@ -74,8 +74,8 @@ checkSimulateArguments(const SimulateArguments& a, ScanSetFormat& format)
   catch (const std::invalid_argument&) {
     return "unknown --format '" + a.format + "' (auto, uos, kitti, pcd)\n";
   }
-  if (a.options.beams < 0 || a.options.beams == 1)
-    return "--beams must be 0 (the preset's) or at least 2, got " +
+  if (a.options.beams < 0 || a.options.beams == 1 || a.options.beams > 4096) // 64x a Velodyne's
+    return "--beams must be 0 (the preset's) or 2 to 4096, got " +
            std::to_string(a.options.beams) + '\n';
   return {};
 }

@@ -696,9 +696,9 @@ applyOptions(Spec& spec, const PresetOptions& o)
     spec.heading_noise = o.odometry_heading_noise;
   if (!std::isfinite(spec.translation_noise) || !std::isfinite(spec.heading_noise))
     throw std::invalid_argument("[pcl_parallel::sim] odometry noise must be finite");
-  if (o.beams < 0 || o.beams == 1)
-    throw std::invalid_argument("[pcl_parallel::sim] beams must be 0 (the preset's) or > 1, "
-                                "got " +
+  if (o.beams < 0 || o.beams == 1 || o.beams > 4096) // 64x a Velodyne HDL-64E's rows
+    throw std::invalid_argument("[pcl_parallel::sim] beams must be 0 (the preset's) or 2 to "
+                                "4096, got " +
                                 std::to_string(o.beams));
   if (o.beams > 0)
     spec.scanner.elevation_steps = o.beams;

@@ -39,7 +39,7 @@ struct PresetOptions {
    *  sensor stride sweeps apart, each still one sweep's skew (max_scans counts kept
    *  scans). */
   int stride = 1;
-  /** Beams (rows) of the scanner over the preset's field of view, > 1; 0 keeps the
+  /** Beams (rows) of the scanner over the preset's field of view, 2 to 4096; 0 keeps the
    *  preset's: `kitti` with 16 is a VLP-16-like sparse sensor over the same drive. */
   int beams = 0;
   /** Odometry noise overrides: fraction of the distance (translation) and radians per
