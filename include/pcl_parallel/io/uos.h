@@ -21,12 +21,12 @@ namespace io {
  *  ignored), in the scanner's frame (3DTK: centimetres, left-handed, y up). The first
  *  non-blank line may be 3DTK's grid header "W x H" and is then skipped; every other line
  *  must start with three numbers (one locale-independent parser for all our text formats,
- *  as loadXyzScan; "nan" or "inf" marks a no-return, dropped). Points whose range sqrt(x²+y²+z²) lies outside
- *  [min_range, max_range] are dropped (3DTK data has out-of-range returns at 3276.7 cm and
- *  near-range junk). Throws std::runtime_error naming the file and line when it cannot be
- *  read, when a line is malformed, when a kept coordinate exceeds float's range, or when
- *  the file holds no points at all (an empty scan file is a broken copy, not a scan; a scan
- *  whose points all fall outside the range filter gives an empty cloud). */
+ *  as loadXyzScan; "nan" or "inf" marks a no-return, dropped). Points whose range
+ * sqrt(x²+y²+z²) lies outside [min_range, max_range] are dropped (3DTK data has out-of-range
+ * returns at 3276.7 cm and near-range junk). Throws std::runtime_error naming the file and line
+ * when it cannot be read, when a line is malformed, when a kept coordinate exceeds float's
+ * range, or when the file holds no points at all (an empty scan file is a broken copy, not a
+ * scan; a scan whose points all fall outside the range filter gives an empty cloud). */
 pcl::PointCloud<pcl::PointXYZ>::Ptr
 loadUosScan(const std::string& path,
             double min_range = 0.0,
