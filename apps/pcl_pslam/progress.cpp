@@ -41,15 +41,20 @@ onSignal(int s)
   g_signal = s;
   if (g_writing || g_ending.exchange(1) != 0)
     return; // the other handler exits for both
-  const char* msg =
-      s == SIGHUP    ? "pcl_pslam: hung up (SIGHUP); no outputs were written\n"
-      : s != SIGTERM ? "pcl_pslam: interrupted (SIGINT); no outputs were written\n"
-      : g_ranks > 1  ? "pcl_pslam: terminated (SIGTERM) by mpirun: a rank died (mpirun's "
-                       "message names it) or the job was stopped; no outputs were written\n"
-                     : "pcl_pslam: terminated (SIGTERM); no outputs were written\n";
+  // One message from the signal's name, assembled without allocating (async-signal-safe)
+  // and written at once, so a progress line cannot split it.
+  const char* parts[] = {"pcl_pslam: ",
+                         signalName(s),
+                         s == SIGTERM && g_ranks > 1
+                             ? " by mpirun: a rank died (mpirun's message names it) or the "
+                               "job was stopped"
+                             : "",
+                         "; no outputs were written\n"};
+  char msg[256];
   std::size_t n = 0;
-  while (msg[n])
-    ++n;
+  for (const char* part : parts)
+    for (; *part && n < sizeof msg; ++part)
+      msg[n++] = *part;
   if (!g_quiet && ::write(g_stderr_fd, msg, n) < 0) { /* nothing left to tell */
   }
   if (g_remove_dir[0])
