@@ -49,19 +49,20 @@ mapTileName(int rank, const char* extension)
   return "map_rank" + std::to_string(rank) + extension;
 }
 
-/** The map of scans [begin, end) at `poses` (slam::assembleMap), a progress step a scan. */
+/** The map of scans [begin, end) at the final poses (slam::assembleMap, deskewed as the
+ *  run's resolved parameters say), a progress step a scan. */
 Cloud::Ptr
 buildMap(const Options& o,
          const Input& in,
-         const Poses& poses,
+         const Result& r,
          ProgressReporter& progress,
          std::size_t begin = 0,
          std::size_t end = std::size_t(-1))
 {
   return pcl_parallel::slam::assembleMap(
       in,
-      poses,
-      toParameters(o, in.scale),
+      r.final,
+      r.parameters,
       mapVoxel(o, in.scale),
       [&](int done, int total) { progress.update("map", done, total); },
       begin,
@@ -117,8 +118,7 @@ prepareOutputDirectory(const std::string& dir)
 void
 writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress)
 {
-  const Cloud::Ptr map =
-      buildMap(o, in, r.final, progress, r.spread.own_begin, r.spread.own_end);
+  const Cloud::Ptr map = buildMap(o, in, r, progress, r.spread.own_begin, r.spread.own_end);
   pcl_parallel::io::writePcdScan(join(o.out, mapTileName(r.spread.rank, ".pcd")), *map);
   if (o.ply)
     pcl_parallel::io::writePlyScan(join(o.out, mapTileName(r.spread.rank, ".ply")), *map);
@@ -177,7 +177,7 @@ writeMap(const Options& o,
     return map;
   }
   progress.update("map", 0, 1);
-  map = buildMap(o, in, r.final, progress);
+  map = buildMap(o, in, r, progress);
   progress.update("save", 0, 1);
   pcl_parallel::io::writePcdScan(join(o.out, "map.pcd"), *map);
   written.push_back("map.pcd");
