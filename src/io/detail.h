@@ -302,20 +302,54 @@ readLine(std::istream& in, std::string& line, const std::string& path, std::size
 
 /** Calls f(line, line_no) for every line of a text file (readLine's line ends and limit)
  *  that holds more than white space, with the line number as an editor shows it (from 1,
- *  blank lines counted), so a reader's errors point at the right line. Throws when the file
- *  cannot be opened. */
+ *  blank lines counted), so a reader's errors point at the right line. Reads the file in
+ *  blocks (the scans' hot path: a character at a time through the stream is slower than
+ *  std::getline). Throws when the file cannot be opened or read. */
 template <typename F>
 void
 forEachLine(const std::string& path, F&& f)
 {
   std::ifstream in = openOrThrow(path);
+  std::vector<char> block(1 << 16);
   std::string line;
   std::size_t line_no = 0;
-  while (readLine(in, line, path, line_no + 1)) {
+  bool after_cr = false; // the previous block ended in "\r": a "\n" first belongs to it
+  const auto isEnd = [](char c) { return c == '\n' || c == '\r'; };
+  const auto emit = [&] {
     ++line_no;
     if (line.find_first_not_of(kSpace) != std::string::npos)
       f(line, line_no);
+    line.clear();
+  };
+  while (in) {
+    in.read(block.data(), static_cast<std::streamsize>(block.size()));
+    const char* p = block.data();
+    const char* const end = p + in.gcount();
+    if (after_cr && p < end && *p == '\n')
+      ++p;
+    after_cr = false;
+    while (p < end) {
+      const char* e = std::find_if(p, end, isEnd);
+      if (line.size() + static_cast<std::size_t>(e - p) > kMaxLineLength)
+        fail(
+            path, line_no + 1, "line longer than " + std::to_string(kMaxLineLength) + " bytes");
+      line.append(p, e);
+      if (e == end)
+        break;
+      p = e + 1;
+      if (*e == '\r') { // "\r\n" is one end
+        if (p < end && *p == '\n')
+          ++p;
+        else if (p == end)
+          after_cr = true;
+      }
+      emit();
+    }
   }
+  if (in.bad())
+    fail(path, line_no, "read error");
+  if (!line.empty())
+    emit();
 }
 
 constexpr std::size_t kNoField = static_cast<std::size_t>(-1);
