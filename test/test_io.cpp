@@ -453,8 +453,13 @@ TEST_F(TempFiles, TextReadersTakeEveryLineEndAndRefuseEndlessLines)
     ASSERT_EQ(pcd->size(), 2u);
     expectPoint((*pcd)[1], 4, 5, 6);
   }
+  // A "\r\n" split between two of forEachLine's 64 KiB blocks is one line end.
+  const std::string split = "#" + std::string(65534, 'x') + "\r\n1 2 3\r\nfoo\r\n";
+  std::string msg =
+      messageOf<std::runtime_error>([&] { loadXyzScan(write("split.xyz", split)); });
+  EXPECT_TRUE(mentions(msg, "split.xyz:3:")) << msg;
   const auto nul = write("nul.3d", std::string(1 << 20, '\0'));
-  std::string msg = messageOf<std::runtime_error>([&] { loadUosScan(nul); });
+  msg = messageOf<std::runtime_error>([&] { loadUosScan(nul); });
   EXPECT_TRUE(mentions(msg, "nul.3d:1: line longer than 65536 bytes")) << msg;
   const auto wide = write("wide.xyz", "1 2 3\n" + std::string(70000, ' ') + "4 5 6\n");
   msg = messageOf<std::runtime_error>([&] { loadXyzScan(wide); });
