@@ -5,6 +5,7 @@
 #include "test_data.h"
 
 #include <pcl_parallel/io/atomic_write.h>
+#include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
@@ -28,11 +29,14 @@
 #include <gtest/gtest.h>
 #include <initializer_list>
 #include <iostream>
+#include <iterator>
 #include <limits>
 #include <locale>
+#include <map>
 #include <random>
 #include <string>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 #include <utility>
 #include <vector>
@@ -171,6 +175,98 @@ TEST_F(TempFiles, AtomicWritesLeaveTheOldFileOrTheNewOne)
                                                [](std::ostream& out) { out << "x"; });
                        }),
                        "p.txt: cannot open for writing"));
+}
+
+/** The names in `dir`, sorted, with their bytes. */
+std::map<std::string, std::string>
+contentsOf(const std::filesystem::path& dir)
+{
+  std::map<std::string, std::string> files;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    std::ifstream in(entry.path(), std::ios::binary);
+    files[entry.path().filename().string()] =
+        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  return files;
+}
+
+// A run's outputs are one unit (io::OutputDirectory): the target holds the earlier run's
+// files until commit() swaps the new ones in, byte for byte one run's or the other's;
+// without commit() nothing of the new run stays; names no run writes make it refused.
+TEST_F(TempFiles, OutputDirectoryHoldsOneRunsOutputs)
+{
+  namespace io = pcl_parallel::io;
+  const std::filesystem::path target = dir_ / "runs" / "out";
+  const auto writeRun = [](const std::string& dir, const std::string& text, int scans) {
+    for (int k = 0; k < scans; ++k)
+      std::ofstream(dir + "/scan00" + std::to_string(k) + ".frames") << text << k;
+    std::ofstream(dir + "/poses.txt") << text;
+  };
+  {
+    io::OutputDirectory first(target.string(), io::isRunOutputName); // parents created
+    EXPECT_FALSE(std::filesystem::exists(target));
+    writeRun(first.path(), "first", 4);
+    EXPECT_FALSE(first.replacesEarlierRun());
+    first.commit();
+  }
+  const auto earlier = contentsOf(target);
+  ASSERT_EQ(earlier.size(), 5u);
+  {
+    io::OutputDirectory aborted(target.string(), io::isRunOutputName);
+    EXPECT_TRUE(aborted.replacesEarlierRun());
+    writeRun(aborted.path(), "aborted", 2);
+    EXPECT_EQ(aborted.inTarget("cannot write " + aborted.path() + "/poses.txt"),
+              "cannot write " + target.string() + "/poses.txt");
+  } // no commit: an error or a signal ended the run
+  EXPECT_EQ(contentsOf(target), earlier);
+  {
+    io::OutputDirectory second(target.string(), io::isRunOutputName);
+    writeRun(second.path(), "second", 2);
+    second.commit();
+  }
+  const auto now = contentsOf(target);
+  EXPECT_EQ(now.size(), 3u); // scan002.frames and scan003.frames of the first run gone
+  EXPECT_EQ(now.at("poses.txt"), "second");
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(target.parent_path()),
+                          std::filesystem::directory_iterator()),
+            1); // no temporary beside
+
+  std::ofstream(target / "notes.md") << "mine";
+  EXPECT_TRUE(mentions(messageOf<io::OutputDirectoryError>(
+                           [&] { io::OutputDirectory(target.string(), io::isRunOutputName); }),
+                       "holds what no run wrote (notes.md)"));
+  EXPECT_TRUE(mentions(messageOf<io::OutputDirectoryError>([&] {
+                         io::OutputDirectory((target / "notes.md").string(),
+                                             io::isRunOutputName);
+                       }),
+                       "notes.md: exists and is not a directory"));
+  EXPECT_EQ(contentsOf(target).at("notes.md"), "mine");
+}
+
+// What a killed run leaves beside the target (its temporary directory, named by host and
+// pid) is removed by the next run there; a live process's is kept.
+TEST_F(TempFiles, OutputDirectoryRemovesTheTemporariesOfKilledRuns)
+{
+  namespace io = pcl_parallel::io;
+  const pid_t child = ::fork(); // a pid that has ended
+  if (child == 0)
+    ::_exit(0);
+  ASSERT_GT(child, 0);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  const std::string prefix = ".out.pcl_pslam-";
+  const std::string own = io::temporaryName(prefix); // this process: alive
+  std::string killed = own.substr(0, own.rfind('-') + 1) + std::to_string(child) + ".0";
+  for (const std::string& name : {own + ".7", killed}) {
+    std::filesystem::create_directories(dir_ / name);
+    std::ofstream(dir_ / name / "map.pcd") << "partial";
+  }
+  {
+    io::OutputDirectory next((dir_ / "out").string(), io::isRunOutputName);
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir_ / killed));
+  EXPECT_TRUE(std::filesystem::exists(dir_ / (own + ".7")));
+  EXPECT_EQ(io::removeStaleTemporaries(dir_.string(), prefix), 0u);
 }
 
 // The maps are written by io/, not by PCL's writers (which fail silently or by SIGBUS on

@@ -33,6 +33,7 @@
 #include <gtest/gtest.h>
 #include <iomanip>
 #include <iterator>
+#include <map>
 #include <random>
 #include <sstream>
 #include <sys/resource.h>
@@ -717,6 +718,108 @@ TEST(PslamApp, NamesThatAreNotUtf8AreReportedNotFatal)
   ASSERT_TRUE(report.good());
   const std::string text((std::istreambuf_iterator<char>(report)), {});
   EXPECT_NE(text.find("scan_\xef\xbf\xbd_0.xyz"), std::string::npos); // U+FFFD in UTF-8
+  fs::remove_all(dir);
+}
+
+/** Runs pcl_pslam with `args` (and `env` before it); its exit status (128 + the signal
+ *  that ended it, as the shell reports it). */
+int
+runApp(const std::string& args, const std::string& env = "")
+{
+  const std::string command =
+      env + " " + std::string(PCL_PSLAM_EXE) + " " + args + " > /dev/null 2>&1";
+  const int status = std::system(command.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status); // sh: 128 + sig
+}
+
+/** The files in `dir` with their bytes (report.json's timings left out: its outputs list). */
+std::map<std::string, std::string>
+filesOf(const fs::path& dir)
+{
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    std::ifstream in(entry.path(), std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), {});
+    if (entry.path().filename() == "report.json")
+      bytes = bytes.substr(bytes.find("\"outputs\""), 400);
+    files[entry.path().filename().string()] = bytes;
+  }
+  return files;
+}
+
+/** Six scans of three walls of a corner (10 x 10 points each), shifted 0.1 m a scan. */
+void
+writeCornerScans(const fs::path& dir)
+{
+  fs::create_directories(dir);
+  for (int s = 0; s < 6; ++s) {
+    std::ofstream scan(dir / ("scan" + std::to_string(s) + ".xyz"));
+    for (int i = 0; i < 10; ++i)
+      for (int j = 0; j < 10; ++j)
+        scan << i + 0.1 * s << ' ' << j << " 0\n"
+             << i + 0.1 * s << " 0 " << j << '\n'
+             << 0.1 * s << ' ' << i << ' ' << j << '\n';
+  }
+}
+
+// A run's outputs are one unit (docs/robustness.md): a run interrupted at each of its stages
+// (the test hook raises the signal at the stage's first progress update) leaves an earlier
+// run's outputs byte for byte, and nothing beside them; one that ends leaves exactly its own,
+// byte for byte those of the same run into a fresh directory. A killed run's temporary
+// directory is removed by the next run.
+TEST(PslamApp, OneRunsOutputsWhateverStageEndsIt)
+{
+  const fs::path dir = scratch("one_unit");
+  writeCornerScans(dir / "scans");
+  const fs::path out = dir / "out";
+  const std::string scans = " '" + (dir / "scans").string() + "' -q --out ";
+  const std::string old_run = "run" + scans + "'" + out.string() + "' --ply";
+  const std::string new_run = "run" + scans + "'" + out.string() + "' --map-voxel 0.5";
+  ASSERT_EQ(runApp(old_run), 0);
+  const auto old_files = filesOf(out);
+  ASSERT_EQ(old_files.count("map.ply"), 1u);
+  ASSERT_EQ(runApp("run" + scans + "'" + (dir / "fresh").string() + "' --map-voxel 0.5"), 0);
+  const auto new_files = filesOf(dir / "fresh");
+  fs::remove_all(dir / "fresh");
+  const auto expectOld = [&](const std::string& args, const std::string& hook, int status) {
+    EXPECT_EQ(runApp(args, "PCL_PSLAM_TEST_SIGNAL_AT=" + hook), status) << hook;
+    EXPECT_EQ(filesOf(out), old_files) << hook;
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2)
+        << hook << ": a temporary left beside --out";
+  };
+  for (const char* stage : {"icp", "pLUM", "write", "map", "save", "picture", "report"})
+    expectOld(new_run, std::string(stage) + ":INT", 130);
+  expectOld(new_run, "write:HUP", 129);
+  expectOld(new_run, "map:TERM", 143);
+  expectOld("demo -q --out '" + out.string() + "'", "simulate:INT", 130);
+  EXPECT_EQ(runApp(new_run, "PCL_PSLAM_TEST_SIGNAL_AT=save:KILL"), 128 + SIGKILL);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 3)
+      << "the killed run's temporary directory";
+  EXPECT_EQ(filesOf(out), old_files);
+  EXPECT_EQ(runApp(new_run), 0);
+  EXPECT_EQ(filesOf(out), new_files); // map.ply and the old run's report gone
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 2);
+  // A directory with a file no run wrote is refused before any work (exit 2), unchanged.
+  std::ofstream(out / "notes.md") << "mine";
+  EXPECT_EQ(runApp(old_run), 2);
+  EXPECT_EQ(filesOf(out).size(), new_files.size() + 1);
+  fs::remove_all(dir);
+}
+
+// `simulate` into a folder that holds a larger set of another format leaves the new set
+// alone (before: both sets, and one ground_truth.txt for one of them).
+TEST(PslamApp, SimulateReplacesTheScanSetThere)
+{
+  const fs::path dir = scratch("simulate_unit");
+  ASSERT_EQ(runApp("simulate --preset office --format uos '" + dir.string() + "/set'"), 0);
+  ASSERT_TRUE(fs::exists(dir / "set" / "scan010.3d"));
+  ASSERT_EQ(runApp("simulate --preset office --format kitti '" + dir.string() + "/set'"), 0);
+  const auto files = filesOf(dir / "set");
+  EXPECT_EQ(files.size(), 11u + 3u); // NNNNNN.bin, odometry.txt, times.txt, ground_truth.txt
+  EXPECT_EQ(files.count("scan000.3d") + files.count("scan000.pose"), 0u);
+  std::ofstream(dir / "set" / "notes.md") << "mine";
+  EXPECT_EQ(runApp("simulate --preset office '" + dir.string() + "/set'"), 2);
+  EXPECT_EQ(filesOf(dir / "set").size(), files.size() + 1);
   fs::remove_all(dir);
 }
 

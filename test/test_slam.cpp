@@ -35,6 +35,7 @@
 #include <cmath>
 #include <filesystem>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <limits>
 #include <map>
 #include <memory>
@@ -1771,6 +1772,14 @@ TEST(MapDirectory, IsMapScansOverTheDirectoryAndItsMapHoldsEveryScan)
   EXPECT_EQ(map->size(), summary.points);
   const Cloud::Ptr tail = slam::assembleMap(in, r.final, params, 0.0, {}, 3);
   EXPECT_EQ(tail->size(), io::readScan(in, 3)->size());
+  // The run as JSON (report.json's library part): a record a scan, the resolved parameters.
+  const auto json = nlohmann::json::parse(slam::toJson(r, in, reading));
+  ASSERT_EQ(json.at("scans").size(), 4u);
+  EXPECT_EQ(json["scans"][3]["file"], in.files[3]);
+  EXPECT_EQ(json["scans"][3]["points"], r.reports[3].points);
+  EXPECT_EQ(json["parameters"]["voxel_size_m"], r.parameters.reduction.voxel_size);
+  EXPECT_EQ(json["icp"]["matches"], 3);
+  EXPECT_EQ(json["pipeline_seconds"]["read"], reading.seconds);
   std::filesystem::remove_all(dir);
 }
 

@@ -3,14 +3,16 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "input.h"
+#include "progress.h"
 
+#include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <unistd.h>
+#include <memory>
 
 namespace fs = std::filesystem;
 
@@ -69,30 +71,48 @@ keyframeWarning(const Input& in, bool deskew, double sweep_period)
   return text;
 }
 
-std::string
-simulateDemo(Options& o)
+DemoScans
+simulateDemo(const Options& o)
 {
+  namespace io = pcl_parallel::io;
   const auto names = pcl_parallel::sim::presetNames();
   if (std::find(names.begin(), names.end(), o.preset) == names.end())
     throw UsageError("--preset: unknown preset '" + o.preset + "' (pcl_pslam simulate --list)");
-  std::string dir = o.keep;
-  if (dir.empty()) {
-    std::error_code ec;
-    for (int k = 0; dir.empty() || fs::exists(dir, ec); ++k)
-      dir = (fs::temp_directory_path() /
-             ("pcl_pslam_demo_" + std::to_string(::getpid()) + "_" + std::to_string(k)))
-                .string();
-  }
   pcl_parallel::sim::PresetOptions options;
   options.num_threads = o.threads;
-  const bool moving = pcl_parallel::sim::simulateToDirectory(o.preset, options, dir).moving;
-  o.dir = dir;
-  if (moving) { // KITTI-like: odometry.txt beside, raw sweeps
+  DemoScans scans;
+  if (o.keep.empty()) {
+    const std::string prefix = "pcl_pslam_demo-";
+    io::removeStaleTemporaries(fs::temp_directory_path().string(), prefix);
+    scans.dir = (fs::temp_directory_path() / io::temporaryName(prefix)).string();
+    removeOnSignal(scans.dir);
+    scans.moving = pcl_parallel::sim::simulateToDirectory(o.preset, options, scans.dir).moving;
+    return scans;
+  }
+  std::unique_ptr<io::OutputDirectory> keep;
+  try {
+    keep = std::make_unique<io::OutputDirectory>(o.keep, pcl_parallel::sim::isScanSetName);
+  }
+  catch (const io::OutputDirectoryError& e) {
+    throw UsageError(std::string("--keep ") + e.what());
+  }
+  removeOnSignal(keep->path());
+  scans.moving = pcl_parallel::sim::simulateToDirectory(o.preset, options, keep->path()).moving;
+  forgetOnSignal(keep->path());
+  keep->commit();
+  scans.dir = keep->target();
+  return scans;
+}
+
+void
+useDemoScans(Options& o, const DemoScans& scans)
+{
+  o.dir = scans.dir;
+  if (scans.moving) { // KITTI-like: odometry.txt beside, raw sweeps
     if (!o.no_poses)
-      o.poses_file = (fs::path(dir) / "odometry.txt").string();
+      o.poses_file = (fs::path(scans.dir) / "odometry.txt").string();
     o.deskew = true;
   }
-  return dir;
 }
 
 } // namespace pcl_pslam

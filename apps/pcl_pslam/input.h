@@ -38,9 +38,21 @@ std::string
 keyframeWarning(const Input& in, bool deskew, double sweep_period);
 constexpr double kMaxSweepSeconds = 0.25;
 
-/** `demo`: writes o.preset to o.keep (or a new temporary folder) and points o.dir (and, for
- *  sweeps taken while moving, o.poses_file and o.deskew) at it. Returns the folder. */
-std::string
-simulateDemo(Options& o);
+/** `demo`'s simulated scans: where, and whether taken while moving (KITTI-like: raw
+ *  sweeps with odometry.txt beside). */
+struct DemoScans {
+  std::string dir;
+  bool moving = false;
+};
+
+/** `demo`: writes o.preset to o.keep (one unit, io::OutputDirectory) or to a new temporary
+ *  folder (removed by a signal; those of killed runs removed first). */
+DemoScans
+simulateDemo(const Options& o);
+
+/** Points o.dir at the demo's scans (and, for sweeps taken while moving, o.poses_file and
+ *  o.deskew). */
+void
+useDemoScans(Options& o, const DemoScans& scans);
 
 } // namespace pcl_pslam

@@ -13,6 +13,7 @@
 #include "progress.h"
 #include "simulate_command.h"
 
+#include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/mpi/session.h>
 
@@ -24,6 +25,7 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <unistd.h>
 #if defined(__GLIBC__)
 #include <malloc.h> // mallopt
@@ -75,12 +77,18 @@ openInput(Options& o,
           RemoveDirectory& cleanup)
 {
   Poses truth;
-  std::string demo_dir;
+  DemoScans demo;
   if (o.command == "demo") { // a preset, written and read back as `run` reads a directory
     progress.update("simulate", 0, 1);
-    ranks.agree([&] { demo_dir = simulateDemo(o); }); // each rank its own copy
+    ranks.agree([&] { // each rank its own temporary copy; rank 0 the --keep folder
+      if (ranks.rank() == 0 || o.keep.empty())
+        demo = simulateDemo(o);
+    });
+    if (!o.keep.empty())
+      demo = {ranks.broadcast(demo.dir), ranks.broadcast(demo.moving ? 1 : 0) != 0};
+    useDemoScans(o, demo);
     progress.update("simulate", 1, 1);
-    truth = pcl_parallel::io::loadKittiPoses(demo_dir + "/ground_truth.txt");
+    truth = pcl_parallel::io::loadKittiPoses(demo.dir + "/ground_truth.txt");
   }
   else if (std::error_code ec; o.poses_file.empty() && !o.no_poses &&
                                fs::exists(fs::path(o.dir) / "odometry.txt", ec)) {
@@ -91,7 +99,7 @@ openInput(Options& o,
   ranks.agree([&] { in = openDirectory(o); });
   in.truth = truth;
   if (o.keep.empty())
-    cleanup.dir = demo_dir; // the temporary scans go when main returns
+    cleanup.dir = demo.dir; // the temporary scans go when main returns
   progress.note(std::to_string(in.size()) + " scans" +
                 (in.odometry        ? ""
                  : o.no_pose_search ? "; no initial poses: constant-velocity guesses"
@@ -117,12 +125,15 @@ runParameters(const Options& o, const Input& in)
 }
 
 /** `run` and `demo` once the output directory is ready: map the input (each scan read when
- *  the pipeline takes it), write the outputs, print the summary. */
+ *  the pipeline takes it), write the outputs into `out` (rank 0's; the others write their
+ *  map tiles into `dir`, its path), swap them in, print the summary. */
 void
 mapAndWrite(Options& o,
             const Session& ranks,
             ProgressReporter& progress,
-            const std::string& command_line)
+            const std::string& command_line,
+            pcl_parallel::io::OutputDirectory* out,
+            const std::string& dir)
 {
   RemoveDirectory cleanup;
   Input in = openInput(o, ranks, progress, cleanup);
@@ -149,12 +160,14 @@ mapAndWrite(Options& o,
                                     : " in " + read_time));
   setWritingOutputs(true);
   if (r.spread.ranks > 1) { // every rank its part of the map, then rank 0 the rest
-    ranks.agree([&] { writeMapTile(o, in, r, progress); });
+    ranks.agree([&] { writeMapTile(o, dir, in, r, progress); });
     if (ranks.rank() != 0)
       return;
   }
-  const auto written = writeOutputs(o, in, r, progress, command_line);
-  printSummary(o, in, r, written, progress.elapsed());
+  const auto written = writeOutputs(o, dir, in, r, progress, command_line);
+  forgetOnSignal(dir);
+  out->commit();
+  printSummary(o, in, r, written, out->replacesEarlierRun(), progress.elapsed());
 }
 
 /** `run` and `demo`: exit status 0 done, 1 bad data, 2 bad usage, 128 + signal. */
@@ -165,26 +178,25 @@ runMapping(Options& o, const Session& ranks, const std::string& command_line)
   // PCL's own warnings stay visible (e.g. a reader's complaint), on stderr.
   pcl::console::setVerbosityLevel(pcl::console::L_WARN);
   installSignalHandlers(quiet_rank, ranks.size());
-  bool created_out = false;
+  std::unique_ptr<pcl_parallel::io::OutputDirectory> out; // rank 0's
   const auto failed = [&](int status, const std::string& message, const std::exception& e) {
-    std::error_code ec; // a failed run leaves no empty --out behind that it created
-    if (created_out && fs::is_empty(o.out, ec))
-      fs::remove(o.out, ec);
-    return fail(ranks, status, message, e);
+    const std::string text = out ? out->inTarget(message) : message; // names --out's files
+    out.reset(); // the outputs so far go: --out as it was
+    return fail(ranks, status, text, e);
   };
   try {
     ranks.agree([&] { // before any work; by rank 0, for all
       if (ranks.rank() == 0)
-        created_out = prepareOutputDirectory(o.out);
+        out = openOutputDirectory(o.out);
     });
-    if (created_out)
-      removeIfEmptyOnSignal(o.out);
+    const std::string dir = ranks.broadcast(out ? out->path() : std::string());
+    if (out)
+      removeOnSignal(dir);
     ProgressReporter progress(o.quiet || quiet_rank, ::isatty(2) != 0, true);
-    mapAndWrite(o, ranks, progress, command_line);
+    mapAndWrite(o, ranks, progress, command_line, out.get(), dir);
   }
   catch (const Interrupted& e) {
-    return failed(
-        128 + e.signal, std::string(e.what()) + "; outputs are complete or absent", e);
+    return failed(128 + e.signal, std::string(e.what()) + "; no outputs were written", e);
   }
   catch (const UsageError& e) {
     return failed(2, e.what(), e);

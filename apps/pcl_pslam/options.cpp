@@ -164,7 +164,8 @@ struct Descriptions {
     // clang-format off
     output.add_options()
       ("out,o", po::value<std::string>(&o.out)->value_name("DIR"),
-       "where outputs go, created and checked before any work [default pcl_pslam_out]")
+       "where outputs go: absent, empty or an earlier run's (replaced at the end); checked "
+       "before any work [default pcl_pslam_out]")
       ("ply", po::bool_switch(&o.ply), "also write the map as map.ply")
       ("map-voxel", po::value<double>()->value_name("NR"),
        "voxel size of map.pcd/map.ply [default: -r when given, else 0.1 m]")
@@ -235,8 +236,8 @@ helpText(const std::string& command)
          "\n"
          "Exit status: 0 done, 1 bad data (a scan, a poses file; the message names the\n"
          "file and line), 2 bad usage (unknown option or format, a path on the command\n"
-         "line that does not exist, an --out that cannot be written), 130/143 interrupted\n"
-         "(SIGINT/SIGTERM: every output is complete or absent).\n";
+         "line that does not exist, an --out that cannot be used), 128 + the signal when\n"
+         "interrupted (130 SIGINT, 143 SIGTERM, 129 SIGHUP: --out as it was).\n";
     return s.str();
   }
   Options o;
@@ -258,7 +259,9 @@ helpText(const std::string& command)
   s << d.pipeline << "\n"
     << d.output << "\n"
     << d.general << "\n"
-    << "Outputs (in --out; each written to a temporary name and renamed): scanNNN.frames\n"
+    << "Outputs (written into a temporary directory beside --out and swapped in at the end:\n"
+       "--out holds one run's outputs, an earlier run's replaced, or is as it was):\n"
+       "scanNNN.frames\n"
        "(3DTK, per scan: initial, ICP and final pose, 4x4 column-major + type code; uos\n"
        "data in 3DTK's units), poses.txt / poses_icp.txt (KITTI), poses_tum.txt /\n"
        "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), map.pcd (binary), map.ply (--ply),\n"

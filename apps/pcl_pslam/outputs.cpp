@@ -20,9 +20,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <unistd.h>
 
 #ifndef PCL_PSLAM_VERSION
 #define PCL_PSLAM_VERSION "unknown"
@@ -95,33 +93,29 @@ loopPairs(const Result& r)
 
 } // namespace
 
-bool
-prepareOutputDirectory(const std::string& dir)
+std::unique_ptr<pcl_parallel::io::OutputDirectory>
+openOutputDirectory(const std::string& dir)
 {
-  std::error_code ec;
-  const bool existed = fs::exists(dir, ec);
-  if (existed && !fs::is_directory(dir, ec))
-    throw UsageError(dir + ": --out exists and is not a directory");
-  if (!existed && !fs::create_directories(dir, ec))
-    throw UsageError(dir + ": cannot create the output directory (" + ec.message() + ")");
-  const std::string probe = join(dir, ".pcl_pslam_probe." + std::to_string(::getpid()));
-  if (!(std::ofstream(probe) << "probe\n")) {
-    fs::remove(probe, ec);
-    if (!existed)
-      fs::remove(dir, ec);
-    throw UsageError(dir + ": the output directory is not writable");
+  try {
+    return std::make_unique<pcl_parallel::io::OutputDirectory>(
+        dir, pcl_parallel::io::isRunOutputName);
   }
-  fs::remove(probe, ec);
-  return !existed;
+  catch (const pcl_parallel::io::OutputDirectoryError& e) {
+    throw UsageError(std::string("--out ") + e.what());
+  }
 }
 
 void
-writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress)
+writeMapTile(const Options& o,
+             const std::string& dir,
+             const Input& in,
+             const Result& r,
+             ProgressReporter& progress)
 {
   const Cloud::Ptr map = buildMap(o, in, r, progress, r.spread.own_begin, r.spread.own_end);
-  pcl_parallel::io::writePcdScan(join(o.out, mapTileName(r.spread.rank, ".pcd")), *map);
+  pcl_parallel::io::writePcdScan(join(dir, mapTileName(r.spread.rank, ".pcd")), *map);
   if (o.ply)
-    pcl_parallel::io::writePlyScan(join(o.out, mapTileName(r.spread.rank, ".ply")), *map);
+    pcl_parallel::io::writePlyScan(join(dir, mapTileName(r.spread.rank, ".ply")), *map);
 }
 
 void
@@ -138,7 +132,7 @@ namespace {
 
 /** scanNNN.frames (3DTK's units for data that came in them), KITTI and TUM poses. */
 void
-writePoseFiles(const Options& o,
+writePoseFiles(const std::string& dir,
                const Input& in,
                const Result& r,
                ProgressReporter& progress,
@@ -147,7 +141,7 @@ writePoseFiles(const Options& o,
   const double frames_scale = in.frames_3dtk ? in.scale : 1.0; // uos: cm
   progress.update("write", 0, 1);
   const auto names = pcl_parallel::io::writeRunPoses(
-      o.out, in.numbers, in.initial, r.icp, r.final, in.stamps, frames_scale, [&] {
+      dir, in.numbers, in.initial, r.icp, r.final, in.stamps, frames_scale, [&] {
         progress.update("write", 0, 1); // a signal stops between two complete files
       });
   written.insert(written.end(), names.begin(), names.end());
@@ -158,6 +152,7 @@ writePoseFiles(const Options& o,
  *  back for the picture. Returns the map. */
 Cloud::Ptr
 writeMap(const Options& o,
+         const std::string& dir,
          const Input& in,
          const Result& r,
          ProgressReporter& progress,
@@ -167,7 +162,7 @@ writeMap(const Options& o,
   if (r.spread.ranks > 1) { // the tiles every rank wrote (writeMapTile)
     for (int k = 0; k < r.spread.ranks; ++k) {
       progress.update("tiles", k, r.spread.ranks);
-      *map += *pcl_parallel::io::loadPcdScan(join(o.out, mapTileName(k, ".pcd")));
+      *map += *pcl_parallel::io::loadPcdScan(join(dir, mapTileName(k, ".pcd")));
     }
     written.push_back(mapTileName(0, ".pcd") + ".." + mapTileName(r.spread.ranks - 1, ".pcd"));
     if (o.ply)
@@ -179,11 +174,11 @@ writeMap(const Options& o,
   progress.update("map", 0, 1);
   map = buildMap(o, in, r, progress);
   progress.update("save", 0, 1);
-  pcl_parallel::io::writePcdScan(join(o.out, "map.pcd"), *map);
+  pcl_parallel::io::writePcdScan(join(dir, "map.pcd"), *map);
   written.push_back("map.pcd");
   if (o.ply) {
     progress.update("save", 0, 1);
-    pcl_parallel::io::writePlyScan(join(o.out, "map.ply"), *map);
+    pcl_parallel::io::writePlyScan(join(dir, "map.ply"), *map);
     written.push_back("map.ply");
   }
   progress.update("save", 1, 1);
@@ -193,6 +188,7 @@ writeMap(const Options& o,
 /** map.png with its caption; returns the style it was drawn in. */
 std::string
 writePicture(const Options& o,
+             const std::string& dir,
              const Input& in,
              const Result& r,
              const Cloud& map,
@@ -232,7 +228,7 @@ writePicture(const Options& o,
   }
   po.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
   const std::string style =
-      pcl_parallel::render::writeMapPicture(join(o.out, "map.png"), map, r.final, po);
+      pcl_parallel::render::writeMapPicture(join(dir, "map.png"), map, r.final, po);
   written.push_back("map.png");
   progress.update("picture", 1, 1);
   return style;
@@ -276,133 +272,21 @@ inputJson(const Options& o, const Input& in, const Result& r)
       {"max_range", std::isfinite(o.max_range) ? json(o.max_range) : json(nullptr)}};
 }
 
-/** The parameters as the pipeline resolved them (automatic lengths from the data). */
-nlohmann::json
-parametersJson(const Result& r, double map_voxel)
-{
-  const pcl_parallel::slam::Parameters& p = r.parameters;
-  const auto& m = p.matcher;
-  const auto& l = p.loops;
-  const Eigen::Vector3d& up = p.guess.up;
-  return {{"voxel_size_m", p.reduction.voxel_size},
-          {"source_voxel_size_m", p.reduction.source_voxel_size},
-          {"map_voxel_size_m", m.map_voxel_size},
-          {"map_distance_m", m.map_distance},
-          {"icp_distance_m", m.max_correspondence_distance},
-          {"icp_final_distance_m", m.final_correspondence_distance},
-          {"icp_adaptive_threshold", m.adaptive_threshold},
-          {"icp_point_to_plane", m.point_to_plane},
-          {"icp_iterations", m.max_iterations},
-          {"icp_epsilon", m.transformation_epsilon},
-          {"loop_distance_m", l.distance},
-          {"loop_size", l.min_separation},
-          {"loop_min_overlap", l.min_overlap},
-          {"lum_distance_m", l.lum_distance},
-          {"lum_final_distance_m", l.lum_final_distance},
-          {"lum_iterations", l.lum_iterations},
-          {"lum_iterations_per_loop", l.lum_iterations_per_loop},
-          {"lum_epsilon", l.lum_epsilon},
-          {"lum_sequence_constraints", l.sequence_constraints},
-          {"elch", l.distribute_error},
-          {"map_voxel_m", map_voxel},
-          {"scan_to_scan", m.target == pcl_parallel::slam::MatchTarget::kPreviousScan},
-          {"deskew", p.deskew.enabled},
-          {"sweep_period_s", p.deskew.sweep_period},
-          {"sweep_clockwise", p.deskew.sweep_clockwise},
-          {"pose_search", p.guess.pose_search},
-          {"up", std::vector<double>{up.x(), up.y(), up.z()}},
-          {"close_loops", l.enabled}};
-}
-
-/** Per scan: what it was, what the front end did with it, the loop pairs tried. */
-json
-scansJson(const Input& in, const Result& r)
-{
-  json scans = json::array();
-  for (std::size_t i = 0; i < in.size(); ++i) {
-    const auto& rep = r.reports.at(i); // one per scan
-    json tried = json::array();
-    for (const auto& c : rep.loops)
-      tried.push_back({{"target", c.link.target},
-                       {"overlap", c.overlap},
-                       {"error", c.error},
-                       {"accepted", c.accepted}});
-    json s = {{"index", i},
-              {"number", in.numbers[i]},
-              {"stamp", in.stamps[i]},
-              {"points", rep.points},
-              {"points_reduced", rep.reduced_points},
-              {"icp_converged", rep.converged},
-              {"icp_fitness", rep.fitness},
-              {"icp_gate", rep.gate},
-              {"icp_correction", rep.correction},
-              {"icp_start_offset", rep.start_offset},
-              {"icp_start_turn", rep.start_turn},
-              {"pose_searched", rep.pose_searched},
-              {"deskewed_again", rep.deskewed_again},
-              {"icp_source_points", rep.source_points},
-              {"icp_map_scans", rep.map_scans},
-              {"seconds", rep.seconds},
-              {"lum_iterations", rep.lum_iterations},
-              {"loops_tried", tried}};
-    if (std::isfinite(rep.start_heading)) // the pose search's start won (degrees)
-      s["pose_search_heading_deg"] = rep.start_heading * 180.0 / M_PI;
-    if (rep.sequence_chi2 >= 0.0) // the front end's step against the final poses
-      s["sequence_chi2"] = rep.sequence_chi2;
-    if (!in.files[i].empty())
-      s["file"] = in.files[i];
-    scans.push_back(s);
-  }
-  return scans;
-}
-
 /** report.json: what was run, with what, and what each stage did and took; the caller
  *  adds what was written. */
 json
 reportJson(const Options& o, const Input& in, const Result& r, const ProgressReporter& progress)
 {
-  json j = {{"program", "pcl_pslam"},
+  json j = json::parse(pcl_parallel::slam::toJson(r, in, in.reading));
+  j["parameters"]["map_voxel_m"] = mapVoxel(o, in.scale);
+  j.update({{"program", "pcl_pslam"},
             {"versions", versionsJson()},
             {"threads", pcl_parallel::resolveNumberOfThreads(o.threads)},
             {"input", inputJson(o, in, r)},
-            {"parameters", parametersJson(r, mapVoxel(o, in.scale))},
-            {"pipeline_seconds",
-             {{"read", in.reading.seconds},
-              {"preprocess", r.times.preprocess},
-              {"front_end", r.times.front_end},
-              {"loop_detection", r.times.loop_detection},
-              {"loop_closing", r.times.loop_closing}}},
-            {"bytes_kept_per_scan", r.bytes_per_scan},
-            {"relaxations", r.relaxations},
             {"stages", json::array()},
-            {"total_seconds", progress.elapsed()},
-            {"scans", scansJson(in, r)},
-            {"icp",
-             {{"matches", in.size() - 1},
-              {"not_converged", r.icp_failures},
-              {"pose_searched", r.pose_searched},
-              {"pose_search_won", r.pose_search_won},
-              {"deskewed_again", r.deskewed_again},
-              {"odometry_disagreement",
-               r.odometry_disagreement ? json(*r.odometry_disagreement) : json()}}},
-            {"loops", json::array()},
-            {"links", r.links.size()},
-            {"lum",
-             {{"iterations", r.lum_iterations},
-              {"iteration_cap", r.parameters.loops.lum_iterations}}}};
-  if (r.spread.segments > 0)
-    j["segments"] = {{"segments", r.spread.segments},
-                     {"segment_size", r.spread.segment_size},
-                     {"overlap", r.mapping.segment_overlap},
-                     {"ranks", r.spread.ranks},
-                     {"rank0_wait_seconds", r.spread.wait_seconds},
-                     {"bytes_shared", r.spread.bytes_shared},
-                     {"scans_sent", r.spread.scans_sent},
-                     {"max_kept_scans", r.spread.max_kept_scans}};
+            {"total_seconds", progress.elapsed()}});
   for (const auto& s : progress.stages())
     j["stages"].push_back({{"name", s.name}, {"seconds", s.seconds}, {"steps", s.steps}});
-  for (const auto& [a, b] : loopPairs(r))
-    j["loops"].push_back({a, b});
   if (!in.truth.empty())
     for (auto [key, e] : truthErrors(in, r)) {
       std::replace(key.begin(), key.end(), ' ', '_'); // "front end": front_end
@@ -419,15 +303,18 @@ reportJson(const Options& o, const Input& in, const Result& r, const ProgressRep
 
 std::vector<std::string>
 writeOutputs(const Options& o,
+             const std::string& dir,
              const Input& in,
              const Result& r,
              ProgressReporter& progress,
              const std::string& command_line)
 {
   std::vector<std::string> written;
-  writePoseFiles(o, in, r, progress, written);
-  const Cloud::Ptr map = writeMap(o, in, r, progress, written);
-  const std::string style = o.picture ? writePicture(o, in, r, *map, progress, written) : "";
+  writePoseFiles(dir, in, r, progress, written);
+  const Cloud::Ptr map = writeMap(o, dir, in, r, progress, written);
+  const std::string style =
+      o.picture ? writePicture(o, dir, in, r, *map, progress, written) : "";
+  progress.update("report", 0, 1);
   progress.finish();
   json j = reportJson(o, in, r, progress);
   j["command_line"] = command_line;
@@ -435,8 +322,7 @@ writeOutputs(const Options& o,
   if (!style.empty())
     j["picture_style"] = style;
   j["outputs"] = written;
-  pcl_parallel::io::writeStreamAtomically(join(o.out, "report.json"), [&](std::ostream& out) {
-    // A name that is not UTF-8 (JSON's encoding) gets U+FFFD, never a failure after the work.
+  pcl_parallel::io::writeStreamAtomically(join(dir, "report.json"), [&](std::ostream& out) {
     out << j.dump(2, ' ', false, json::error_handler_t::replace) << '\n';
   });
   written.push_back("report.json");
@@ -489,6 +375,7 @@ printSummary(const Options& o,
              const Input& in,
              const Result& r,
              const std::vector<std::string>& written,
+             bool replaced,
              double seconds)
 {
   if (r.icp_failures > 0)
@@ -522,7 +409,11 @@ printSummary(const Options& o,
   std::string names;
   for (const auto& w : written)
     names += (names.empty() ? "" : ", ") + w;
-  std::printf("wrote %s/{%s} in %.1f s\n", o.out.c_str(), names.c_str(), seconds);
+  std::printf("wrote %s/{%s} in %.1f s%s\n",
+              o.out.c_str(),
+              names.c_str(),
+              seconds,
+              replaced ? ", replacing an earlier run's outputs" : "");
 }
 
 } // namespace pcl_pslam

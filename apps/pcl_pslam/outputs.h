@@ -3,7 +3,8 @@
  * SPDX-License-Identifier: BSD-3-Clause
  *
  * pcl_pslam's outputs: the library's pose, map and picture files, report.json and the
- * summary. Every file is complete or absent, whatever stops the run (io::writeAtomically).
+ * summary, written into a temporary directory and swapped in as one unit
+ * (io::OutputDirectory), whatever stops the run.
  */
 #pragma once
 
@@ -11,26 +12,34 @@
 #include "options.h"
 #include "progress.h"
 
+#include <pcl_parallel/io/output_directory.h>
+
+#include <memory>
 #include <ostream>
 #include <string>
 #include <vector>
 
 namespace pcl_pslam {
 
-/** Creates `dir` and checks that a file can be created in it, before any work. Throws
- *  UsageError naming it otherwise. True where it created it (for removal after a stop). */
-bool
-prepareOutputDirectory(const std::string& dir);
+/** The temporary directory beside `dir` (--out) that the run writes into and swaps in at
+ *  the end (io::OutputDirectory); throws UsageError naming --out where it cannot be used. */
+std::unique_ptr<pcl_parallel::io::OutputDirectory>
+openOutputDirectory(const std::string& dir);
 
 /** Under MPI, this rank's part of the map (the scans it matched) as map_rank<rank>.pcd (and
- *  .ply with --ply) in o.out; writeOutputs reads them all back for map.png. */
+ *  .ply with --ply) in `dir`; writeOutputs reads them all back for map.png. */
 void
-writeMapTile(const Options& o, const Input& in, const Result& r, ProgressReporter& progress);
+writeMapTile(const Options& o,
+             const std::string& dir,
+             const Input& in,
+             const Result& r,
+             ProgressReporter& progress);
 
-/** Everything a run writes into o.out, with a progress update (and so a check for a signal)
+/** Everything a run writes into `dir`, with a progress update (and so a check for a signal)
  *  between files; `command_line` goes into report.json. Returns the names written. */
 std::vector<std::string>
 writeOutputs(const Options& o,
+             const std::string& dir,
              const Input& in,
              const Result& r,
              ProgressReporter& progress,
@@ -46,6 +55,7 @@ printSummary(const Options& o,
              const Input& in,
              const Result& r,
              const std::vector<std::string>& written,
+             bool replaced,
              double seconds);
 
 } // namespace pcl_pslam

@@ -7,7 +7,12 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
+#include <dirent.h>
+#include <fcntl.h>
+#include <sys/syscall.h>
 #include <unistd.h>
+#include <utility>
 
 namespace pcl_pslam {
 
@@ -18,7 +23,7 @@ volatile std::sig_atomic_t g_writing = 0;   // 1 while outputs are being written
 volatile std::sig_atomic_t g_quiet = 0;     // 1: no message (not MPI rank 0)
 volatile std::sig_atomic_t g_ranks = 1;     // MPI ranks of the job
 volatile std::sig_atomic_t g_stderr_fd = 2; // the real stderr while PCL's is captured
-char g_remove_dir[4096] = {0};              // an --out this run created, removed if empty
+char g_remove_dirs[4][4096] = {};           // removed with their files by a signal
 // Set by the first handler that ends the run: a signal may come twice (timeout, a ^C to the
 // process group), each on another thread, and only one may write the message.
 std::atomic<int> g_ending{0};
@@ -31,6 +36,27 @@ signalName(int s)
   return s == SIGTERM  ? "terminated (SIGTERM)"
          : s == SIGHUP ? "hung up (SIGHUP)"
                        : "interrupted (SIGINT)";
+}
+
+/** Removes `dir` and the files in it with system calls alone (async-signal-safe: no
+ *  allocation, no stdio); its subdirectories, which none of ours has, stay. */
+void
+removeFlatDirectory(const char* dir)
+{
+#if defined(__linux__)
+  const int fd = ::open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0)
+    return;
+  alignas(8) char buffer[4096];
+  for (long n; (n = ::syscall(SYS_getdents64, fd, buffer, sizeof buffer)) > 0;)
+    for (long at = 0; at < n;) {
+      const auto* entry = reinterpret_cast<const struct dirent64*>(buffer + at);
+      ::unlinkat(fd, entry->d_name, 0); // fails, harmlessly, for "." and ".."
+      at += entry->d_reclen;
+    }
+  ::close(fd);
+#endif
+  ::rmdir(dir);
 }
 
 /** Before the outputs nothing can be left half-written and a match can take seconds: the
@@ -57,8 +83,9 @@ onSignal(int s)
       msg[n++] = *part;
   if (!g_quiet && ::write(g_stderr_fd, msg, n) < 0) { /* nothing left to tell */
   }
-  if (g_remove_dir[0])
-    ::rmdir(g_remove_dir); // fails, harmlessly, unless empty
+  for (const char* dir : g_remove_dirs)
+    if (dir[0])
+      removeFlatDirectory(dir);
   ::_exit(128 + s);
 }
 
@@ -85,10 +112,22 @@ setWritingOutputs(bool writing)
 }
 
 void
-removeIfEmptyOnSignal(const std::string& dir)
+removeOnSignal(const std::string& dir)
 {
-  if (dir.size() < sizeof g_remove_dir)
-    dir.copy(g_remove_dir, dir.size()), g_remove_dir[dir.size()] = '\0';
+  for (char* slot : g_remove_dirs)
+    if (!slot[0] && dir.size() < sizeof g_remove_dirs[0]) {
+      dir.copy(slot, dir.size());
+      slot[dir.size()] = '\0';
+      return;
+    }
+}
+
+void
+forgetOnSignal(const std::string& dir)
+{
+  for (char* slot : g_remove_dirs)
+    if (dir == slot)
+      slot[0] = '\0';
 }
 
 void
@@ -105,6 +144,16 @@ ProgressReporter::ProgressReporter(bool quiet, bool live, bool capture)
     , stage_start_(start_)
     , last_(start_)
 {
+  if (const char* at = std::getenv("PCL_PSLAM_TEST_SIGNAL_AT"); at && *at) {
+    const std::string hook = at;
+    const std::size_t colon = hook.find(':');
+    signal_stage_ = hook.substr(0, colon);
+    const std::string name = colon == std::string::npos ? "INT" : hook.substr(colon + 1);
+    signal_ = name == "TERM"   ? SIGTERM
+              : name == "HUP"  ? SIGHUP
+              : name == "KILL" ? SIGKILL // a killed run's temporaries
+                               : SIGINT;
+  }
   if (!capture)
     return;
   capture_ = std::make_unique<pcl_parallel::io::StderrCapture>();
@@ -139,6 +188,8 @@ ProgressReporter::elapsed() const
 void
 ProgressReporter::update(const std::string& stage, int done, int total)
 {
+  if (signal_ != 0 && stage == signal_stage_)
+    std::raise(std::exchange(signal_, 0)); // the test hook, once
   checkInterrupt();
   const auto now = Clock::now();
   if (!open_ || stages_.back().name != stage) {

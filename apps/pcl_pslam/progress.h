@@ -3,9 +3,10 @@
  * SPDX-License-Identifier: BSD-3-Clause
  *
  * pcl_pslam's progress on stderr (a live line with ETA on a terminal, else a line per
- * stage), the time of every stage and step, and SIGINT/SIGTERM: before the outputs the run
- * ends at once (nothing is half-written); while they are written a signal only sets a flag
- * that the next progress update throws as Interrupted, between two complete files.
+ * stage), the time of every stage and step, and SIGINT/SIGTERM/SIGHUP: before the outputs
+ * the run ends at once, its temporary directories removed; while they are written a signal
+ * only sets a flag that the next progress update throws as Interrupted, and the output
+ * directory's destructor removes them.
  */
 #pragma once
 
@@ -36,9 +37,13 @@ installSignalHandlers(bool quiet = false, int ranks = 1);
 void
 setWritingOutputs(bool writing);
 
-/** A directory the run created: a signal before the outputs removes it if empty. */
+/** A directory of files (no subdirectories) that a signal ending the run at once removes
+ *  with its files: the temporary directory of the outputs or of simulated scans. At most
+ *  four; forgetOnSignal(dir) once it is committed or removed. */
 void
-removeIfEmptyOnSignal(const std::string& dir);
+removeOnSignal(const std::string& dir);
+void
+forgetOnSignal(const std::string& dir);
 
 /** Throws Interrupted once a signal arrived. */
 void
@@ -58,7 +63,9 @@ public:
   operator=(const ProgressReporter&) = delete;
 
   /** `done` of `total` steps of `stage` are done; a new name ends the previous stage (its
-   *  clock started at the previous update). Checks for a signal first. */
+   *  clock started at the previous update). Checks for a signal first. The environment's
+   *  PCL_PSLAM_TEST_SIGNAL_AT=STAGE[:SIG] (a test hook) raises SIGINT (or TERM, HUP, KILL)
+   *  at the stage's first update. */
   void
   update(const std::string& stage, int done, int total);
 
@@ -96,6 +103,8 @@ private:
   bool open_ = false;
   int total_ = 0;
   std::vector<Stage> stages_;
+  std::string signal_stage_; ///< PCL_PSLAM_TEST_SIGNAL_AT's stage
+  int signal_ = 0;           ///< and its signal
 };
 
 } // namespace pcl_pslam

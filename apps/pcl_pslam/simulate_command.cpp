@@ -2,8 +2,10 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "progress.h"
 #include "simulate_command.h"
 
+#include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 
 #include <boost/program_options.hpp>
@@ -80,16 +82,28 @@ checkSimulateArguments(const SimulateArguments& a, ScanSetFormat& format)
   return {};
 }
 
-/** Simulates and writes the set; a line about it on `out`. */
+/** Simulates and writes the set into a temporary directory swapped in for OUT_DIR (one
+ *  unit: OUT_DIR holds this set or what it held before, whatever ends the command); a line
+ *  about it on `out`. */
 void
 simulateAndWrite(const SimulateArguments& a, ScanSetFormat format, std::ostream& out)
 {
   const auto start = std::chrono::steady_clock::now();
-  const auto set = pcl_parallel::sim::simulateToDirectory(a.preset, a.options, a.dir, format);
+  pcl_parallel::io::OutputDirectory dir(a.dir, pcl_parallel::sim::isScanSetName);
+  removeOnSignal(dir.path());
+  pcl_parallel::sim::ScanSetSummary set;
+  try {
+    set = pcl_parallel::sim::simulateToDirectory(a.preset, a.options, dir.path(), format);
+  }
+  catch (const std::exception& e) { // named by OUT_DIR's file, not its temporary's
+    throw std::runtime_error(dir.inTarget(e.what()));
+  }
+  forgetOnSignal(dir.path());
+  dir.commit();
   out << "simulate: " << a.preset << " (seed " << a.options.seed << "): " << set.scans
       << " scans, " << set.points << " points, written to " << a.dir << " in "
-      << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
-      << " s\n";
+      << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s"
+      << (dir.replacesEarlierRun() ? ", replacing the scan set there" : "") << "\n";
 }
 
 } // namespace
@@ -131,8 +145,13 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
     err << "pcl_pslam simulate: " << problem;
     return 2;
   }
+  installSignalHandlers();
   try {
     simulateAndWrite(a, format, out);
+  }
+  catch (const pcl_parallel::io::OutputDirectoryError& e) {
+    err << "pcl_pslam simulate: OUT_DIR " << e.what() << '\n';
+    return 2;
   }
   catch (const std::exception& e) {
     err << "pcl_pslam simulate: " << e.what() << '\n';

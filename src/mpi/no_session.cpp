@@ -32,5 +32,11 @@ Session::broadcast(int value) const
   return value;
 }
 
+std::string
+Session::broadcast(const std::string& text) const
+{
+  return text;
+}
+
 } // namespace mpi
 } // namespace pcl_parallel

@@ -77,5 +77,16 @@ Session::broadcast(int value) const
   return value;
 }
 
+std::string
+Session::broadcast(const std::string& text) const
+{
+  if (size_ == 1)
+    return text;
+  std::string value = text;
+  value.resize(static_cast<std::size_t>(broadcast(static_cast<int>(text.size()))));
+  MPI_Bcast(value.data(), static_cast<int>(value.size()), MPI_CHAR, 0, MPI_COMM_WORLD);
+  return value;
+}
+
 } // namespace mpi
 } // namespace pcl_parallel

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <regex>
 #include <stdexcept>
 #include <string>
 
@@ -266,6 +267,14 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
   else
     writeKittiScans(set, root, format == ScanSetFormat::Pcd);
   io::writeKittiPoses((root / "ground_truth.txt").string(), truth);
+}
+
+bool
+isScanSetName(const std::string& name)
+{
+  static const std::regex names("scan[0-9]{3}\\.(3d|pose)|[0-9]{6}\\.(bin|pcd)|"
+                                "(odometry|times|ground_truth)\\.txt");
+  return std::regex_match(name, names);
 }
 
 ScanSetFormat

@@ -6,6 +6,7 @@
 
 #include <exception>
 #include <functional>
+#include <string>
 
 namespace pcl_parallel {
 namespace mpi {
@@ -51,6 +52,9 @@ public:
   /** Rank 0's `value`, on every rank (collective). */
   int
   broadcast(int value) const;
+  /** Rank 0's `text`, on every rank (collective). */
+  std::string
+  broadcast(const std::string& text) const;
 
 private:
   int rank_ = 0;

@@ -59,6 +59,11 @@ writeScanSet(const SimulatedScanSet& set,
              const std::string& dir,
              ScanSetFormat format = ScanSetFormat::Auto);
 
+/** Whether writeScanSet writes files of this name (scanNNN.3d/.pose, NNNNNN.bin/.pcd,
+ *  odometry.txt, times.txt, ground_truth.txt): an io::OutputNamePredicate. */
+bool
+isScanSetName(const std::string& name);
+
 /** What simulateToDirectory wrote. */
 struct ScanSetSummary {
   std::size_t scans = 0, points = 0;

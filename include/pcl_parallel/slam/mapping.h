@@ -17,6 +17,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -130,6 +131,18 @@ mapDirectory(const io::ScanDirectory& scans,
              const MappingOptions& options,
              const SegmentProgress& progress,
              DirectoryReading& reading);
+
+/** A mapped directory as JSON text (`pcl_pslam`'s report.json less what only the app knows):
+ *  "parameters" (as resolved, lengths in m), "pipeline_seconds" (reading included),
+ *  "bytes_kept_per_scan", "relaxations", "scans" (per scan: its number, stamp and file, what
+ *  the front end did, the loops tried), "icp", "loops" (the links between scans that are
+ *  not neighbours), "links", "lum" and, segmented, "segments". Indented by `indent` spaces
+ *  (-1: one line); bytes of names that are not UTF-8 become U+FFFD. */
+std::string
+toJson(const MappingResult& result,
+       const io::ScanDirectory& scans,
+       const DirectoryReading& reading,
+       int indent = -1);
 
 /** The merged map (assembleMap) of a directory's scans [begin, end) at `poses`: each read
  *  again at full resolution (io::readScan) and, with params.deskew, deskewed by the motion

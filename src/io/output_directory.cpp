@@ -1,0 +1,216 @@
+/*
+ * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
+ * SPDX-License-Identifier: BSD-3-Clause
+ */
+#include <pcl_parallel/io/output_directory.h>
+
+#include <atomic>
+#include <cctype>
+#include <cerrno>
+#include <csignal>
+#include <cstdio> // renameat2, RENAME_EXCHANGE (glibc)
+#include <cstring>
+#include <fcntl.h> // AT_FDCWD
+#include <filesystem>
+#include <regex>
+#include <unistd.h>
+#include <vector>
+
+namespace pcl_parallel {
+namespace io {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string
+hostName()
+{
+  char name[256] = {0};
+  if (::gethostname(name, sizeof name - 1) != 0)
+    return "localhost";
+  return name;
+}
+
+/** The pid in "PREFIXHOST-PID" followed by nothing or by '.'; 0 where `name` is not one of
+ *  this host's. */
+long
+temporaryPid(const std::string& name, const std::string& prefix)
+{
+  const std::string head = prefix + hostName() + "-";
+  if (name.compare(0, head.size(), head) != 0)
+    return 0;
+  std::size_t end = head.size();
+  long pid = 0;
+  for (; end < name.size() && std::isdigit(static_cast<unsigned char>(name[end])); ++end)
+    pid = pid * 10 + (name[end] - '0');
+  const bool ends = end == name.size() || name[end] == '.';
+  return end > head.size() && ends && pid > 0 ? pid : 0;
+}
+
+/** The target as a path without a trailing slash, a link to a directory resolved (the
+ *  directory is swapped, the link kept). */
+fs::path
+targetPath(const std::string& target)
+{
+  fs::path p = fs::absolute(target).lexically_normal();
+  if (p.filename().empty())
+    p = p.parent_path();
+  std::error_code ec;
+  if (fs::is_symlink(p, ec) && fs::is_directory(p, ec))
+    p = fs::canonical(p, ec);
+  if (p.filename().empty() || p == p.root_path())
+    throw OutputDirectoryError(target +
+                               ": the file system's root cannot be an output directory");
+  return p;
+}
+
+/** Throws unless `dir` holds only names `owned` accepts (or temporaries); true where it holds
+ *  any (an earlier run's outputs). */
+bool
+holdsEarlierRun(const fs::path& dir, const OutputNamePredicate& owned)
+{
+  std::vector<std::string> foreign;
+  bool any = false;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    any = true;
+    if (!(it->is_regular_file(ec) && (owned(name) || isTemporaryName(name))))
+      foreign.push_back(name);
+  }
+  if (ec)
+    throw OutputDirectoryError(dir.string() + ": cannot list the output directory (" +
+                               ec.message() + ")");
+  if (!foreign.empty()) {
+    std::string names;
+    for (std::size_t k = 0; k < foreign.size() && k < 3; ++k)
+      names += (k ? ", " : "") + foreign[k];
+    throw OutputDirectoryError(
+        dir.string() + ": the output directory holds what no run wrote (" + names +
+        (foreign.size() > 3 ? ", ..." : "") +
+        "); choose a new or empty directory, or one holding an earlier run's outputs");
+  }
+  return any;
+}
+
+} // namespace
+
+bool
+isRunOutputName(const std::string& name)
+{
+  static const std::regex names("scan[0-9]+\\.frames|poses(_icp)?(_tum)?\\.txt|"
+                                "map(_rank[0-9]+)?\\.(pcd|ply)|map\\.png|report\\.json");
+  return std::regex_match(name, names);
+}
+
+bool
+isTemporaryName(const std::string& name)
+{
+  static const std::regex temporary("\\..+\\.tmp[0-9]+");
+  return std::regex_match(name, temporary);
+}
+
+std::string
+temporaryName(const std::string& prefix)
+{
+  return prefix + hostName() + "-" + std::to_string(::getpid());
+}
+
+std::size_t
+removeStaleTemporaries(const std::string& dir, const std::string& prefix)
+{
+  std::vector<fs::path> stale;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const long pid = temporaryPid(it->path().filename().string(), prefix);
+    if (pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH)
+      stale.push_back(it->path());
+  }
+  for (const fs::path& p : stale)
+    fs::remove_all(p, ec);
+  return stale.size();
+}
+
+OutputDirectory::OutputDirectory(const std::string& target, OutputNamePredicate owned)
+{
+  const fs::path t = targetPath(target);
+  target_ = t.string();
+  std::error_code ec;
+  if (fs::exists(t, ec)) {
+    if (!fs::is_directory(t, ec))
+      throw OutputDirectoryError(target + ": exists and is not a directory");
+    replaces_ = holdsEarlierRun(t, owned);
+  }
+  const fs::path parent = t.parent_path();
+  fs::create_directories(parent, ec);
+  if (ec || !fs::is_directory(parent))
+    throw OutputDirectoryError(parent.string() + ": cannot create the directory (" +
+                               (ec ? ec.message() : "not a directory") + ")");
+  const std::string prefix = "." + t.filename().string() + ".pcl_pslam-";
+  removeStaleTemporaries(parent.string(), prefix);
+  static std::atomic<int> serial{0}; // several in one process (tests)
+  path_ = (parent / (temporaryName(prefix) + "." + std::to_string(serial++))).string();
+  if (!fs::create_directory(path_, ec) || ec)
+    throw OutputDirectoryError(
+        target + ": cannot create a temporary directory beside it (" +
+        (ec ? ec.message() : "it exists") +
+        "): the outputs are written there and swapped in at the end; choose an output "
+        "directory in a writable directory");
+}
+
+OutputDirectory::~OutputDirectory()
+{
+  std::error_code ec;
+  if (!committed_)
+    fs::remove_all(path_, ec);
+}
+
+void
+OutputDirectory::commit()
+{
+  std::error_code ec;
+  const bool occupied = fs::exists(target_, ec) && !fs::is_empty(target_, ec);
+  if (!occupied) { // rename(2) replaces an empty directory
+    fs::rename(path_, target_, ec);
+    if (ec)
+      throw OutputDirectoryError(target_ + ": cannot move the outputs into place (" +
+                                 ec.message() + ")");
+    committed_ = true;
+    return;
+  }
+#ifdef RENAME_EXCHANGE
+  if (::renameat2(AT_FDCWD, path_.c_str(), AT_FDCWD, target_.c_str(), RENAME_EXCHANGE) == 0) {
+    committed_ = true;
+    fs::remove_all(path_, ec); // the earlier run, now under the temporary name
+    return;
+  }
+  if (errno != EINVAL && errno != ENOSYS && errno != ENOTSUP)
+    throw OutputDirectoryError(target_ + ": cannot swap the outputs in (" +
+                               std::strerror(errno) + ")");
+#endif
+  // A file system without the exchange: the earlier run aside, then the new one in.
+  const std::string earlier = path_ + ".earlier";
+  fs::rename(target_, earlier, ec);
+  if (!ec) {
+    fs::rename(path_, target_, ec);
+    if (std::error_code back; ec)
+      fs::rename(earlier, target_, back); // the target as it was
+  }
+  if (ec)
+    throw OutputDirectoryError(target_ + ": cannot swap the outputs in (" + ec.message() + ")");
+  committed_ = true;
+  fs::remove_all(earlier, ec);
+}
+
+std::string
+OutputDirectory::inTarget(std::string text) const
+{
+  for (std::size_t at = text.find(path_); at != std::string::npos;
+       at = text.find(path_, at + target_.size()))
+    text.replace(at, path_.size(), target_);
+  return text;
+}
+
+} // namespace io
+} // namespace pcl_parallel
