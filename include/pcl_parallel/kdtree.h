@@ -28,8 +28,11 @@ static_assert(sizeof(NearestSlot) == kCacheLineSize && alignof(NearestSlot) == k
 /** The same state without padding: adjacent threads share cache lines. Exists only so
  *  the benchmark can measure what the padding buys (false sharing, paper Sec. IV-B). */
 struct PackedNearestSlot {
+  /** The query point (x, y, z). */
   const float* query = nullptr;
+  /** Squared distance of the best match so far. */
   float sqr_dist = 0.0f;
+  /** Tree position of the best match so far. */
   std::uint32_t pos = 0;
 };
 
@@ -61,10 +64,14 @@ enum class SlotLayout { kPadded, kPacked };
  */
 class KdTreeIndex {
 public:
+  /** Shared pointer to a tree. */
   using Ptr = std::shared_ptr<KdTreeIndex>;
+  /** Shared pointer to a const tree. */
   using ConstPtr = std::shared_ptr<const KdTreeIndex>;
 
+  /** "No point": a position or index that names none. */
   static constexpr std::uint32_t kInvalid = std::numeric_limits<std::uint32_t>::max();
+  /** The default bucket size (points per leaf). */
   static constexpr unsigned kDefaultBucketSize = 12;
 
   /** Builds the tree. \a xyz holds \a n points with \a stride floats between consecutive
@@ -92,11 +99,13 @@ public:
   {
     return ids_.size();
   }
+  /** True when the tree holds no point. */
   bool
   empty() const
   {
     return ids_.empty();
   }
+  /** Number of nodes of the flat tree. */
   std::size_t
   numNodes() const
   {
@@ -110,6 +119,7 @@ public:
     return nodes_.capacity() * sizeof(Node) + points_.capacity() * sizeof(float) +
            ids_.capacity() * sizeof(std::uint32_t);
   }
+  /** Largest number of points per leaf. */
   unsigned
   bucketSize() const
   {
@@ -148,6 +158,7 @@ public:
    *  padded slot. Returns slot.pos. */
   std::uint32_t
   nearest(NearestSlot& slot, float max_sqr_dist, std::uint32_t hint = kInvalid) const;
+  /** nearest() on the unpadded slot (the benchmark's comparison; paper Sec. IV-B). */
   std::uint32_t
   nearest(PackedNearestSlot& slot, float max_sqr_dist, std::uint32_t hint = kInvalid) const;
 
@@ -181,12 +192,16 @@ public:
 private:
   /** Node of the flat tree. Inner nodes: axis 0..2, children at this+1 and right. */
   struct Node {
+    /** An inner node's split planes. */
     struct Split {
       float lo; ///< largest coordinate along axis in the left child
       float hi; ///< smallest coordinate along axis in the right child
     };
+    /** A leaf's points: tree positions [begin, end). */
     struct Leaf {
+      /** First tree position of the leaf. */
       std::uint32_t begin;
+      /** One past its last tree position. */
       std::uint32_t end;
     };
     union {

@@ -114,10 +114,13 @@ orthonormalized(const Eigen::Matrix4d& pose)
 /** The error of pose a against pose b: the angle (rad) of the rotation between them,
  *  R_a^T R_b, and the distance between their positions (in the poses' unit). */
 struct PoseError {
+  /** Rotation angle between the two poses (rad). */
   double angle = 0.0;
+  /** Distance between the two positions (the poses' unit). */
   double distance = 0.0;
 };
 
+/** The error of pose \a a against pose \a b: angle of R_aᵀR_b and distance of the positions. */
 inline PoseError
 poseError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 {

@@ -28,8 +28,11 @@ alignmentFromString(const std::string& s);
 
 /** x -> scale · rotation · x + translation. */
 struct Similarity {
+  /** Rotation R of the alignment. */
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  /** Translation t of the alignment. */
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  /** Scale c (1 for SE(3)). */
   double scale = 1.0;
 
   /** A pose of the estimate moved into the reference frame, as evo's PosePath3D.align

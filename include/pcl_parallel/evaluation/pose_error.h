@@ -14,6 +14,7 @@
 namespace pcl_parallel {
 namespace evaluation {
 
+/** A trajectory: one 4x4 pose per frame, p_world = T·p. */
 using Poses = std::vector<Eigen::Matrix4d>;
 
 // The pose error and rotation angle live in pose_math.h; the evaluation API names them too.
@@ -26,10 +27,14 @@ using pcl_parallel::rotationAngle;
  *  for an even count, as numpy), std (population, numpy's default), min, max. All zero for
  *  an empty list (count tells). */
 struct Statistics {
-  std::size_t count = 0;
+  std::size_t count = 0; ///< number of errors summarised
+  /** the statistic its name says, in the errors' unit */
+  ///@{
   double rmse = 0.0, mean = 0.0, median = 0.0, std = 0.0, min = 0.0, max = 0.0;
+  ///@}
 };
 
+/** The Statistics of \a values (evo's rmse, mean, median, std, min, max). */
 Statistics
 computeStatistics(std::vector<double> values);
 
@@ -37,9 +42,14 @@ computeStatistics(std::vector<double> values);
  *  \a first on (e.g. 1 to skip a pose fixed at the truth): angles in rad, distances in the
  *  poses' unit. Throws std::invalid_argument when a and b differ in size. */
 struct PoseErrorSummary {
+  /** Statistics of the rotation angles (rad) and of the position distances. */
+  ///@{
   Statistics angle, distance;
+  ///@}
 };
 
+/** Per-pose errors of \a a against \a b from index \a first on, summarised (see
+ *  PoseErrorSummary). */
 PoseErrorSummary
 summarizePoseErrors(const Poses& a, const Poses& b, std::size_t first = 0);
 

@@ -20,7 +20,11 @@ namespace evaluation {
 
 /** The estimate's and the truth's poses paired, and how, in words. */
 struct PairedTrajectories {
+  /** The paired estimate and ground-truth poses. */
+  ///@{
   Poses estimate, truth;
+  ///@}
+  /** How the poses were paired (by time stamp or by index), in words. */
   std::string association;
 };
 
@@ -51,6 +55,7 @@ kittiLengthsFromString(const std::string& text);
 
 /** How evaluateFiles reads, pairs and evaluates two trajectory files. */
 struct FileEvaluationOptions {
+  /** The metrics' options (alignment, KITTI lengths and step, RPE delta). */
   EvaluationOptions evaluation;
   double max_diff = 0.01;               ///< pairing by time stamp: largest difference (s)
   double frames_unit = io::kFramesUnit; ///< metres per unit of .frames translations
@@ -59,9 +64,16 @@ struct FileEvaluationOptions {
 
 /** Two trajectory files evaluated: what was read, how it was paired, the errors. */
 struct FileEvaluation {
+  /** The paths of the two files as given. */
+  ///@{
   std::string estimate_path, truth_path;
+  ///@}
+  /** The two trajectories as read. */
+  ///@{
   io::Trajectory estimate, truth;
+  ///@}
   std::string association; ///< pairTrajectories' words
+  /** The errors of the paired estimate against the truth. */
   TrajectoryEvaluation errors;
 };
 
@@ -84,7 +96,9 @@ toJson(const FileEvaluation& evaluation, int indent = 2);
 
 /** A trajectory's errors under a name: a row of printErrorRows. */
 struct NamedEvaluation {
+  /** The row's label (e.g. "front end"). */
   std::string name;
+  /** The row's errors. */
   TrajectoryEvaluation errors;
 };
 

@@ -24,12 +24,16 @@ namespace evaluation {
  *  Alignment), then per pose the distance between the positions (evo's translation_part)
  *  and the angle of est⁻¹·ref (evo's rotation_angle_deg). */
 struct AbsoluteError {
+  /** The alignment applied before the errors were taken. */
   Alignment alignment = Alignment::None;
   Similarity similarity;  ///< est -> reference frame (identity for Alignment::None)
   Statistics translation; ///< metres
+  /** Statistics of the rotation errors in degrees. */
   Statistics rotation_deg;
 };
 
+/** ATE of \a estimate against \a reference (paired index by index) after \a alignment, as
+ *  evo_ape. */
 AbsoluteError
 absoluteTrajectoryError(const Poses& estimate, const Poses& reference, Alignment alignment);
 
@@ -37,7 +41,11 @@ absoluteTrajectoryError(const Poses& estimate, const Poses& reference, Alignment
  *  from first_frame to the first frame whose distance along the reference path exceeds
  *  first_frame's by more than length; errors of the relative motion divided by the length. */
 struct KittiSegment {
+  /** The segment's first and last frame. */
+  ///@{
   std::size_t first_frame = 0, last_frame = 0;
+  ///@}
+  /** The segment's path length on the reference (m). */
   double length = 0.0;
   double translation = 0.0; ///< |t(E)| / length (a fraction; the devkit prints it x100 as %)
   double rotation = 0.0;    ///< angle(E) / length, rad/m
@@ -46,19 +54,29 @@ struct KittiSegment {
 /** The devkit's errors per length (its plot files, kept when at least 3 segments) and over
  *  all segments (its stats.txt and leaderboard numbers). */
 struct KittiLengthError {
+  /** The segment length (m) these errors are for. */
   double length = 0.0;
+  /** Number of segments of this length. */
   std::size_t segments = 0;
+  /** Mean translation error (% of the length) and rotation error (deg/m) over the segments. */
+  ///@{
   double translation_percent = 0.0, rotation_deg_per_m = 0.0;
+  ///@}
 };
 
+/** KITTI odometry devkit's relative error over segments of fixed path lengths. */
 struct KittiRelativeError {
   std::vector<double> lengths; ///< segment lengths used
   std::size_t step = 10;       ///< first frames 0, step, 2 step, ...
+  /** Every segment evaluated. */
   std::vector<KittiSegment> segments;
   std::vector<KittiLengthError> per_length; ///< one entry per length, even with 0 segments
+  ///@{
   /** Means over all segments; zero (and valid() false) when no segment fits the path. */
   double translation_percent = 0.0, rotation_deg_per_m = 0.0;
+  ///@}
 
+  /** True when at least one segment was evaluated. */
   bool
   valid() const
   {
@@ -90,12 +108,16 @@ kittiRelativeError(const Poses& estimate,
  *  angle(E) in degrees (angle_deg), point distance = | |ref_i - ref_j| - |est_i - est_j| |
  *  (point_distance). */
 struct FrameRelativeError {
+  /** Frames between the two poses of a pair. */
   std::size_t delta = 1;
   Statistics translation; ///< metres
+  /** Statistics of the relative rotation errors in degrees. */
   Statistics rotation_deg;
   Statistics point_distance; ///< metres
 };
 
+/** Per-frame RPE of \a estimate against \a reference over pairs \a delta frames apart, as
+ *  evo_rpe. */
 FrameRelativeError
 frameRelativeError(const Poses& estimate, const Poses& reference, std::size_t delta = 1);
 
@@ -110,16 +132,24 @@ associateByTimestamp(const std::vector<double>& estimate_stamps,
 
 /** Everything `pcl_pslam evaluate` reports, for two associated pose lists. */
 struct EvaluationOptions {
+  /** Alignment before the ATE. */
   Alignment alignment = Alignment::SE3;
   std::vector<double> kitti_lengths; ///< empty: kittiLengthsFor(reference)
+  /** KITTI RPE: frames between segment starts (the devkit's 10). */
   std::size_t kitti_step = 10;
+  /** Per-frame RPE: frames between the poses of a pair. */
   std::size_t rpe_delta = 1;
 };
 
+/** Every metric of one estimate against one reference: ATE (aligned and not), per-frame RPE,
+ *  KITTI RPE. */
 struct TrajectoryEvaluation {
+  /** Number of paired poses. */
   std::size_t poses = 0;
+  /** Path length of the reference (m). */
   double reference_path_length = 0.0;
   AbsoluteError ate; ///< with options.alignment
+  /** ATE without any alignment. */
   AbsoluteError ate_unaligned;
   KittiRelativeError kitti; ///< on the aligned estimate (only Sim3 changes it)
   FrameRelativeError rpe;   ///< likewise

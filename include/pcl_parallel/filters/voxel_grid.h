@@ -66,7 +66,9 @@ public:
   /** voxel_size must be > 0 (throws std::invalid_argument). */
   explicit VoxelCentroidMap(double voxel_size, unsigned num_threads = 0);
   ~VoxelCentroidMap();
+  /** Moves the map. */
   VoxelCentroidMap(VoxelCentroidMap&&) noexcept;
+  /** Move-assigns the map. */
   VoxelCentroidMap&
   operator=(VoxelCentroidMap&&) noexcept;
 
@@ -75,7 +77,9 @@ public:
   public:
     Grouped();
     ~Grouped();
+    /** Moves the grouping. */
     Grouped(Grouped&&) noexcept;
+    /** Move-assigns the grouping. */
     Grouped&
     operator=(Grouped&&) noexcept;
 

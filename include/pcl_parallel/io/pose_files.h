@@ -19,6 +19,8 @@
 namespace pcl_parallel {
 namespace io {
 
+/** The trajectory file formats: KITTI (12 numbers a line), TUM (stamp, position, quaternion),
+ *  3DTK .frames. */
 enum class PoseFileFormat { Kitti, Tum, Frames };
 
 /** "kitti", "tum", "frames". */
@@ -30,8 +32,10 @@ toString(PoseFileFormat format);
  *  are kept: like the app, we work in 3DTK's own left-handed, y-up frame, only scaled). */
 constexpr double kFramesUnit = 0.01;
 
+///@{
 /** 3DTK's frame type codes (Scan::AlgoType), which its viewer colours. */
 constexpr int kFramesInvalid = 0, kFramesIcp = 1, kFramesIcpInactive = 2, kFramesLum = 3;
+///@}
 
 /** A pose file's pose is a rigid motion: its rotation orthonormal within this (every
  *  entry of R^T R - I), det R > 0, last row 0 0 0 1. */
@@ -47,8 +51,11 @@ poseProblem(const Eigen::Matrix4d& pose);
 /** A trajectory as read from a file: poses (p_world = T·p), and one timestamp per pose (in
  *  seconds) where the format has them (TUM), else none. */
 struct Trajectory {
+  /** The poses, p_world = T·p. */
   std::vector<Eigen::Matrix4d> poses;
+  /** One time stamp (s) per pose where the format has them (TUM), else empty. */
   std::vector<double> timestamps;
+  /** The format the file was read as. */
   PoseFileFormat format = PoseFileFormat::Kitti;
 };
 
@@ -89,7 +96,9 @@ loadFramesFinalPose(const std::string& path);
 
 /** One line of a .frames file: a pose and its type code. */
 struct Frame {
+  /** The pose (4x4). */
   Eigen::Matrix4d pose;
+  /** Its 3DTK type code (kFramesIcp, kFramesLum, ...). */
   int type = kFramesIcp;
 };
 

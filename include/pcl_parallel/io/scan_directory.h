@@ -37,6 +37,7 @@ struct ScanDataError : std::runtime_error {
 
 /** What to read of a directory. Lengths in the files' units. */
 struct ScanDirectoryOptions {
+  /** The directory of scans. */
   std::string dir;
   /** KITTI or TUM odometry (detectPoseFileFormat), one pose per scan file of the
    *  directory (before -s/-e); "": none, or the .pose files beside 3DTK .3d scans. */
@@ -61,6 +62,7 @@ struct ScanDirectory {
   std::vector<std::string> files;       ///< per scan: its file
   std::vector<int> numbers;             ///< per scan: its number (-s/-e count in these)
   std::vector<double> stamps;           ///< per scan: time (s), or the number when none given
+  /** True when the time stamps came from a file (times.txt, --times, a TUM file). */
   bool has_stamps = false;
   std::string format;       ///< "3d", "bin", ...
   double scale = 1.0;       ///< file coordinates times scale = metres
@@ -69,6 +71,7 @@ struct ScanDirectory {
   double min_range = 0.0;   ///< files' units
   double max_range = std::numeric_limits<double>::infinity(); ///< files' units
 
+  /** Number of selected scans. */
   std::size_t
   size() const
   {

@@ -33,7 +33,9 @@ linkRange(std::size_t num_links, int rank, int size);
 
 /** FNV-1a over values' bytes: compares options and graphs across ranks. */
 struct Fnv1a {
+  /** The hash so far (FNV-1a's offset basis at the start). */
   std::uint64_t value = 14695981039346656037ull;
+  /** Hashes the bytes of \a v into value. */
   template <typename T>
   void
   add(const T& v)
@@ -80,11 +82,14 @@ throwIfAnyFailed(MPI_Comm comm, const std::string& error);
 template <typename PointT>
 class DistributedLUM {
 public:
+  /** The single-process pLUM this drives. */
   using Lum = ParallelLUM<PointT>;
+  /** Shared pointer to a scan cloud. */
   using PointCloudPtr = typename Lum::PointCloudPtr;
   /** Returns the scan of a vertex (e.g. read from its file); throws on failure. */
   using CloudLoader = std::function<PointCloudPtr(std::size_t vertex)>;
 
+  /** A driver over the ranks of \a comm (all must construct it with the same graph). */
   explicit DistributedLUM(MPI_Comm comm = MPI_COMM_WORLD);
 
   /** The options of the relaxation (pLUM mode is required: setCorrespondenceDistance or
@@ -128,6 +133,7 @@ public:
   {
     return lum_.getPoseMatrix(vertex);
   }
+  /** Number of vertices (scans) of the graph. */
   std::size_t
   getNumVertices() const
   {
@@ -158,11 +164,13 @@ public:
   /** ... when `remote_links` links are measured off rank 0 (e.g. computeOn's owner). */
   static std::uint64_t
   iterationBytes(std::size_t remote_links, std::size_t num_vertices, int size);
+  /** This process's rank in the communicator. */
   int
   getRank() const
   {
     return rank_;
   }
+  /** Number of ranks in the communicator. */
   int
   getSize() const
   {

@@ -20,17 +20,21 @@ namespace mpi {
  */
 class Session {
 public:
+  /** Initialises MPI when started by a launcher (mpirun), else nothing; \a argc and \a argv as
+   *  main's. */
   Session(int& argc, char**& argv);
   ~Session();
   Session(const Session&) = delete;
   Session&
   operator=(const Session&) = delete;
 
+  /** This process's rank (0 without a launcher). */
   int
   rank() const
   {
     return rank_;
   }
+  /** Number of ranks (1 without a launcher). */
   int
   size() const
   {

@@ -33,8 +33,12 @@ namespace registration {
 double
 motionDisplacement(const Eigen::Matrix4d& motion, double range);
 
+/** KISS-ICP's adaptive correspondence gate: 3σ of how far matches moved scans from the
+ *  prediction (Vizzo et al., RA-L 2023, Sec. III-C). */
 class AdaptiveThreshold {
 public:
+  /** A gate starting at \a initial_threshold; deviations below \a min_motion are not sampled,
+   *  rotations count at \a max_range; \a window > 0 keeps only the last samples. */
   AdaptiveThreshold(double initial_threshold,
                     double min_motion,
                     double max_range,
@@ -100,6 +104,7 @@ public:
    *  prior (docs/design.md, "The motion prior's spread"). */
   double
   translationSigma() const;
+  /** The RMS rotation of the sampled deviations (rad). */
   double
   rotationSigma() const;
 

@@ -37,17 +37,23 @@ template <typename PointSource, typename PointTarget, typename Scalar = float>
 class ParallelCorrespondenceEstimation
     : public pcl::registration::CorrespondenceEstimationBase<PointSource, PointTarget, Scalar> {
 public:
+  /** PCL's base class. */
   using Base =
       pcl::registration::CorrespondenceEstimationBase<PointSource, PointTarget, Scalar>;
+  /** Shared pointer, as PCL's. */
   using Ptr =
       pcl::shared_ptr<ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>>;
+  /** Shared pointer to const, as PCL's. */
   using ConstPtr =
       pcl::shared_ptr<const ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>>;
+  /** The target tree type searched in parallel. */
   using TargetTree = pcl_parallel::search::KdTree<PointTarget>;
 
   ParallelCorrespondenceEstimation();
   ~ParallelCorrespondenceEstimation() override = default;
 
+  /** PCL's determineCorrespondences, the closest-point queries in parallel; the same pairs in
+   *  the same order as PCL's. */
   void
   determineCorrespondences(pcl::Correspondences& correspondences,
                            double max_distance = std::numeric_limits<double>::max()) override;
@@ -58,6 +64,7 @@ public:
       pcl::Correspondences& correspondences,
       double max_distance = std::numeric_limits<double>::max()) override;
 
+  /** A copy of this estimator, as PCL's clone(). */
   typename Base::Ptr
   clone() const override
   {
@@ -70,6 +77,7 @@ public:
   {
     num_threads_ = num_threads;
   }
+  /** Threads used (0: all cores). */
   unsigned
   getNumberOfThreads() const
   {

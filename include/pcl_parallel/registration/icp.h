@@ -34,10 +34,14 @@ namespace registration {
 template <typename Scalar = float>
 class FusedConvergenceCriteria : public pcl::registration::DefaultConvergenceCriteria<Scalar> {
 public:
+  /** PCL's criteria this extends. */
   using Base = pcl::registration::DefaultConvergenceCriteria<Scalar>;
+  /** Transform matrix type. */
   using Matrix4 = typename Base::Matrix4;
+  /** Shared pointer. */
   using Ptr = pcl::shared_ptr<FusedConvergenceCriteria<Scalar>>;
 
+  /** Criteria over the registration's iteration count, transform and correspondences, as PCL's. */
   FusedConvergenceCriteria(const int& iterations,
                            const Matrix4& transform,
                            const pcl::Correspondences& correspondences)
@@ -58,6 +62,7 @@ public:
     use_external_mse_ = false;
   }
 
+  /** PCL 1.13's convergence rules in order, with the MSE the fused pass supplied. */
   bool
   hasConverged() override;
 
@@ -133,17 +138,27 @@ template <typename PointSource, typename PointTarget, typename Scalar = float>
 class ParallelIterativeClosestPoint
     : public pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar> {
 public:
+  /** PCL's ICP this class extends. */
   using Base = pcl::IterativeClosestPoint<PointSource, PointTarget, Scalar>;
+  /** Shared pointer, as PCL's. */
   using Ptr = pcl::shared_ptr<ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>>;
+  /** Shared pointer to const, as PCL's. */
   using ConstPtr =
       pcl::shared_ptr<const ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>>;
+  /** Source cloud type. */
   using PointCloudSource = typename Base::PointCloudSource;
+  /** Target cloud type. */
   using PointCloudTarget = typename Base::PointCloudTarget;
+  /** Shared pointer to a const target cloud. */
   using PointCloudTargetConstPtr = typename Base::PointCloudTargetConstPtr;
+  /** Transform matrix type. */
   using Matrix4 = typename Base::Matrix4;
+  /** The target tree type (pcl_parallel's k-d tree). */
   using TargetTree = pcl_parallel::search::KdTree<PointTarget>;
+  /** The parallel correspondence estimation used by default. */
   using CorrespondenceEstimation =
       ParallelCorrespondenceEstimation<PointSource, PointTarget, Scalar>;
+  /** The convergence criteria fed by the fused pass. */
   using ConvergenceCriteria = FusedConvergenceCriteria<Scalar>;
 
   /** How the fast path computes the rotation from the correlation matrix H (Eq. 9). */
@@ -159,17 +174,20 @@ public:
    *  0 (default) = all cores. */
   void
   setNumberOfThreads(unsigned num_threads);
+  /** Threads used (0: all cores). */
   unsigned
   getNumberOfThreads() const
   {
     return num_threads_;
   }
 
+  /** Rotation from the moments: Arun's SVD (Eq. 9, default) or Horn's quaternion. */
   void
   setRotationMethod(RotationMethod method)
   {
     rotation_method_ = method;
   }
+  /** The rotation method (setRotationMethod). */
   RotationMethod
   getRotationMethod() const
   {
@@ -186,17 +204,21 @@ public:
   {
     point_to_plane_ = point_to_plane;
   }
+  /** True when point-to-plane is on (setUsePointToPlane). */
   bool
   getUsePointToPlane() const
   {
     return point_to_plane_;
   }
+  /** Point-to-plane: take the target's normals from its normal_x/y/z fields instead of
+   *  estimating them. */
   void
   setUseTargetNormalFields(bool use)
   {
     use_normal_fields_ = use;
     normals_valid_ = false;
   }
+  /** True when the target's normal fields are used (setUseTargetNormalFields). */
   bool
   getUseTargetNormalFields() const
   {
@@ -209,6 +231,7 @@ public:
     normal_k_ = k < 3 ? 3 : k;
     normals_valid_ = false;
   }
+  /** Neighbours per estimated target normal. */
   unsigned
   getNormalEstimationK() const
   {
@@ -230,6 +253,7 @@ public:
    *  scale is not positive and finite. */
   void
   setRobustKernel(const RobustKernel& kernel);
+  /** The robust kernel (setRobustKernel). */
   const RobustKernel&
   getRobustKernel() const
   {
@@ -250,6 +274,7 @@ public:
   setMotionPrior(const Eigen::Matrix4d& prior,
                  double weight_translation,
                  double weight_rotation);
+  /** Removes the motion prior (setMotionPrior). */
   void
   clearMotionPrior()
   {
@@ -281,11 +306,13 @@ public:
   {
     return final_hessian_;
   }
+  /** The last iteration's weighted sum of squared residuals (point-to-plane). */
   double
   getFinalError() const
   {
     return final_error_;
   }
+  /** The last iteration's sum of weights (point-to-plane). */
   double
   getFinalWeight() const
   {
@@ -335,6 +362,8 @@ protected:
   using pcl::Registration<PointSource, PointTarget, Scalar>::force_no_recompute_;
   using pcl::Registration<PointSource, PointTarget, Scalar>::target_cloud_updated_;
 
+  /** PCL's entry point from align(): the fused parallel pass when every component is the
+   *  default, else PCL's loop. */
   void
   computeTransformation(PointCloudSource& output, const Matrix4& guess) override;
 

@@ -21,7 +21,9 @@ namespace registration {
  * (KISS-ICP uses the same weight with its kernel value in place of s²).
  */
 struct RobustKernel {
+  /** The kernels: none (least squares), Huber, Geman-McClure. */
   enum class Type { kNone, kHuber, kGemanMcClure };
+  /** Which kernel. */
   Type type = Type::kNone;
   double scale = 1.0; ///< s, in the units of the residual (point distance or plane distance)
 
@@ -47,8 +49,11 @@ struct RobustKernel {
 /** One pair of the fused pass: transformed source point d, its match m in the target
  *  tree, and the pair's IRLS weight. */
 struct MatchedPair {
+  /** The transformed source point d. */
   float d[3];
+  /** Its match m in the target tree (x, y, z). */
   const float* m;
+  /** The pair's IRLS weight. */
   double w;
 };
 
@@ -62,7 +67,9 @@ struct PointToPointMoments {
   double n = 0.0;        ///< pairs
   double w = 0.0;        ///< Σ w (= n without a robust kernel)
   double sqr_dist = 0.0; ///< Σ |m - d|² (the correspondences' `distance` in PCL)
+  /** Weighted centroid of the source points, c_di. */
   double cd[3] = {0, 0, 0};
+  /** Weighted centroid of the target points, c_mi. */
   double cm[3] = {0, 0, 0};
   double h[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}; ///< row-major
 };
@@ -92,7 +99,9 @@ struct PointToPointFactor {
  * TransformationEstimationPointToPlaneLLS). Summed per fixed block, added in block order.
  */
 struct NormalEquations {
+  /** Pairs summed. */
   double n = 0.0;
+  /** Sum of weights. */
   double w = 0.0;
   double sqr_dist = 0.0;    ///< Σ |m - d|² (PCL's MSE, as for point-to-point)
   double sd[3] = {0, 0, 0}; ///< Σ w d: the rotation is applied about the weighted centroid
@@ -125,6 +134,7 @@ struct NormalEquations {
       sd[a] += wt * d[a];
   }
 
+  /** Adds another block's sums (blocks are added in block order). */
   void
   operator+=(const NormalEquations& o)
   {

@@ -72,19 +72,31 @@ class DistributedLUM;
 template <typename PointT>
 class ParallelLUM {
 public:
+  /** Shared pointer, as PCL's. */
   using Ptr = pcl::shared_ptr<ParallelLUM<PointT>>;
+  /** Shared pointer to const, as PCL's. */
   using ConstPtr = pcl::shared_ptr<const ParallelLUM<PointT>>;
+  /** Scan cloud type. */
   using PointCloud = pcl::PointCloud<PointT>;
+  /** Shared pointer to a scan cloud. */
   using PointCloudPtr = typename PointCloud::Ptr;
+  /** Shared pointer to a const scan cloud. */
   using PointCloudConstPtr = typename PointCloud::ConstPtr;
 
   // PCL's own graph type, so setLoopGraph/getLoopGraph interoperate with LUM<PointT>.
+  /** PCL's LUM, whose graph types this class shares. */
   using PclLUM = pcl::registration::LUM<PointT>;
+  /** PCL's vertex properties (cloud, pose). */
   using VertexProperties = typename PclLUM::VertexProperties;
+  /** PCL's edge properties (correspondences, information). */
   using EdgeProperties = typename PclLUM::EdgeProperties;
+  /** PCL's SLAM graph (Boost adjacency list). */
   using SLAMGraph = typename PclLUM::SLAMGraph;
+  /** Shared pointer to the graph. */
   using SLAMGraphPtr = typename PclLUM::SLAMGraphPtr;
+  /** A vertex (scan) of the graph. */
   using Vertex = typename SLAMGraph::vertex_descriptor;
+  /** An edge (link) of the graph. */
   using Edge = typename SLAMGraph::edge_descriptor;
 
   ParallelLUM();
@@ -95,11 +107,13 @@ public:
    *  the graph it replaces. */
   void
   setLoopGraph(const SLAMGraphPtr& slam_graph);
+  /** The SLAM graph, as PCL's. */
   SLAMGraphPtr
   getLoopGraph() const
   {
     return slam_graph_;
   }
+  /** Number of vertices (scans). */
   typename SLAMGraph::vertices_size_type
   getNumVertices() const;
   /** Iteration cap of compute() (default 5, as PCL). */
@@ -108,6 +122,7 @@ public:
   {
     max_iterations_ = max_iterations;
   }
+  /** Iteration cap of compute(). */
   int
   getMaxIterations() const
   {
@@ -120,6 +135,7 @@ public:
   {
     convergence_threshold_ = convergence_threshold;
   }
+  /** Mean pose update below which compute() stops. */
   float
   getConvergenceThreshold() const
   {
@@ -130,14 +146,19 @@ public:
   Vertex
   addPointCloud(const PointCloudPtr& cloud,
                 const Eigen::Vector6f& pose = Eigen::Vector6f::Zero());
+  /** Sets the cloud of \a vertex, as PCL's. */
   void
   setPointCloud(const Vertex& vertex, const PointCloudPtr& cloud);
+  /** The cloud of \a vertex. */
   PointCloudPtr
   getPointCloud(const Vertex& vertex) const;
+  /** Sets the pose of \a vertex as PCL's (x, y, z, roll, pitch, yaw). */
   void
   setPose(const Vertex& vertex, const Eigen::Vector6f& pose);
+  /** The pose of \a vertex as PCL's 6-vector. */
   Eigen::Vector6f
   getPose(const Vertex& vertex) const;
+  /** The pose of \a vertex as a 4x4 float transform, as PCL's. */
   Eigen::Affine3f
   getTransformation(const Vertex& vertex) const;
   /** Adds (or replaces) link source -> target with pairs (index_query in source,
@@ -152,8 +173,10 @@ public:
   /** Runs up to getMaxIterations() iterations (see the class comment). */
   void
   compute();
+  /** The cloud of \a vertex moved by its pose. */
   PointCloudPtr
   getTransformedCloud(const Vertex& vertex) const;
+  /** All clouds moved by their poses, concatenated. */
   PointCloudPtr
   getConcatenatedCloud() const;
 
@@ -173,8 +196,10 @@ public:
     else
       return addPointCloud(cloud, Eigen::Vector6f(pose.template cast<float>()));
   }
+  /** Sets the pose of \a vertex as a 4x4 double transform. */
   void
   setPoseMatrix(const Vertex& vertex, const Eigen::Matrix4d& pose);
+  /** The pose of \a vertex as a 4x4 double transform. */
   Eigen::Matrix4d
   getPoseMatrix(const Vertex& vertex) const;
   /** 6x6 marginal covariance of the vertex's last update (t, w), from the last solve's
@@ -206,11 +231,13 @@ public:
   setCorrespondenceDistanceSchedule(double initial_distance,
                                     double final_distance,
                                     double factor);
+  /** The gate a distance schedule shrinks to. */
   double
   getFinalCorrespondenceDistance() const
   {
     return final_correspondence_distance_;
   }
+  /** The factor per iteration of the distance schedule. */
   double
   getCorrespondenceDistanceFactor() const
   {
@@ -231,6 +258,7 @@ public:
   {
     point_to_plane_ = point_to_plane;
   }
+  /** True when pairs are weighted by their normals (setPointToPlane). */
   bool
   getPointToPlane() const
   {
@@ -239,6 +267,7 @@ public:
   /** Weight w of the point-to-point term in point-to-plane mode (default 0.01, >= 0). */
   void
   setPointToPointWeight(double weight);
+  /** Point-to-point weight w in n nᵀ + w I. */
   double
   getPointToPointWeight() const
   {
@@ -247,6 +276,7 @@ public:
   /** Neighbours per normal in point-to-plane mode (default 10, >= 3). */
   void
   setNormalNeighbours(std::size_t k);
+  /** Neighbours per estimated normal. */
   std::size_t
   getNormalNeighbours() const
   {
@@ -275,6 +305,7 @@ public:
    *  truth before it converges (docs/design.md). Costs up to k pairings per link. */
   void
   setLinkIterations(int iterations);
+  /** Pairing steps per link and iteration (setLinkIterations). */
   int
   getLinkIterations() const
   {
@@ -284,6 +315,7 @@ public:
    *  and mean update norm, once the poses are updated (getPose/getPoseMatrix return the
    *  new ones): progress reports, or recording the trajectory of a relaxation. */
   using IterationCallback = std::function<void(int iteration, double mean_update)>;
+  /** Calls \a callback(iteration, mean update) after every iteration. */
   void
   setIterationCallback(IterationCallback callback)
   {
@@ -313,6 +345,7 @@ public:
                     const Eigen::Matrix4d& relative,
                     const lum::Matrix6d& information,
                     double cauchy_scale = 0.0);
+  /** Number of pose constraints added. */
   std::size_t
   getNumPoseConstraints() const
   {
@@ -330,6 +363,7 @@ public:
   {
     symmetric_ = symmetric;
   }
+  /** True when pairs are searched in both directions of a link. */
   bool
   getSymmetricCorrespondences() const
   {
@@ -342,6 +376,7 @@ public:
   {
     query_step_ = step > 0 ? step : 1;
   }
+  /** Every k-th point is a query (setQueryStep). */
   std::size_t
   getQueryStep() const
   {
@@ -353,6 +388,7 @@ public:
   {
     min_correspondences_ = n;
   }
+  /** Fewest valid pairs for a link to count in an iteration. */
   std::size_t
   getMinCorrespondences() const
   {
@@ -364,6 +400,7 @@ public:
   {
     num_threads_ = num_threads;
   }
+  /** Threads used (0: all cores). */
   unsigned
   getNumberOfThreads() const
   {
@@ -399,6 +436,7 @@ public:
   {
     return iterations_done_;
   }
+  /** Mean pose update of the last iteration. */
   double
   getLastMeanUpdate() const
   {

@@ -19,7 +19,9 @@
 namespace pcl_parallel {
 namespace lum {
 
+/** A 6-vector (t, w) of a pose update. */
 using Vector6d = Eigen::Matrix<double, 6, 1>;
+/** A 6x6 matrix (information, covariance). */
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 /** Left (world-frame) update of a pose by delta = (t, w). The linearisation below models
@@ -58,6 +60,7 @@ updateBetween(const Eigen::Matrix4d& before, const Eigen::Matrix4d& after);
  */
 class LinkAccumulator {
 public:
+  /** Adds a pair of world points: \a a on the source scan, \a b on the target scan. */
   void
   add(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
   {
@@ -149,10 +152,15 @@ private:
 /** One link's contribution to G X = B: cost (D + H^-1 g)^T H (D + H^-1 g) with
  *  D = delta_source - delta_target. */
 struct LinkBlock {
+  /** The link's source vertex. */
   std::uint32_t source = 0;
+  /** The link's target vertex. */
   std::uint32_t target = 0;
+  /** False when the link is dropped for this iteration (too few pairs, open directions). */
   bool valid = false;
+  /** The link's information matrix H = C⁻¹. */
   Matrix6d info = Matrix6d::Zero();
+  /** The link's gradient g. */
   Vector6d grad = Vector6d::Zero();
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
@@ -162,9 +170,13 @@ struct LinkBlock {
  *  covariance of the error (translation, rotation vector) of a body-frame perturbation
  *  source Exp(e) (g2o's EdgeSE3 convention). */
 struct PoseConstraint {
+  /** The constraint's source vertex. */
   std::uint32_t source = 0;
+  /** The constraint's target vertex. */
   std::uint32_t target = 0;
+  /** The measured relative pose Z. */
   Eigen::Matrix4d measured = Eigen::Matrix4d::Identity();
+  /** Its information matrix (body-frame perturbation of the source). */
   Matrix6d information = Matrix6d::Zero();
   /** > 0: a Cauchy kernel, the information scaled by 1 / (1 + chi2 / cauchy_scale) at
    *  each linearisation (IRLS), so that a constraint the scans contradict yields; chi2 is

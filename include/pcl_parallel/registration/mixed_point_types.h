@@ -49,10 +49,14 @@ internals (CorrespondenceEstimationBase ctor, determine*Correspondences, initCom
 icp.h reads DefaultConvergenceCriteria's protected state. Port and re-test both for this PCL."
 #endif
 
+/** Declares PCL's CorrespondenceEstimationBase constructor specialised for source type S and
+ *  target type T. */
 #define PCL_PARALLEL_DECLARE_MIXED_BASE_CTOR(S, T, SCALAR)                                     \
   template <>                                                                                  \
   CorrespondenceEstimationBase<S, T, SCALAR>::CorrespondenceEstimationBase();
 
+/** Declares PCL's CorrespondenceEstimation::determine(Reciprocal)Correspondences specialised
+ *  for S and T. */
 #define PCL_PARALLEL_DECLARE_MIXED_CE(S, T, SCALAR)                                            \
   template <>                                                                                  \
   void CorrespondenceEstimation<S, T, SCALAR>::determineCorrespondences(                       \
@@ -61,6 +65,7 @@ icp.h reads DefaultConvergenceCriteria's protected state. Port and re-test both 
   void CorrespondenceEstimation<S, T, SCALAR>::determineReciprocalCorrespondences(             \
       pcl::Correspondences& correspondences, double max_distance);
 
+/** Declares PCL's Registration::initCompute specialised for S and T. */
 #define PCL_PARALLEL_DECLARE_MIXED_INIT(S, T, SCALAR)                                          \
   template <>                                                                                  \
   bool Registration<S, T, SCALAR>::initCompute();

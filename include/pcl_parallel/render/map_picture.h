@@ -22,11 +22,17 @@
 namespace pcl_parallel {
 namespace render {
 
+/** The map cloud type. */
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+/** The trajectory: one 4x4 pose per scan. */
 using Poses = std::vector<Eigen::Matrix4d>;
 
+/** A rectangle in the picture's plane (m). */
 struct Extent {
+  /** Its lower and upper corners. */
+  ///@{
   Eigen::Vector2d lo, hi;
+  ///@}
 };
 
 /** The part of the plane a picture shows: the box of the trajectory united with the
@@ -42,6 +48,7 @@ robustExtent(const std::vector<Eigen::Vector2d>& points,
              double quantile = 0.005,
              double margin = 0.04);
 
+/** How writeMapPicture draws the map. */
 struct PictureOptions {
   int up = 2;                 ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
   std::string style = "auto"; ///< height, floorplan, auto

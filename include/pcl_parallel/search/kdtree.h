@@ -32,15 +32,21 @@ namespace search {
 template <typename PointT>
 class KdTree : public pcl::search::KdTree<PointT> {
 public:
+  /** Shared pointer, as PCL's. */
   using Ptr = pcl::shared_ptr<KdTree<PointT>>;
+  /** Shared pointer to const, as PCL's. */
   using ConstPtr = pcl::shared_ptr<const KdTree<PointT>>;
+  /** Cloud type. */
   using PointCloud = typename pcl::search::Search<PointT>::PointCloud;
+  /** Shared pointer to a const cloud. */
   using PointCloudConstPtr = typename pcl::search::Search<PointT>::PointCloudConstPtr;
+  /** Shared pointer to const indices. */
   using IndicesConstPtr = typename pcl::search::Search<PointT>::IndicesConstPtr;
 
   using pcl::search::Search<PointT>::nearestKSearch;
   using pcl::search::Search<PointT>::radiusSearch;
 
+  /** An empty tree; \a sorted: radius results sorted by distance, as PCL's. */
   explicit KdTree(bool sorted = true);
   ~KdTree() override = default;
 
@@ -59,12 +65,14 @@ public:
   setInputCloudAndIndex(const PointCloudConstPtr& cloud,
                         std::shared_ptr<const KdTreeIndex> index);
 
+  /** The k nearest neighbours of \a point, as PCL's. */
   int
   nearestKSearch(const PointT& point,
                  int k,
                  pcl::Indices& k_indices,
                  std::vector<float>& k_sqr_distances) const override;
 
+  /** The neighbours of \a point within \a radius, as PCL's. */
   int
   radiusSearch(const PointT& point,
                double radius,
@@ -95,6 +103,7 @@ public:
   {
     num_threads_ = num_threads;
   }
+  /** Threads used by batch searches (0: all cores). */
   unsigned
   getNumberOfThreads() const
   {

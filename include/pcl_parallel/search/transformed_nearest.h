@@ -12,8 +12,10 @@ namespace pcl_parallel {
 
 /** A rigid transform as the search uses it: row-major 3x4 in float (the tree is float). */
 struct SearchTransform {
+  /** Row-major 3x4 entries. */
   float m[12];
 
+  /** The transform \a t (4x4, any scalar) rounded to float. */
   template <typename Matrix>
   static SearchTransform
   from(const Matrix& t)

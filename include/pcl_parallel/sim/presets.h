@@ -31,6 +31,7 @@ namespace sim {
  * composed onto the true step (pitch and roll come from the truth, as from an IMU).
  */
 struct PresetOptions {
+  /** Random seed: the same seed, the same scans. */
   std::uint32_t seed = 1;
   unsigned num_threads = 0; ///< 0: all cores; the result does not depend on it
   /** Simulate only the first max_scans scans (tests, previews); < 0: all. */
@@ -45,6 +46,7 @@ struct PresetOptions {
   /** Odometry noise overrides: fraction of the distance (translation) and radians per
    *  metre (heading); < 0 keeps the preset's value. */
   double odometry_translation_noise = -1.0;
+  /** Heading noise override (rad/m); < 0 keeps the preset's value. */
   double odometry_heading_noise = -1.0;
   /** Truth, odometry and timestamps only: no ray casting, the scans are left empty
    *  (routes, loops and drift at no cost). */
@@ -67,6 +69,7 @@ presetDescription(const std::string& name);
 SimulatedScanSet
 simulatePreset(const std::string& name, const PresetOptions& options);
 
+/** The preset \a name simulated with \a seed on \a num_threads threads (0: all cores). */
 SimulatedScanSet
 simulatePreset(const std::string& name, std::uint32_t seed = 1, unsigned num_threads = 0);
 

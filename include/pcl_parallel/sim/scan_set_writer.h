@@ -66,7 +66,10 @@ isScanSetName(const std::string& name);
 
 /** What simulateToDirectory wrote. */
 struct ScanSetSummary {
+  /** Scans and points written. */
+  ///@{
   std::size_t scans = 0, points = 0;
+  ///@}
   bool moving = false; ///< taken while moving (point_times): Kitti's files by default
 };
 

@@ -39,7 +39,9 @@ namespace sim {
  * min_range is dropped.
  */
 struct ScannerModel {
+  /** The scan patterns: a spinning head (columns of beams), or Kurt3D's tilting line scanner. */
   enum class Pattern { Spherical, TiltingLine };
+  /** Which pattern. */
   Pattern pattern = Pattern::Spherical;
   int azimuth_steps = 720;       ///< columns: azimuths (Spherical) or servo positions
   int elevation_steps = 96;      ///< rows: beams per column
@@ -79,6 +81,7 @@ sweepTime(double x, double y)
  *  depend on which thread casts which ray. */
 double
 counterNormal(std::uint64_t key, std::uint64_t ray);
+/** A uniform number in [0, 1) from the counter-based generator at (\a key, \a ray). */
 double
 counterUniform(std::uint64_t key, std::uint64_t ray);
 

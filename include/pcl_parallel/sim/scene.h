@@ -14,34 +14,52 @@ namespace sim {
 
 /** A solid axis-aligned box (walls, floor, crates). */
 struct Box {
+  /** Lower corner. */
   Eigen::Vector3d min;
+  /** Upper corner. */
   Eigen::Vector3d max;
 };
 
 /** A solid vertical cylinder (pillars, tree trunks): axis through (x, y), z_min to z_max. */
 struct Cylinder {
+  /** Centre (x, y) and radius. */
+  ///@{
   double x = 0.0, y = 0.0, radius = 0.5;
+  ///@}
+  /** Bottom and top. */
+  ///@{
   double z_min = 0.0, z_max = 3.0;
+  ///@}
 };
 
 /** A solid box at any orientation (ramps, slanted roofs, parked cars):
  *  p_world = rotation * p_box + centre, the box spanning [-half_size, half_size]. */
 struct OrientedBox {
+  /** Orientation. */
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  /** Centre. */
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  /** Half the size along each of its axes. */
   Eigen::Vector3d half_size = Eigen::Vector3d::Constant(0.5);
 };
 
 /** A two-sided triangle (uneven ground as a height field). */
 struct Triangle {
+  /** The corners. */
+  ///@{
   Eigen::Vector3d a, b, c;
+  ///@}
 };
 
 /** The world the scanner sees: primitives, metres. */
 struct World {
+  /** Axis-aligned boxes. */
   std::vector<Box> boxes;
+  /** Vertical capped cylinders. */
   std::vector<Cylinder> cylinders;
+  /** Oriented boxes. */
   std::vector<OrientedBox> oriented_boxes;
+  /** Two-sided triangles. */
   std::vector<Triangle> triangles;
 
   /** Distance along the unit direction dir from origin to the first surface hit with
@@ -61,6 +79,7 @@ struct World {
  *  for concurrent raycast calls. */
 class RayCaster {
 public:
+  /** A BVH over the primitives of \a world (which must outlive it). */
   explicit RayCaster(const World& world);
 
   /** As World::raycast. */

@@ -39,12 +39,15 @@ struct SimulationParameters {
   double step_length = 1.5;    ///< metres between scans along the centre line
   double laps = 1.1;           ///< > 1 revisits the start: a loop closure
   double scanner_height = 1.0; ///< metres above the floor
+  /** The scanner. */
   ScannerModel scanner;
   /** Odometry error per step: heading noise (radians) and translation noise as a
    *  fraction of the step, both Gaussian standard deviations. It accumulates, so the
    *  odometry drifts as a wheel odometry does. */
   double odometry_heading_noise = 0.01;
+  /** Odometry translation noise (fraction of the distance). */
   double odometry_translation_noise = 0.02;
+  /** Random seed. */
   std::uint32_t seed = 1;
 };
 
@@ -62,9 +65,13 @@ struct SimulationParameters {
  * point_times is empty.
  */
 struct SimulatedScanSet {
+  /** The scans, each in its sensor's frame. */
   std::vector<pcl::PointCloud<pcl::PointXYZ>::Ptr> scans;
+  /** True poses. */
   std::vector<Eigen::Matrix4d> truth;
+  /** Drifting odometry poses. */
   std::vector<Eigen::Matrix4d> odometry;
+  /** The world the scans were cast in. */
   World world;
   std::vector<std::vector<float>> point_times; ///< per scan, per point; empty: stop-and-go
   std::vector<double> timestamps;              ///< seconds, scan i at mid-sweep

@@ -23,6 +23,7 @@ struct CorrelativeSearchParameters {
   int headings = 72;            ///< headings of the coarse search (5 degrees)
   std::size_t max_points = 500; ///< the source's points scored, at most (every k-th)
   std::size_t candidates = 3;   ///< distinct poses returned, at most
+  /** Threads (0: all cores). */
   unsigned num_threads = 0;
 };
 

@@ -23,6 +23,7 @@ public:
    *  the unit of needsAgain's threshold. */
   Deskewer(bool enabled, bool clockwise, double voxel_size, unsigned num_threads);
 
+  /** True when deskewing is on. */
   bool
   enabled() const
   {
@@ -37,6 +38,7 @@ public:
   /** Keeps the sequence's first scan until the first step is known (when enabled). */
   void
   holdFirst(const Cloud& scan, const std::vector<float>& sweep_times);
+  /** True while the first scan is held until the first step is known. */
   bool
   holdsFirst() const
   {

@@ -29,6 +29,7 @@ namespace slam {
  */
 class LocalMap {
 public:
+  /** Share of new points since the last build after which the map's tree is rebuilt. */
   static constexpr double kRefreshFraction = 0.1;
 
   /** num_threads: for the per-scan crop and the refresh (0 = all cores); the map is the
@@ -39,7 +40,9 @@ public:
            double refresh_fraction = kRefreshFraction,
            unsigned num_threads = 0);
   // Moves keep the voxels' nodes, and order_ points into them; a copy would not.
+  /** Moves the map. */
   LocalMap(LocalMap&&) noexcept = default;
+  /** Move-assigns the map. */
   LocalMap&
   operator=(LocalMap&&) noexcept = default;
   LocalMap(const LocalMap&) = delete;
@@ -55,9 +58,11 @@ public:
   void
   transform(const Pose& correction);
 
+  /** Removes every point. */
   void
   clear();
 
+  /** True when the map holds no point. */
   bool
   empty() const
   {

@@ -22,8 +22,10 @@ constexpr double kChi2Quantile99SixDof = 16.812;
 
 /** A loop link that was tried, and what became of it. */
 struct LoopCandidate {
+  /** The candidate link. */
   Link link;
   double overlap = 0.0; ///< after matching
+  /** True when the link was kept. */
   bool accepted = false;
   /** How far matching moved the newer scan from where its pose put it: translation plus
    *  the rotation's displacement at the scans' median range (KISS-ICP's model error). */
@@ -34,7 +36,9 @@ struct LoopCandidate {
 /** A reduced scan as the loop closer keeps it: points (scanner frame) and their normals
  *  (empty: pLUM estimates them). */
 struct KeptScan {
+  /** The reduced points (scanner frame). */
   Cloud::ConstPtr points;
+  /** Their normals. */
   std::vector<Eigen::Vector3f> normals;
 };
 
@@ -121,16 +125,19 @@ public:
   int
   relax(int max_iterations = 0);
 
+  /** Number of scans in the graph. */
   std::size_t
   size() const
   {
     return poses_.size();
   }
+  /** The current poses. */
   const Poses&
   poses() const
   {
     return poses_;
   }
+  /** The graph's links. */
   const std::vector<Link>&
   links() const
   {

@@ -27,6 +27,8 @@ struct ScanDirectory;
 }
 namespace slam {
 
+/** How a sequence is mapped: one online pipeline, segments in one process, or segments over MPI
+ *  ranks. */
 enum class MappingBackend {
   kOnline,   ///< scan by scan; loop corrections feed back into the front end
   kSegments, ///< the segments' front ends in turn, then loop closing over all
@@ -35,6 +37,7 @@ enum class MappingBackend {
 
 /** How a sequence is cut and spread. */
 struct MappingOptions {
+  /** The backend. */
   MappingBackend backend = MappingBackend::kOnline;
   /** Scans per segment (kSegments, kRanks); 0 with kRanks: the scans over the ranks. */
   std::size_t segment_size = 0;
@@ -43,10 +46,16 @@ struct MappingOptions {
 
 /** What the backend did beside the pipeline's own figures. */
 struct MappingReport {
+  /** Segments and their size. */
   std::size_t segments = 0, segment_size = 0; ///< segmented backends
+  ///@{
   /** The scans [own_begin, own_end) this process matched (all of them in one process). */
   std::size_t own_begin = 0, own_end = 0;
+  ///@}
+  /** This process's rank and the number of ranks. */
+  ///@{
   int rank = 0, ranks = 1;
+  ///@}
   double wait_seconds = 0.0;      ///< waiting for the other ranks' front ends
   std::uint64_t bytes_shared = 0; ///< sent between ranks outside pLUM
   std::size_t scans_sent = 0;     ///< scans sent to the rank of a link to them
@@ -72,10 +81,12 @@ struct MappingResult {
   Poses final;                                                ///< after the last pLUM
   std::vector<std::pair<std::uint32_t, std::uint32_t>> links; ///< loop links (source, target)
   int icp_failures = 0; ///< matches that did not converge (their initial step kept)
+  /** pLUM iterations of the last relaxation. */
   int lum_iterations = 0;
   std::size_t pose_searched = 0;   ///< matches the pose search ran for
   std::size_t pose_search_won = 0; ///< matches it placed
   std::size_t deskewed_again = 0;  ///< scans deskewed again after their match
+  /** Time per stage. */
   StageTimes times;
   std::vector<ScanReport> reports; ///< per scan
   int relaxations = 0;             ///< pLUM runs

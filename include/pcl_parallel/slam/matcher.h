@@ -27,6 +27,7 @@ struct PreviousScan {
   MapCloud::Ptr cloud;                      ///< reduced points with normals (NaN where none)
   Cloud::ConstPtr points;                   ///< the same points without normals
   std::shared_ptr<const KdTreeIndex> index; ///< their tree (the scan's own)
+  /** True when there is no previous scan. */
   bool
   empty() const
   {
@@ -54,6 +55,7 @@ public:
   /** Whether there is something to match against. */
   bool
   hasTarget() const;
+  /** The previous scan. */
   const PreviousScan&
   previous() const
   {

@@ -59,6 +59,7 @@ public:
   void
   applyCorrection(const Pose& correction);
 
+  /** The last pose. */
   const Pose&
   lastPose() const
   {

@@ -119,7 +119,9 @@ struct LoopClosureParameters {
   double lum_final_distance = 0.0; ///< auto 2 voxels
   int lum_iterations = 20;         ///< [-I]
   double lum_epsilon = 0.0;        ///< [--epsSLAM] auto voxel / 100
+  /** Pairing steps per link and iteration (ParallelLUM::setLinkIterations). */
   int lum_link_iterations = 1;
+  /** Pairs weighted by their normals (ParallelLUM::setPointToPlane). */
   bool lum_point_to_plane = true;
   std::size_t lum_queries_per_scan = 500; ///< pairs searched per scan and link direction
   /** The front end's matches as pose constraints between consecutive scans, each weighing
@@ -133,10 +135,15 @@ struct LoopClosureParameters {
 
 /** The pipeline's parameters, a struct per stage. */
 struct Parameters {
+  /** Reduction. */
   ReductionParameters reduction;
+  /** Deskewing. */
   DeskewParameters deskew;
+  /** The front end's pICP. */
   MatcherParameters matcher;
+  /** Where pICP starts without odometry. */
   PoseGuessParameters guess;
+  /** Loop detection and closing. */
   LoopClosureParameters loops;
   /** The scans' median range r, which sets the automatic lengths and converts rotations
    *  to displacements; auto: the first scan's. */

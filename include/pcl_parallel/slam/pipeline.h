@@ -72,12 +72,17 @@ constexpr std::size_t kOdometryDisagreementSteps = 20;
 
 /** Seconds spent per stage. */
 struct StageTimes {
+  /** Seconds spent in each stage. */
+  ///@{
   double preprocess = 0.0, front_end = 0.0, loop_detection = 0.0, loop_closing = 0.0;
+  ///@}
+  /** Sum of the stages' seconds. */
   double
   total() const
   {
     return preprocess + front_end + loop_detection + loop_closing;
   }
+  /** Adds another run's times. */
   void
   add(const StageTimes& t)
   {
@@ -161,6 +166,7 @@ public:
   void
   finish();
 
+  /** Number of scans added. */
   std::size_t
   size() const
   {
@@ -177,13 +183,16 @@ public:
   {
     return front_end_poses_;
   }
+  /** The pose graph's links. */
   const std::vector<Link>&
   links() const;
+  /** One report per scan. */
   const std::vector<ScanReport>&
   reports() const
   {
     return reports_;
   }
+  /** Time per stage so far. */
   const StageTimes&
   times() const
   {
@@ -208,6 +217,7 @@ public:
   {
     return resolved_;
   }
+  /** Number of pLUM relaxations run. */
   int
   relaxations() const
   {

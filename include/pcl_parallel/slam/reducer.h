@@ -17,6 +17,8 @@ namespace slam {
  */
 class Reducer {
 public:
+  /** A reducer at \a voxel_size (kept points) and \a source_voxel_size (registered sample) on
+   *  \a num_threads threads. */
   Reducer(double voxel_size, double source_voxel_size, unsigned num_threads);
 
   /** The deskewed scan reduced at voxel_size; no tree or normals yet (describe). */

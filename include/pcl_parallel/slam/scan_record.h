@@ -82,6 +82,7 @@ struct ScanRecord {
    *  the previous scan, is known. Zero when pICP did not run or failed. */
   Information information = Information::Zero();
   double information_pairs = 0.0; ///< ... from this many pairs (sum of robust weights)
+  /** What the stages report about the scan. */
   ScanReport report;
 };
 

@@ -23,7 +23,10 @@ namespace slam {
  * estimate instead of a cold start.
  */
 struct Segment {
+  /** The segment's first (overlap) scan and its own scans [begin, end). */
+  ///@{
   std::size_t first = 0, begin = 0, end = 0;
+  ///@}
 };
 
 /** Segments of `segment_size` own scans (the last takes the rest), each starting
@@ -36,9 +39,13 @@ splitSequence(std::size_t num_scans, std::size_t segment_size, std::size_t overl
 /** A scan of a sequence (scanner frame) with its odometry pose, time stamp (s) and
  *  per-point times, if known (as Pipeline::addScan takes them). */
 struct SourceScan {
+  /** The scan (scanner frame). */
   Cloud::Ptr cloud;
+  /** Its odometry pose, if any. */
   std::optional<Pose> odometry;
+  /** Its time stamp (s), if any. */
   std::optional<double> stamp;
+  /** Per-point times, or empty. */
   std::vector<double> point_times;
 };
 
