@@ -231,6 +231,16 @@ TEST(PslamOptions, HelpNamesEveryOption)
     EXPECT_NE(h.find(name), std::string::npos) << name;
   EXPECT_NE(h.find("[default 5]"), std::string::npos); // -l (the path rule does the rest)
   EXPECT_NE(h.find("[default: auto, 10 voxels]"), std::string::npos);
+  // Every numeric option's range, as the checks have it: one sample each way.
+  for (const char* range : {"lengths -m, -d, --icp-final, -D, --lum-final 1e-06 to 1e+09",
+                            "--scale 1e-06 to 1e+06",
+                            "--sweep-period 0.0001 to 3600 s",
+                            "-t 0 to 1024",
+                            "--segment-size 0 to 1e8"})
+    EXPECT_NE(h.find(range), std::string::npos) << range;
+  EXPECT_THROW(parse({"run", ".", "--sweep-period", "3601", "--deskew"}),
+               pcl_pslam::UsageError);
+  EXPECT_THROW(parse({"run", ".", "--scale", "1e7"}), pcl_pslam::UsageError);
 }
 
 // .frames lines read back by the library's 3DTK reader give the pose (in 3DTK units).
@@ -675,12 +685,12 @@ TEST(PslamApp, ThreeDtkFramesWithinTwoCentimetres)
   const std::string data = std::string(PCL_PARALLEL_DATA_DIR) + "/3dtk_dat";
   if (!fs::exists(data + "/scan000.3d"))
     GTEST_SKIP() << "no 3DTK data in " << PCL_PARALLEL_DATA_DIR;
-  const fs::path out = scratch("3dtk_app");
+  const fs::path dir = scratch("3dtk_app"), out = dir / "out"; // the log beside --out
   std::string command = std::string(PCL_PSLAM_EXE) + " run";
   for (const char* a : kSlamSixDLine)
     command += std::string(" ") + a;
   command +=
-      " -q --out " + out.string() + " " + data + " > " + (out / "log.txt").string() + " 2>&1";
+      " -q --out " + out.string() + " " + data + " > " + (dir / "log.txt").string() + " 2>&1";
   const int status = std::system(command.c_str());
   ASSERT_TRUE(WIFEXITED(status)) << command;
   ASSERT_EQ(WEXITSTATUS(status), 0) << command;
@@ -691,7 +701,7 @@ TEST(PslamApp, ThreeDtkFramesWithinTwoCentimetres)
     EXPECT_LT(dt, 2.0) << name;
     EXPECT_LT(angle, 0.5) << name;
   }
-  fs::remove_all(out);
+  fs::remove_all(dir);
 }
 
 // A scan file or --out whose name is not UTF-8 (a Latin-1 name on Linux) is mapped and

@@ -3,7 +3,6 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "input.h"
-#include "progress.h"
 
 #include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
@@ -21,9 +20,6 @@ namespace pcl_pslam {
 Input
 openDirectory(const Options& o)
 {
-  if (std::error_code ec; !o.out.empty() && fs::equivalent(o.out, o.dir, ec))
-    throw UsageError(o.out + ": --out is the scan directory, whose map.pcd the next run "
-                             "would read as a scan; choose another");
   Input in;
   try {
     static_cast<pcl_parallel::io::ScanDirectory&>(in) = pcl_parallel::io::openScanDirectory(o);
@@ -85,7 +81,7 @@ simulateDemo(const Options& o)
     const std::string prefix = "pcl_pslam_demo-";
     io::removeStaleTemporaries(fs::temp_directory_path().string(), prefix);
     scans.dir = (fs::temp_directory_path() / io::temporaryName(prefix)).string();
-    removeOnSignal(scans.dir);
+    io::registerTemporary(scans.dir); // a signal removes it (a normal end: main)
     scans.moving = pcl_parallel::sim::simulateToDirectory(o.preset, options, scans.dir).moving;
     return scans;
   }
@@ -96,9 +92,7 @@ simulateDemo(const Options& o)
   catch (const io::OutputDirectoryError& e) {
     throw UsageError(std::string("--keep ") + e.what());
   }
-  removeOnSignal(keep->path());
   scans.moving = pcl_parallel::sim::simulateToDirectory(o.preset, options, keep->path()).moving;
-  forgetOnSignal(keep->path());
   keep->commit();
   scans.dir = keep->target();
   return scans;

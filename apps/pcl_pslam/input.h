@@ -21,8 +21,9 @@ struct Input : pcl_parallel::io::ScanDirectory {
   pcl_parallel::slam::DirectoryReading reading; ///< by this rank
 };
 
-/** io::openScanDirectory(o), refusing an --out that is the scan directory. Throws UsageError
- *  for a request that cannot be met, DataError naming the file for bad data. */
+/** io::openScanDirectory(o) (an --out that is the scan directory is refused before, as
+ *  one holding files no run wrote). Throws UsageError for a request that cannot be met,
+ *  DataError naming the file for bad data. */
 Input
 openDirectory(const Options& o);
 

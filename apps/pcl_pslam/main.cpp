@@ -165,7 +165,6 @@ mapAndWrite(Options& o,
       return;
   }
   const auto written = writeOutputs(o, dir, in, r, progress, command_line);
-  forgetOnSignal(dir);
   out->commit();
   printSummary(o, in, r, written, out->replacesEarlierRun(), progress.elapsed());
 }
@@ -190,8 +189,6 @@ runMapping(Options& o, const Session& ranks, const std::string& command_line)
         out = openOutputDirectory(o.out);
     });
     const std::string dir = ranks.broadcast(out ? out->path() : std::string());
-    if (out)
-      removeOnSignal(dir);
     ProgressReporter progress(o.quiet || quiet_rank, ::isatty(2) != 0, true);
     mapAndWrite(o, ranks, progress, command_line, out.get(), dir);
   }

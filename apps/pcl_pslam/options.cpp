@@ -204,6 +204,9 @@ struct Range {
 /** Lengths in the files' units: beyond, the voxel grids' integer keys (2^31 voxels an axis)
  *  or float's 7 digits end before the scans do. */
 constexpr Range kLength{1e-6, 1e9}, kLengthOrZero{1e-6, 1e9, true};
+constexpr Range kScale{1e-6, 1e6}; // e.g. 0.001 for mm, 1000 for km
+constexpr Range kSweepPeriod{1e-4, 3600.0};
+constexpr Range kEpsilon{1e-30, 1.0};
 
 /** Option `name` where given, checked against its stated range (exit 2 naming it). */
 std::optional<double>
@@ -265,7 +268,16 @@ helpText(const std::string& command)
        "(3DTK, per scan: initial, ICP and final pose, 4x4 column-major + type code; uos\n"
        "data in 3DTK's units), poses.txt / poses_icp.txt (KITTI), poses_tum.txt /\n"
        "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), map.pcd (binary), map.ply (--ply),\n"
-       "map.png (top view), report.json (parameters, per-scan numbers, stage times).\n";
+       "map.png (top view), report.json (parameters, per-scan numbers, stage times).\n\n"
+    << "Ranges (out of range: exit 2 naming the option): lengths -m, -d, --icp-final, -D,\n"
+       "--lum-final "
+    << kLength.lo << " to " << kLength.hi
+    << " in the files' units, -M, -r, -c, --map-voxel the same or 0;\n"
+       "--scale "
+    << kScale.lo << " to " << kScale.hi << "; --sweep-period " << kSweepPeriod.lo << " to "
+    << kSweepPeriod.hi << " s; --epsICP, --epsSLAM " << kEpsilon.lo << " to " << kEpsilon.hi
+    << ";\n-i, -I, -l >= 1; -L 0 to 4; -s >= 0; -e >= -s; -t 0 to " << pcl_parallel::kMaxThreads
+    << "; --segment-size 0 to 1e8;\n--segment-overlap 1 to 1e5.\n";
   return s.str();
 }
 
@@ -322,7 +334,7 @@ checkInputOptions(Options& o, const po::variables_map& vm)
   inRange(vm, "min", kLengthOrZero);
   if (o.min_range >= o.max_range)
     throw UsageError("-M/--min must be smaller than -m/--max");
-  o.scale = inRange(vm, "scale", {1e-6, 1e6}); // e.g. 0.001 for mm, 1000 for km
+  o.scale = inRange(vm, "scale", kScale);
   if (vm.count("up")) {
     const std::string axis = lowerCase(vm["up"].as<std::string>());
     if (axis != "x" && axis != "y" && axis != "z")
@@ -332,7 +344,7 @@ checkInputOptions(Options& o, const po::variables_map& vm)
   if (o.sweep_ccw && !o.deskew)
     throw UsageError("--sweep-ccw needs --deskew");
   if (vm.count("sweep-period")) {
-    o.sweep_period = *inRange(vm, "sweep-period", {1e-4, 3600.0});
+    o.sweep_period = *inRange(vm, "sweep-period", kSweepPeriod);
     if (!o.deskew)
       throw UsageError("--sweep-period needs --deskew");
   }
@@ -353,8 +365,8 @@ checkPipelineOptions(Options& o, const po::variables_map& vm)
   if (o.no_poses && !o.poses_file.empty())
     throw UsageError("--poses and --no-poses exclude each other");
   o.map_voxel = inRange(vm, "map-voxel", kLengthOrZero);
-  o.eps_icp = inRange(vm, "epsICP", {1e-30, 1.0});
-  o.eps_slam = inRange(vm, "epsSLAM", {1e-30, 1.0});
+  o.eps_icp = inRange(vm, "epsICP", kEpsilon);
+  o.eps_slam = inRange(vm, "epsSLAM", kEpsilon);
   if (o.icp_iterations < 1)
     throw UsageError("-i/--iter must be >= 1");
   if (o.lum_iterations < 1)

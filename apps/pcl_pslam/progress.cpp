@@ -4,13 +4,12 @@
  */
 #include "progress.h"
 
+#include <pcl_parallel/io/output_directory.h>
+
 #include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
-#include <dirent.h>
-#include <fcntl.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 #include <utility>
 
@@ -23,7 +22,6 @@ volatile std::sig_atomic_t g_writing = 0;   // 1 while outputs are being written
 volatile std::sig_atomic_t g_quiet = 0;     // 1: no message (not MPI rank 0)
 volatile std::sig_atomic_t g_ranks = 1;     // MPI ranks of the job
 volatile std::sig_atomic_t g_stderr_fd = 2; // the real stderr while PCL's is captured
-char g_remove_dirs[4][4096] = {};           // removed with their files by a signal
 // Set by the first handler that ends the run: a signal may come twice (timeout, a ^C to the
 // process group), each on another thread, and only one may write the message.
 std::atomic<int> g_ending{0};
@@ -38,29 +36,9 @@ signalName(int s)
                        : "interrupted (SIGINT)";
 }
 
-/** Removes `dir` and the files in it with system calls alone (async-signal-safe: no
- *  allocation, no stdio); its subdirectories, which none of ours has, stay. */
-void
-removeFlatDirectory(const char* dir)
-{
-#if defined(__linux__)
-  const int fd = ::open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0)
-    return;
-  alignas(8) char buffer[4096];
-  for (long n; (n = ::syscall(SYS_getdents64, fd, buffer, sizeof buffer)) > 0;)
-    for (long at = 0; at < n;) {
-      const auto* entry = reinterpret_cast<const struct dirent64*>(buffer + at);
-      ::unlinkat(fd, entry->d_name, 0); // fails, harmlessly, for "." and ".."
-      at += entry->d_reclen;
-    }
-  ::close(fd);
-#endif
-  ::rmdir(dir);
-}
-
 /** Before the outputs nothing can be left half-written and a match can take seconds: the
- *  run ends at once (write, rmdir, _exit: async-signal-safe). While writing, the flag. */
+ *  run ends at once (write, the temporaries' removal, _exit: async-signal-safe). While
+ *  writing, the flag. */
 extern "C" void
 onSignal(int s)
 {
@@ -83,9 +61,7 @@ onSignal(int s)
       msg[n++] = *part;
   if (!g_quiet && ::write(g_stderr_fd, msg, n) < 0) { /* nothing left to tell */
   }
-  for (const char* dir : g_remove_dirs)
-    if (dir[0])
-      removeFlatDirectory(dir);
+  pcl_parallel::io::removeTemporariesNow(); // the outputs' and the demo's
   ::_exit(128 + s);
 }
 
@@ -109,25 +85,6 @@ void
 setWritingOutputs(bool writing)
 {
   g_writing = writing ? 1 : 0;
-}
-
-void
-removeOnSignal(const std::string& dir)
-{
-  for (char* slot : g_remove_dirs)
-    if (!slot[0] && dir.size() < sizeof g_remove_dirs[0]) {
-      dir.copy(slot, dir.size());
-      slot[dir.size()] = '\0';
-      return;
-    }
-}
-
-void
-forgetOnSignal(const std::string& dir)
-{
-  for (char* slot : g_remove_dirs)
-    if (dir == slot)
-      slot[0] = '\0';
 }
 
 void

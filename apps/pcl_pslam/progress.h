@@ -37,14 +37,6 @@ installSignalHandlers(bool quiet = false, int ranks = 1);
 void
 setWritingOutputs(bool writing);
 
-/** A directory of files (no subdirectories) that a signal ending the run at once removes
- *  with its files: the temporary directory of the outputs or of simulated scans. At most
- *  four; forgetOnSignal(dir) once it is committed or removed. */
-void
-removeOnSignal(const std::string& dir);
-void
-forgetOnSignal(const std::string& dir);
-
 /** Throws Interrupted once a signal arrived. */
 void
 checkInterrupt();

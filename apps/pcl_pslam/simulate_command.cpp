@@ -90,7 +90,6 @@ simulateAndWrite(const SimulateArguments& a, ScanSetFormat format, std::ostream&
 {
   const auto start = std::chrono::steady_clock::now();
   pcl_parallel::io::OutputDirectory dir(a.dir, pcl_parallel::sim::isScanSetName);
-  removeOnSignal(dir.path());
   pcl_parallel::sim::ScanSetSummary set;
   try {
     set = pcl_parallel::sim::simulateToDirectory(a.preset, a.options, dir.path(), format);
@@ -98,7 +97,6 @@ simulateAndWrite(const SimulateArguments& a, ScanSetFormat format, std::ostream&
   catch (const std::exception& e) { // named by OUT_DIR's file, not its temporary's
     throw std::runtime_error(dir.inTarget(e.what()));
   }
-  forgetOnSignal(dir.path());
   dir.commit();
   out << "simulate: " << a.preset << " (seed " << a.options.seed << "): " << set.scans
       << " scans, " << set.points << " points, written to " << a.dir << " in "

@@ -4,15 +4,18 @@
  */
 #include <pcl_parallel/io/output_directory.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <csignal>
 #include <cstdio> // renameat2, RENAME_EXCHANGE (glibc)
 #include <cstring>
-#include <fcntl.h> // AT_FDCWD
+#include <dirent.h>
+#include <fcntl.h> // AT_FDCWD, open
 #include <filesystem>
 #include <regex>
+#include <sys/syscall.h>
 #include <unistd.h>
 #include <vector>
 
@@ -83,6 +86,7 @@ holdsEarlierRun(const fs::path& dir, const OutputNamePredicate& owned)
     throw OutputDirectoryError(dir.string() + ": cannot list the output directory (" +
                                ec.message() + ")");
   if (!foreign.empty()) {
+    std::sort(foreign.begin(), foreign.end());
     std::string names;
     for (std::size_t k = 0; k < foreign.size() && k < 3; ++k)
       names += (k ? ", " : "") + foreign[k];
@@ -94,7 +98,63 @@ holdsEarlierRun(const fs::path& dir, const OutputNamePredicate& owned)
   return any;
 }
 
+/** The registered temporary directories: a slot's path is complete before its flag is
+ *  set, so a signal handler reads whole paths only. */
+struct TemporarySlot {
+  volatile std::sig_atomic_t used = 0;
+  char path[4096] = {};
+};
+TemporarySlot g_temporaries[8];
+
+/** `dir` and its files, by system calls alone (async-signal-safe). */
+void
+removeFlatDirectory(const char* dir) noexcept
+{
+#if defined(__linux__)
+  const int fd = ::open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd >= 0) {
+    alignas(8) char buffer[4096];
+    for (long n; (n = ::syscall(SYS_getdents64, fd, buffer, sizeof buffer)) > 0;)
+      for (long at = 0; at < n;) {
+        const auto* entry = reinterpret_cast<const struct dirent64*>(buffer + at);
+        ::unlinkat(fd, entry->d_name, 0); // fails, harmlessly, for "." and ".."
+        at += entry->d_reclen;
+      }
+    ::close(fd);
+  }
+#endif
+  ::rmdir(dir);
+}
+
 } // namespace
+
+void
+removeTemporariesNow() noexcept
+{
+  for (const TemporarySlot& slot : g_temporaries)
+    if (slot.used)
+      removeFlatDirectory(slot.path);
+}
+
+void
+registerTemporary(const std::string& dir)
+{
+  for (TemporarySlot& slot : g_temporaries)
+    if (!slot.used && dir.size() < sizeof slot.path) {
+      dir.copy(slot.path, dir.size());
+      slot.path[dir.size()] = '\0';
+      slot.used = 1;
+      return;
+    }
+}
+
+void
+unregisterTemporary(const std::string& dir)
+{
+  for (TemporarySlot& slot : g_temporaries)
+    if (slot.used && dir == slot.path)
+      slot.used = 0;
+}
 
 bool
 isRunOutputName(const std::string& name)
@@ -157,10 +217,12 @@ OutputDirectory::OutputDirectory(const std::string& target, OutputNamePredicate 
         (ec ? ec.message() : "it exists") +
         "): the outputs are written there and swapped in at the end; choose an output "
         "directory in a writable directory");
+  registerTemporary(path_);
 }
 
 OutputDirectory::~OutputDirectory()
 {
+  unregisterTemporary(path_);
   std::error_code ec;
   if (!committed_)
     fs::remove_all(path_, ec);
@@ -169,6 +231,7 @@ OutputDirectory::~OutputDirectory()
 void
 OutputDirectory::commit()
 {
+  unregisterTemporary(path_); // from here on its name may hold the earlier run
   std::error_code ec;
   const bool occupied = fs::exists(target_, ec) && !fs::is_empty(target_, ec);
   if (!occupied) { // rename(2) replaces an empty directory

@@ -7,12 +7,14 @@
  * (test/fuzz/CMakeLists.txt). The readers take a path, so each input is written to a
  * private file with the reader's extension first ("frames_dir": into a directory, one file
  * per NUL-separated chunk whose first line is its name; "evaluate": two files, estimate and
- * ground truth, split at the first NUL, given to `pcl_pslam evaluate`).
+ * ground truth, split at the first NUL, given to `pcl_pslam evaluate`; "options": the
+ * command line; "poses": the pose rule).
  * Contract under test: a reader returns or throws std::exception (our std::runtime_error,
  * std::invalid_argument, std::out_of_range); anything else (a crash, an ASan/UBSan report,
  * a hang, an allocation beyond -malloc_limit_mb, a non-finite point in the cloud) is a bug.
  */
 #include "evaluate_command.h" // apps/pcl_pslam
+#include "options.h"          // apps/pcl_pslam
 
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
@@ -27,6 +29,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -117,6 +120,78 @@ evaluate(const std::uint8_t* data, std::size_t size)
   if (rc == 0 ? text.find("nan") != std::string::npos || text.find("inf") != std::string::npos
               : rc != 1 || err.str().empty())
     std::abort();
+}
+
+/** "options": `run`/`demo`'s command line, the input's NUL-separated tokens after "run".
+ *  The parser returns or throws UsageError (exit 2); what it returns the pipeline takes:
+ *  its parameters resolve (automatic lengths from a 10 m median range) to finite, positive
+ *  lengths without a throw, so no option fails late, after the work began. */
+void
+options(const std::uint8_t* data, std::size_t size)
+{
+  std::vector<std::string> tokens{"pcl_pslam", size % 2 ? "demo" : "run"};
+  const char* p = reinterpret_cast<const char*>(data);
+  for (const char* end = p + size; p <= end && tokens.size() < 64;) {
+    const char* stop = std::find(p, end, '\0');
+    tokens.emplace_back(p, stop);
+    p = stop + 1;
+  }
+  std::vector<const char*> argv;
+  for (const auto& t : tokens)
+    argv.push_back(t.c_str());
+  pcl_pslam::Options o;
+  try {
+    o = pcl_pslam::parseCommandLine(static_cast<int>(argv.size()), argv.data());
+  }
+  catch (const pcl_pslam::UsageError&) {
+    return;
+  }
+  if (o.help || o.command.empty())
+    return;
+  pcl_parallel::slam::Parameters params = pcl_pslam::toParameters(o, o.scale.value_or(1.0));
+  pcl_parallel::slam::resolve(params, 10.0);
+  const double lengths[] = {params.reduction.voxel_size,
+                            params.matcher.max_correspondence_distance,
+                            params.matcher.final_correspondence_distance,
+                            params.loops.distance,
+                            params.loops.lum_distance,
+                            params.loops.lum_final_distance};
+  for (const double length : lengths)
+    if (!(std::isfinite(length) && length > 0.0))
+      std::abort();
+}
+
+/** "poses": the pose rule (io::poseProblem) on 16 doubles of the input, and on the KITTI
+ *  poses file the input is: what it accepts is finite, rigid within kRigidMotionTolerance
+ *  (R^T R - I, det R > 0, last row 0 0 0 1) and within kMaxPoseTranslation. */
+void
+poses(const std::uint8_t* data, std::size_t size)
+{
+  using namespace pcl_parallel::io;
+  const auto accepted = [](const Eigen::Matrix4d& m) {
+    if (!poseProblem(m).empty())
+      return;
+    const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+    const bool rigid =
+        m.allFinite() && m.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1), 0) &&
+        ((r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <=
+         kRigidMotionTolerance) &&
+        r.determinant() > 0.0 && m.topRightCorner<3, 1>().norm() <= kMaxPoseTranslation;
+    if (!rigid)
+      std::abort();
+  };
+  if (size >= 16 * sizeof(double)) {
+    Eigen::Matrix4d m;
+    std::memcpy(m.data(), data, sizeof(double) * 16);
+    accepted(m);
+  }
+  writeFile(input_path, reinterpret_cast<const char*>(data), size);
+  try {
+    for (const auto& pose : loadKittiPoses(input_path))
+      accepted(pose);
+  }
+  catch (const std::exception&) {
+  }
 }
 
 void
@@ -224,7 +299,9 @@ initialize(const char* format)
                                                                  {"frames_history", ".frames"},
                                                                  {"trajectory", ".txt"},
                                                                  {"frames_dir", "_dir"},
-                                                                 {"evaluate", "_evaluate"}};
+                                                                 {"evaluate", "_evaluate"},
+                                                                 {"options", "_options"},
+                                                                 {"poses", "_poses.txt"}};
   format_name = format;
   for (const auto& [name, ext] : kFormats)
     if (format_name == name)
@@ -246,8 +323,10 @@ initialize(const char* format)
 void
 testOneInput(const std::uint8_t* data, std::size_t size)
 {
-  if (format_name == "evaluate") {
-    evaluate(data, size);
+  if (format_name == "evaluate" || format_name == "options" || format_name == "poses") {
+    format_name == "evaluate"  ? evaluate(data, size)
+    : format_name == "options" ? options(data, size)
+                               : poses(data, size);
     return;
   }
   if (format_name == "frames_dir")

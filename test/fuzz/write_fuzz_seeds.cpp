@@ -112,6 +112,65 @@ main(int argc, char** argv)
   seed("evaluate", "kitti_kitti", kitti + std::string(1, '\0') + kitti);
   seed("evaluate", "tum_tum", tum + std::string(1, '\0') + tum);
   seed("evaluate", "tum_kitti", tum + std::string(1, '\0') + kitti.substr(0, 3 * 26));
+  // `run`'s command line: NUL-separated tokens after "pcl_pslam run" (or demo).
+  const auto argv = [](std::initializer_list<const char*> tokens) {
+    std::string bytes;
+    for (const char* t : tokens)
+      bytes += std::string(t) + '\0';
+    return bytes;
+  };
+  seed("options",
+       "slam6d",
+       argv({"-s",
+             "0",
+             "-e",
+             "65",
+             "-r",
+             "10",
+             "-i",
+             "100",
+             "-d",
+             "75",
+             "-D",
+             "250",
+             "-I",
+             "50",
+             "--cldist",
+             "750",
+             "-f",
+             "uos",
+             "dat"}));
+  seed("options",
+       "deskew",
+       argv({"dir",
+             "--deskew",
+             "--sweep-period",
+             "0.1",
+             "--scale",
+             "0.001",
+             "-m",
+             "120",
+             "-M",
+             "2",
+             "--icp-final",
+             "0.3",
+             "-t",
+             "4"}));
+  seed("options",
+       "ranges",
+       argv({"dir",
+             "-r",
+             "1e-9",
+             "--epsICP",
+             "1e-30",
+             "--map-voxel",
+             "0",
+             "--segment-size",
+             "3",
+             "--segment-overlap",
+             "1"}));
+  seed("poses", "kitti", kitti);
+  seed("poses", "mirrored", "-1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1e10 0 1 0 0 0 0 1 0\n");
 
   pcl::PointCloud<pcl::PointXYZ> cloud;
   for (int i = 0; i < 5; ++i)

@@ -54,6 +54,7 @@ n=$(grep -c '^pcl_pslam: terminated (SIGTERM) by mpirun' "$work/log")
 [ "$n" -eq 1 ] || fail "expected rank 0's one line, got $n"
 grep -q 'rank 2 .*exited on signal 9' "$work/log" || fail "mpirun did not name rank 2"
 [ -e "$work/out" ] && fail "an output directory was left behind"
+compgen -G "$work/.out.pcl_pslam-*" > /dev/null && fail "a temporary directory was left behind"
 echo "rank 2 killed: the job ended in $SECONDS s with exit status $rc"
 cat "$work/log"
 exit 0

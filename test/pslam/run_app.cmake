@@ -1,5 +1,5 @@
 # Runs pcl_pslam and checks its exit status AND its message (and, optionally, files).
-#   cmake -DCMD="prog|arg|..." -DEXPECT_RC=N -DEXPECT_REGEX=RE [-DOUT_DIR=D]
+#   cmake -DCMD="prog|arg|..." -DEXPECT_RC=N -DEXPECT_REGEX=RE [-DEXPECT_TEXT=T] [-DOUT_DIR=D]
 #         [-DEXPECT_FILES="a|b"] [-DEXPECT_ABSENT="a|b"] [-DCLEAN=D] [-DCHECK_REPORT=1]
 #         [-DEXPECT_JSON="KEY... =VALUE"] [-DINTERRUPT_AFTER=S] [-DFILE_SIZE_LIMIT=BLOCKS] [-DSTDOUT=FILE] -P run_app.cmake
 # '|' separates list items (ctest would split ';'). INTERRUPT_AFTER sends SIGINT after S
@@ -40,6 +40,12 @@ if(NOT rc STREQUAL "${EXPECT_RC}")
 endif()
 if(NOT all MATCHES "${EXPECT_REGEX}")
   message(FATAL_ERROR "output does not match '${EXPECT_REGEX}':\n${all}")
+endif()
+if(NOT "${EXPECT_TEXT}" STREQUAL "")
+  string(FIND "${all}" "${EXPECT_TEXT}" at)
+  if(at EQUAL -1)
+    message(FATAL_ERROR "output does not hold '${EXPECT_TEXT}':\n${all}")
+  endif()
 endif()
 if(NOT EXPECT_RC STREQUAL "0")
   # An error is one line on stderr (progress lines aside, which -q silences).
