@@ -80,17 +80,6 @@ truthErrors(const Input& in, const Result& r)
   return rows;
 }
 
-/** The loop links between scans that are not neighbours: drawn and listed. */
-std::vector<std::pair<std::uint32_t, std::uint32_t>>
-loopPairs(const Result& r)
-{
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
-  for (const auto& [i, j] : r.links)
-    if ((i > j ? i - j : j - i) > 1)
-      loops.emplace_back(i, j);
-  return loops;
-}
-
 } // namespace
 
 std::unique_ptr<pcl_parallel::io::OutputDirectory>
@@ -201,7 +190,7 @@ writePicture(const Options& o,
   po.up = in.up;
   po.style = o.style;
   po.cell = map_voxel > 0.0 ? map_voxel : 0.05;
-  po.loops = loopPairs(r);
+  po.loops = pcl_parallel::slam::loopLinks(r);
   po.num_threads = o.threads;
   char line[256];
   std::snprintf(line,

@@ -6,6 +6,7 @@
 #include "simulate_command.h"
 
 #include <pcl_parallel/io/output_directory.h>
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 
 #include <boost/program_options.hpp>
@@ -52,10 +53,10 @@ simulateOptions(SimulateArguments& a)
   add("beams",
       po::value(&a.options.beams)->default_value(0),
       "beams (rows) of the scanner over the preset's field of view, e.g. 16 with kitti for a "
-      "VLP-16-like sparse lidar; 0 = the preset's");
+      "VLP-16-like sparse lidar; 2 to 4096, 0 = the preset's");
   add("threads,t",
       po::value(&a.options.num_threads)->default_value(0),
-      "threads, 0 = all cores");
+      "threads, 0 = all cores, at most 1024");
   add("list", "the presets, one line each");
   add("help,h", "this text");
   return visible;
@@ -79,6 +80,9 @@ checkSimulateArguments(const SimulateArguments& a, ScanSetFormat& format)
   if (a.options.beams < 0 || a.options.beams == 1 || a.options.beams > 4096) // 64x a Velodyne's
     return "--beams must be 0 (the preset's) or 2 to 4096, got " +
            std::to_string(a.options.beams) + '\n';
+  if (a.options.num_threads > pcl_parallel::kMaxThreads)
+    return "--threads takes 0 (all cores) to " + std::to_string(pcl_parallel::kMaxThreads) +
+           ", got " + std::to_string(a.options.num_threads) + '\n';
   return {};
 }
 

@@ -105,6 +105,16 @@ segmentsJson(const MappingResult& r)
 
 } // namespace
 
+std::vector<std::pair<std::uint32_t, std::uint32_t>>
+loopLinks(const MappingResult& r)
+{
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;
+  for (const auto& [a, b] : r.links)
+    if ((a > b ? a - b : b - a) > 1)
+      loops.emplace_back(a, b);
+  return loops;
+}
+
 std::string
 toJson(const MappingResult& r,
        const io::ScanDirectory& scans,
@@ -136,9 +146,8 @@ toJson(const MappingResult& r,
               {"iteration_cap", r.parameters.loops.lum_iterations}}}};
   for (std::size_t i = 0; i < r.reports.size(); ++i)
     j["scans"].push_back(scanJson(r.reports[i], scans, i));
-  for (const auto& [a, b] : r.links)
-    if ((a > b ? a - b : b - a) > 1) // loops: links between scans that are not neighbours
-      j["loops"].push_back({a, b});
+  for (const auto& [a, b] : loopLinks(r))
+    j["loops"].push_back({a, b});
   if (r.spread.segments > 0)
     j["segments"] = segmentsJson(r);
   // A name that is not UTF-8 (JSON's encoding) gets U+FFFD, never a failure after the work.

@@ -47,6 +47,9 @@ bad_input(simulate_one_beam INPUT "`simulate --beams 1`"
 bad_input(simulate_too_many_beams INPUT "`simulate --beams 100000000` (before: a sweep without end)"
   EXIT 2 MESSAGE "--beams must be 0 (the preset's) or 2 to 4096, got 100000000"
   ARGS simulate --preset kitti --beams 100000000 @OUT@)
+bad_input(simulate_threads_out_of_range INPUT "`simulate --threads` above 1024"
+  EXIT 2 MESSAGE "--threads takes 0 (all cores) to 1024, got 5000"
+  ARGS simulate --preset office -t 5000 @OUT@)
 
 # Paths (exit 2): checked before the work.
 bad_input(missing_dir INPUT "a scan directory that does not exist"

@@ -118,6 +118,10 @@ mapScans(const std::vector<Cloud::Ptr>& scans,
          const Parameters& params,
          const SegmentProgress& progress = {});
 
+/** The loop links: result.links between scans that are not neighbours, in their order. */
+std::vector<std::pair<std::uint32_t, std::uint32_t>>
+loopLinks(const MappingResult& result);
+
 /** The scans whose step from their predecessor the final poses contradict most, worst
  *  first: ScanReport::sequence_chi2 beyond the loop closing's Cauchy scale where it has
  *  one, else beyond kChi2Quantile99SixDof. The first places to look at in a map. */
