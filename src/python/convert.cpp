@@ -4,6 +4,7 @@
  */
 #include "convert.h"
 
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/parallel.h>
 
 #include <cmath>
@@ -36,6 +37,8 @@ floatArray(const py::handle& value, const char* name, int ndim, const std::strin
     throw std::invalid_argument(prefix(name) + "dtype " +
                                 py::str(a.dtype()).cast<std::string>() +
                                 " not supported: float32 or float64");
+  if (!a.dtype().attr("isnative").cast<bool>()) // element() reads native byte order
+    a = py::array::ensure(a.attr("astype")(a.dtype().attr("newbyteorder")("=")));
   if (a.ndim() != ndim)
     throw std::invalid_argument(prefix(name) + "expected shape " + shape + ", got " +
                                 std::to_string(a.ndim()) + " dimensions");
@@ -160,6 +163,8 @@ toPose(const py::handle& value, const char* name)
       if (!std::isfinite(pose(r, c)))
         throw std::invalid_argument(prefix(name) + "not finite");
     }
+  if (const std::string problem = io::poseProblem(pose); !problem.empty())
+    throw std::invalid_argument(prefix(name) + "the pose " + problem);
   return pose;
 }
 
@@ -180,6 +185,9 @@ toPoses(const py::handle& value, const char* name)
                                       " is not finite");
         poses[static_cast<std::size_t>(k)](r, c) = v;
       }
+  for (std::size_t k = 0; k < poses.size(); ++k)
+    if (const std::string problem = io::poseProblem(poses[k]); !problem.empty())
+      throw std::invalid_argument(prefix(name) + "pose " + std::to_string(k) + " " + problem);
   return poses;
 }
 

@@ -172,10 +172,15 @@ evaluate(const py::handle& estimate,
   e.estimate = toTrajectory(estimate, "estimate", frames_unit, e.estimate_path);
   e.truth = toTrajectory(truth, "truth", frames_unit, e.truth_path);
   const std::string json = withoutGil([&] {
-    const ev::PairedTrajectories paired = ev::pairTrajectories(
-        e.estimate, e.estimate_path, e.truth, e.truth_path, o.max_diff, o.truncate);
-    e.association = paired.association;
-    e.errors = ev::evaluateTrajectory(paired.estimate, paired.truth, o.evaluation);
+    try {
+      const ev::PairedTrajectories paired = ev::pairTrajectories(
+          e.estimate, e.estimate_path, e.truth, e.truth_path, o.max_diff, o.truncate);
+      e.association = paired.association;
+      e.errors = ev::evaluateTrajectory(paired.estimate, paired.truth, o.evaluation);
+    }
+    catch (const std::runtime_error& error) { // trajectories that cannot be paired: bad input
+      throw std::invalid_argument(error.what());
+    }
     return ev::toJson(e);
   });
   return py::module_::import("json").attr("loads")(json);

@@ -84,3 +84,5 @@ def test_evaluate_arrays():
         pp.evaluate(estimate, truth[:, :3])
     with pytest.raises(ValueError):
         pp.evaluate(estimate, truth, align="sim4")
+    with pytest.raises(ValueError, match="3 poses"):
+        pp.evaluate(estimate[:3], truth)

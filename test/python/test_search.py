@@ -34,6 +34,8 @@ def test_layouts_threads_and_brute_force_agree():
             assert len(tree) == len(points)
             got = tree.nearest(layouts(queries)[name], 4, threads=threads)
             assert np.array_equal(got[0], first[0]) and np.array_equal(got[1], first[1]), name
+    swapped = pp.KdTree(points.astype(">f8")).nearest(queries.astype(">f4"), 4)  # big-endian
+    assert np.array_equal(swapped[0], first[0]) and np.array_equal(swapped[1], first[1])
     d2 = ((queries[:, None, :].astype(np.float64) - points[None]) ** 2).sum(-1)
     order = np.argsort(d2, axis=1)[:, :4]
     assert np.array_equal(first[0], order)

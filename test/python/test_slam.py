@@ -95,6 +95,8 @@ def test_bad_scans_raise_value_error():
         p.add_scan(pts[:, :2])
     with pytest.raises(ValueError, match="odometry"):
         p.add_scan(pts, np.eye(3))
+    with pytest.raises(ValueError, match="odometry.*rigid"):
+        p.add_scan(pts, np.ones((4, 4)))
     with pytest.raises(ValueError, match="point_times"):
         p.add_scan(pts, point_times=np.zeros(3))
     with pytest.raises(ValueError, match="stamp"):
