@@ -18,6 +18,9 @@
 #                                    clang, LLVM's OpenMP runtime with the Archer tool
 #                                    (libarcher.so), and clang's sanitizer runtimes
 #                                    (also libFuzzer's, for the fuzz stage)
+#   pybind11-dev                     the Python module (src/python/); pulls in python3-dev
+#   python3-numpy                    the module's arrays (points, poses) and its tests
+#   python3-pytest                   the Python tests (test/python/, ctest label python)
 set -euo pipefail
 
 packages=(
@@ -26,6 +29,7 @@ packages=(
   libgtest-dev
   libboost-program-options-dev libcairo2-dev nlohmann-json3-dev
   clang-14 libomp-14-dev libclang-rt-14-dev
+  pybind11-dev python3-numpy python3-pytest
 )
 
 missing=()
