@@ -780,6 +780,31 @@ TEST(FileEvaluation, ErrorRowsInFixedColumns)
             "  final         10.0000      0.000     0.000    0.00000       0.0000\n");
 }
 
+// A run's rows against the truth: the odometry's only where there is one, each row the
+// trajectory's own evaluation.
+TEST(FileEvaluation, RunRowsAreTheTrajectoriesEvaluations)
+{
+  ev::Poses truth, drifted;
+  for (int i = 0; i < 30; ++i) {
+    Eigen::Matrix4d p = Eigen::Matrix4d::Identity();
+    p(0, 3) = i, p(1, 3) = 0.1 * std::sin(0.3 * i);
+    truth.push_back(p);
+    p(1, 3) += 0.002 * i * i; // a bend SE(3) alignment cannot take out
+    drifted.push_back(p);
+  }
+  const auto rows = ev::evaluateRun({}, drifted, truth, truth);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_EQ(rows[0].name, "front end");
+  EXPECT_EQ(rows[1].name, "final");
+  EXPECT_EQ(rows[0].errors.ate.translation.rmse,
+            ev::evaluateTrajectory(drifted, truth).ate.translation.rmse);
+  EXPECT_GT(rows[0].errors.ate.translation.rmse, 1e-3);
+  EXPECT_LT(rows[1].errors.ate.translation.rmse, 1e-9);
+  const auto with_odometry = ev::evaluateRun(drifted, truth, truth, truth);
+  ASSERT_EQ(with_odometry.size(), 3u);
+  EXPECT_EQ(with_odometry[0].name, "odometry");
+}
+
 TEST(FileEvaluation, KittiLengthsFromText)
 {
   EXPECT_TRUE(ev::kittiLengthsFromString("auto").empty());

@@ -269,6 +269,27 @@ TEST_F(TempFiles, OutputDirectoryRemovesTheTemporariesOfKilledRuns)
   EXPECT_EQ(io::removeStaleTemporaries(dir_.string(), prefix), 0u);
 }
 
+// A temporary directory (the demo's scans) goes with its owner, and with a signal before
+// (removeTemporariesNow, as the handler calls it), files and all.
+TEST(TemporaryDirectory, GoesWithItsOwnerOrASignal)
+{
+  namespace io = pcl_parallel::io;
+  std::string kept;
+  {
+    io::TemporaryDirectory dir("pcl_parallel_test_tmp-");
+    kept = dir.path();
+    ASSERT_TRUE(std::filesystem::is_directory(kept));
+    std::ofstream(kept + "/scan000.3d") << "0 0 1\n";
+    io::TemporaryDirectory other("pcl_parallel_test_tmp-");
+    EXPECT_NE(other.path(), kept);
+    io::removeTemporariesNow();
+    EXPECT_FALSE(std::filesystem::exists(kept));
+    EXPECT_FALSE(std::filesystem::exists(other.path()));
+    std::filesystem::create_directories(kept);
+  }
+  EXPECT_FALSE(std::filesystem::exists(kept));
+}
+
 // The maps are written by io/, not by PCL's writers (which fail silently or by SIGBUS on
 // a full disk): the PCD is byte for byte PCL's binary PCD, the PLY reads back in PCL.
 TEST_F(TempFiles, PcdAndPlyWritersAsPclWritesAndReadsThem)

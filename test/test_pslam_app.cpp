@@ -188,7 +188,7 @@ TEST(PslamOptions, BadUsageIsOneLine)
               std::string::npos);
   for (const char* threads : {"1025", "10000"})
     EXPECT_NE(
-        message({"run", "-t", threads, "d"}).find("--threads takes 0 (all cores) to 1024"),
+        message({"run", "-t", threads, "d"}).find("-t/--threads takes 0 to 1024"),
         std::string::npos);
   EXPECT_NE(message({"run", "--segment-overlap", "0", "d"}).find("--segment-overlap"),
             std::string::npos);
@@ -232,11 +232,14 @@ TEST(PslamOptions, HelpNamesEveryOption)
   EXPECT_NE(h.find("[default 5]"), std::string::npos); // -l (the path rule does the rest)
   EXPECT_NE(h.find("[default: auto, 10 voxels]"), std::string::npos);
   // Every numeric option's range, as the checks have it: one sample each way.
-  for (const char* range : {"lengths -m, -d, --icp-final, -D, --lum-final 1e-06 to 1e+09",
-                            "--scale 1e-06 to 1e+06",
-                            "--sweep-period 0.0001 to 3600 s",
-                            "-t 0 to 1024",
-                            "--segment-size 0 to 1e8"})
+  for (const char* range : {"-m/--max 1e-06 to 1e+09;",
+                            "-r/--reduce 1e-06 to 1e+09 or 0;",
+                            "--scale 1e-06 to 1e+06;",
+                            "--sweep-period 0.0001 to 3600;",
+                            "-i/--iter 1 or more;",
+                            "-L/--loop6DAlgo 0 to 4;",
+                            "-t/--threads 0 to 1024;",
+                            "--segment-size 0 to 1e+08;"})
     EXPECT_NE(h.find(range), std::string::npos) << range;
   EXPECT_THROW(parse({"run", ".", "--sweep-period", "3601", "--deskew"}),
                pcl_pslam::UsageError);

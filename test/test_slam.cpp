@@ -13,7 +13,9 @@
 #include <pcl_parallel/evaluation/pose_error.h>
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/filters/voxel_grid.h>
+#include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_directory.h>
+#include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
@@ -24,6 +26,7 @@
 #include <pcl_parallel/slam/mapping.h>
 #include <pcl_parallel/slam/pipeline.h>
 #include <pcl_parallel/slam/preprocess.h>
+#include <pcl_parallel/slam/run_outputs.h>
 #include <pcl_parallel/slam/segments.h>
 
 #include <pcl/common/transforms.h>
@@ -35,10 +38,10 @@
 #include <cmath>
 #include <filesystem>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 #include <limits>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <random>
 #include <set>
@@ -1780,6 +1783,26 @@ TEST(MapDirectory, IsMapScansOverTheDirectoryAndItsMapHoldsEveryScan)
   EXPECT_EQ(json["parameters"]["voxel_size_m"], r.parameters.reduction.voxel_size);
   EXPECT_EQ(json["icp"]["matches"], 3);
   EXPECT_EQ(json["pipeline_seconds"]["read"], reading.seconds);
+  // The run's files (pcl_pslam's): the final poses as KITTI lines, the map of every scan.
+  const std::filesystem::path out = dir.string() + "_out";
+  std::filesystem::create_directories(out);
+  slam::RunOutputOptions ro;
+  ro.map_voxel = 0.0;
+  ro.picture = false;
+  const slam::RunOutputs written = slam::writeRunOutputs(out.string(), in, r, ro);
+  EXPECT_EQ(written.written,
+            (std::vector<std::string>{"scanNNN.frames",
+                                      "poses.txt",
+                                      "poses_icp.txt",
+                                      "poses_tum.txt",
+                                      "poses_icp_tum.txt",
+                                      "map.pcd"}));
+  EXPECT_EQ(written.map_points, summary.points);
+  EXPECT_EQ(io::loadScan((out / "map.pcd").string())->size(), summary.points);
+  const auto kitti = io::loadKittiPoses((out / "poses.txt").string());
+  ASSERT_EQ(kitti.size(), 4u);
+  EXPECT_TRUE(kitti[3].isApprox(r.final[3], 1e-6));
+  std::filesystem::remove_all(out);
   std::filesystem::remove_all(dir);
 }
 

@@ -78,10 +78,8 @@ simulateDemo(const Options& o)
   options.num_threads = o.threads;
   DemoScans scans;
   if (o.keep.empty()) {
-    const std::string prefix = "pcl_pslam_demo-";
-    io::removeStaleTemporaries(fs::temp_directory_path().string(), prefix);
-    scans.dir = (fs::temp_directory_path() / io::temporaryName(prefix)).string();
-    io::registerTemporary(scans.dir); // a signal removes it (a normal end: main)
+    scans.temporary = std::make_shared<io::TemporaryDirectory>("pcl_pslam_demo-");
+    scans.dir = scans.temporary->path();
     scans.moving = pcl_parallel::sim::simulateToDirectory(o.preset, options, scans.dir).moving;
     return scans;
   }

@@ -9,8 +9,10 @@
 
 #include "options.h"
 
+#include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/io/scan_directory.h>
 
+#include <memory>
 #include <string>
 
 namespace pcl_pslam {
@@ -44,10 +46,11 @@ constexpr double kMaxSweepSeconds = 0.25;
 struct DemoScans {
   std::string dir;
   bool moving = false;
+  std::shared_ptr<pcl_parallel::io::TemporaryDirectory> temporary; ///< without --keep
 };
 
-/** `demo`: writes o.preset to o.keep (one unit, io::OutputDirectory) or to a new temporary
- *  folder (removed by a signal; those of killed runs removed first). */
+/** `demo`: writes o.preset to o.keep (one unit, io::OutputDirectory) or to an
+ *  io::TemporaryDirectory. */
 DemoScans
 simulateDemo(const Options& o);
 

@@ -37,17 +37,6 @@ namespace {
 namespace fs = std::filesystem;
 using Session = pcl_parallel::mpi::Session;
 
-/** Removes a directory tree when it goes out of scope (the demo's temporary scans). */
-struct RemoveDirectory {
-  std::string dir;
-  ~RemoveDirectory()
-  {
-    std::error_code ec;
-    if (!dir.empty())
-      fs::remove_all(dir, ec);
-  }
-};
-
 /** Ends a failed run with `status`; rank 0 prints `message`. A failure of all ranks
  *  together (Session::collective) ends them in step with rank 0's status, after rank 0 has
  *  spoken (the launcher ends the job at the first non-zero exit); a failure of this rank
@@ -69,15 +58,11 @@ fail(const Session& ranks, int status, const std::string& message, const std::ex
 }
 
 /** `demo`'s simulated scans or `run`'s directory, opened (no scan read yet), with the notes
- *  and warnings about it. The demo's scans go with `cleanup` unless --keep. */
+ *  and warnings about it. The demo's temporary scans live as long as `demo`. */
 Input
-openInput(Options& o,
-          const Session& ranks,
-          ProgressReporter& progress,
-          RemoveDirectory& cleanup)
+openInput(Options& o, const Session& ranks, ProgressReporter& progress, DemoScans& demo)
 {
   Poses truth;
-  DemoScans demo;
   if (o.command == "demo") { // a preset, written and read back as `run` reads a directory
     progress.update("simulate", 0, 1);
     ranks.agree([&] { // each rank its own temporary copy; rank 0 the --keep folder
@@ -85,7 +70,7 @@ openInput(Options& o,
         demo = simulateDemo(o);
     });
     if (!o.keep.empty())
-      demo = {ranks.broadcast(demo.dir), ranks.broadcast(demo.moving ? 1 : 0) != 0};
+      demo = {ranks.broadcast(demo.dir), ranks.broadcast(demo.moving ? 1 : 0) != 0, {}};
     useDemoScans(o, demo);
     progress.update("simulate", 1, 1);
     truth = pcl_parallel::io::loadKittiPoses(demo.dir + "/ground_truth.txt");
@@ -98,8 +83,6 @@ openInput(Options& o,
   Input in;
   ranks.agree([&] { in = openDirectory(o); });
   in.truth = truth;
-  if (o.keep.empty())
-    cleanup.dir = demo.dir; // the temporary scans go when main returns
   progress.note(std::to_string(in.size()) + " scans" +
                 (in.odometry        ? ""
                  : o.no_pose_search ? "; no initial poses: constant-velocity guesses"
@@ -135,8 +118,8 @@ mapAndWrite(Options& o,
             pcl_parallel::io::OutputDirectory* out,
             const std::string& dir)
 {
-  RemoveDirectory cleanup;
-  Input in = openInput(o, ranks, progress, cleanup);
+  DemoScans demo;
+  Input in = openInput(o, ranks, progress, demo);
   const pcl_parallel::slam::Parameters params = runParameters(o, in);
   const Result r = pcl_parallel::slam::mapDirectory(
       in,
@@ -160,7 +143,16 @@ mapAndWrite(Options& o,
                                     : " in " + read_time));
   setWritingOutputs(true);
   if (r.spread.ranks > 1) { // every rank its part of the map, then rank 0 the rest
-    ranks.agree([&] { writeMapTile(o, dir, in, r, progress); });
+    ranks.agree([&] {
+      pcl_parallel::slam::writeMapTile(dir,
+                                       in,
+                                       r,
+                                       runOutputOptions(o, in, r),
+                                       [&](const char*, std::size_t k, std::size_t n) {
+                                         progress.update(
+                                             "map", static_cast<int>(k), static_cast<int>(n));
+                                       });
+    });
     if (ranks.rank() != 0)
       return;
   }

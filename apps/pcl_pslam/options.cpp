@@ -12,7 +12,9 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <iterator>
 #include <sstream>
+#include <typeinfo>
 
 namespace po = boost::program_options;
 
@@ -198,30 +200,71 @@ struct Descriptions {
 
 /** A numeric option's stated range: [lo, hi], and with zero_ok 0 too. */
 struct Range {
+  const char* name;  ///< the option's long name
+  const char* shown; ///< as messages and --help name it
   double lo, hi;
   bool zero_ok = false;
 };
-/** Lengths in the files' units: beyond, the voxel grids' integer keys (2^31 voxels an axis)
- *  or float's 7 digits end before the scans do. */
-constexpr Range kLength{1e-6, 1e9}, kLengthOrZero{1e-6, 1e9, true};
-constexpr Range kScale{1e-6, 1e6}; // e.g. 0.001 for mm, 1000 for km
-constexpr Range kSweepPeriod{1e-4, 3600.0};
-constexpr Range kEpsilon{1e-30, 1.0};
+constexpr double kMaxCount = 2147483647.0; // int's
+/** Every numeric option's range, for the checks and --help alike. Lengths are in the files'
+ *  units: beyond 1e-6 to 1e9 the voxel grids' integer keys (2^31 voxels an axis) or float's
+ *  7 digits end before the scans do. */
+// clang-format off
+constexpr Range kRanges[] = {
+    {"max", "-m/--max", 1e-6, 1e9},           {"min", "-M/--min", 1e-6, 1e9, true},
+    {"scale", "--scale", 1e-6, 1e6},          {"sweep-period", "--sweep-period", 1e-4, 3600.0},
+    {"reduce", "-r/--reduce", 1e-6, 1e9, true}, {"dist", "-d/--dist", 1e-6, 1e9},
+    {"icp-final", "--icp-final", 1e-6, 1e9},  {"distSLAM", "-D/--distSLAM", 1e-6, 1e9},
+    {"lum-final", "--lum-final", 1e-6, 1e9},  {"cldist", "-c/--cldist", 1e-6, 1e9, true},
+    {"map-voxel", "--map-voxel", 1e-6, 1e9, true}, {"epsICP", "--epsICP", 1e-30, 1.0},
+    {"epsSLAM", "--epsSLAM", 1e-30, 1.0},     {"start", "-s/--start", 0.0, kMaxCount},
+    {"iter", "-i/--iter", 1.0, kMaxCount},    {"iterSLAM", "-I/--iterSLAM", 1.0, kMaxCount},
+    {"loopsize", "-l/--loopsize", 1.0, kMaxCount}, {"loop6DAlgo", "-L/--loop6DAlgo", 0.0, 4.0},
+    {"threads", "-t/--threads", 0.0, pcl_parallel::kMaxThreads},
+    {"segment-size", "--segment-size", 0.0, 1e8},
+    {"segment-overlap", "--segment-overlap", 1.0, 1e5}};
+// clang-format on
 
-/** Option `name` where given, checked against its stated range (exit 2 naming it). */
-std::optional<double>
-inRange(const po::variables_map& vm, const char* name, Range r)
+/** "SHOWN LO to HI[ or 0]" (HI at int's end: "LO or more"). */
+std::string
+describe(const Range& r)
 {
-  if (!vm.count(name))
-    return std::nullopt;
-  const double v = vm[name].as<double>();
-  if (!(v >= r.lo && v <= r.hi) && !(r.zero_ok && v == 0.0)) {
-    std::ostringstream msg;
-    msg << "--" << name << " takes " << r.lo << " to " << r.hi << (r.zero_ok ? " or 0" : "")
-        << ", got " << v;
-    throw UsageError(msg.str());
+  std::ostringstream s;
+  s << r.shown << ' ' << r.lo;
+  if (r.hi >= kMaxCount)
+    s << " or more";
+  else
+    s << " to " << r.hi << (r.zero_ok ? " or 0" : "");
+  return s.str();
+}
+
+/** Every numeric option given, checked against its range (exit 2 naming it). A negative
+ *  count, which the parser wraps to a huge unsigned, is out of range too. */
+void
+checkRanges(const po::variables_map& vm)
+{
+  for (const Range& r : kRanges) {
+    if (!vm.count(r.name))
+      continue;
+    const boost::any& any = vm[r.name].value();
+    const double v = any.type() == typeid(double)     ? boost::any_cast<double>(any)
+                     : any.type() == typeid(int)      ? boost::any_cast<int>(any)
+                     : any.type() == typeid(unsigned) ? boost::any_cast<unsigned>(any)
+                                                      : boost::any_cast<std::size_t>(any);
+    if (!(v >= r.lo && v <= r.hi) && !(r.zero_ok && v == 0.0)) {
+      std::ostringstream msg;
+      msg << describe(r) << ", got " << v;
+      const std::string text = msg.str();
+      throw UsageError(text.substr(0, text.find(' ')) + " takes" + text.substr(text.find(' ')));
+    }
   }
-  return v;
+}
+
+/** A length or number option where given (checked by checkRanges). */
+std::optional<double>
+given(const po::variables_map& vm, const char* name)
+{
+  return vm.count(name) ? std::optional<double>(vm[name].as<double>()) : std::nullopt;
 }
 
 } // namespace
@@ -269,15 +312,15 @@ helpText(const std::string& command)
        "data in 3DTK's units), poses.txt / poses_icp.txt (KITTI), poses_tum.txt /\n"
        "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), map.pcd (binary), map.ply (--ply),\n"
        "map.png (top view), report.json (parameters, per-scan numbers, stage times).\n\n"
-    << "Ranges (out of range: exit 2 naming the option): lengths -m, -d, --icp-final, -D,\n"
-       "--lum-final "
-    << kLength.lo << " to " << kLength.hi
-    << " in the files' units, -M, -r, -c, --map-voxel the same or 0;\n"
-       "--scale "
-    << kScale.lo << " to " << kScale.hi << "; --sweep-period " << kSweepPeriod.lo << " to "
-    << kSweepPeriod.hi << " s; --epsICP, --epsSLAM " << kEpsilon.lo << " to " << kEpsilon.hi
-    << ";\n-i, -I, -l >= 1; -L 0 to 4; -s >= 0; -e >= -s; -t 0 to " << pcl_parallel::kMaxThreads
-    << "; --segment-size 0 to 1e8;\n--segment-overlap 1 to 1e5.\n";
+    << "Ranges (out of range: exit 2 naming the option; lengths in the files' units):\n";
+  std::string line;
+  for (const Range& r : kRanges) {
+    const std::string item = describe(r) + (&r == &kRanges[std::size(kRanges) - 1] ? "." : ";");
+    if (line.size() + item.size() > 86)
+      s << line << '\n', line.clear();
+    line += (line.empty() ? "" : " ") + item;
+  }
+  s << line << " -e >= -s.\n";
   return s.str();
 }
 
@@ -326,15 +369,12 @@ checkInputOptions(Options& o, const po::variables_map& vm)
                        "' (uos, pcd, ply, xyz, txt, bin)");
     o.format = f;
   }
-  if (vm.count("start") && o.first < 0)
-    throw UsageError("-s/--start must be >= 0");
+  checkRanges(vm);
   if (vm.count("end") && (o.last < 0 || o.last < o.first))
     throw UsageError("-e/--end must be >= -s/--start (" + std::to_string(o.first) + ")");
-  inRange(vm, "max", kLength);
-  inRange(vm, "min", kLengthOrZero);
   if (o.min_range >= o.max_range)
     throw UsageError("-M/--min must be smaller than -m/--max");
-  o.scale = inRange(vm, "scale", kScale);
+  o.scale = given(vm, "scale");
   if (vm.count("up")) {
     const std::string axis = lowerCase(vm["up"].as<std::string>());
     if (axis != "x" && axis != "y" && axis != "z")
@@ -344,7 +384,7 @@ checkInputOptions(Options& o, const po::variables_map& vm)
   if (o.sweep_ccw && !o.deskew)
     throw UsageError("--sweep-ccw needs --deskew");
   if (vm.count("sweep-period")) {
-    o.sweep_period = *inRange(vm, "sweep-period", kSweepPeriod);
+    o.sweep_period = *given(vm, "sweep-period");
     if (!o.deskew)
       throw UsageError("--sweep-period needs --deskew");
   }
@@ -354,39 +394,21 @@ checkInputOptions(Options& o, const po::variables_map& vm)
 void
 checkPipelineOptions(Options& o, const po::variables_map& vm)
 {
-  o.voxel = inRange(vm, "reduce", kLengthOrZero);
-  o.icp_distance = inRange(vm, "dist", kLength);
-  o.icp_final = inRange(vm, "icp-final", kLength);
-  o.lum_distance = inRange(vm, "distSLAM", kLength);
-  o.lum_final = inRange(vm, "lum-final", kLength);
-  o.loop_distance = inRange(vm, "cldist", kLengthOrZero);
+  o.voxel = given(vm, "reduce");
+  o.icp_distance = given(vm, "dist");
+  o.icp_final = given(vm, "icp-final");
+  o.lum_distance = given(vm, "distSLAM");
+  o.lum_final = given(vm, "lum-final");
+  o.loop_distance = given(vm, "cldist");
   if (o.metascan && o.scan_to_scan)
     throw UsageError("--metascan and --scan-to-scan exclude each other");
   if (o.no_poses && !o.poses_file.empty())
     throw UsageError("--poses and --no-poses exclude each other");
-  o.map_voxel = inRange(vm, "map-voxel", kLengthOrZero);
-  o.eps_icp = inRange(vm, "epsICP", kEpsilon);
-  o.eps_slam = inRange(vm, "epsSLAM", kEpsilon);
-  if (o.icp_iterations < 1)
-    throw UsageError("-i/--iter must be >= 1");
-  if (o.lum_iterations < 1)
-    throw UsageError("-I/--iterSLAM must be >= 1 (this pipeline always runs pLUM)");
-  if (o.loop_size < 1)
-    throw UsageError("-l/--loopsize must be >= 1");
-  if (o.elch < 0 || o.elch > 4)
-    throw UsageError("-L/--loop6DAlgo needs 0 (none) to 4 (ELCH), got " +
-                     std::to_string(o.elch));
-  if (o.threads > pcl_parallel::kMaxThreads) // the library's own limit, not clamped silently
-    throw UsageError("--threads takes 0 (all cores) to " +
-                     std::to_string(pcl_parallel::kMaxThreads) + ", got " +
-                     std::to_string(o.threads));
+  o.map_voxel = given(vm, "map-voxel");
+  o.eps_icp = given(vm, "epsICP");
+  o.eps_slam = given(vm, "epsSLAM");
   if (vm.count("segment-size"))
     o.segment_size = vm["segment-size"].as<std::size_t>();
-  if (o.segment_size.value_or(0) > 100000000) // also a negative one, wrapped
-    throw UsageError("--segment-size takes a scan count from 0 (one front end) to 1e8");
-  if (o.segment_overlap < 1 || o.segment_overlap > 100000) // also a negative one, wrapped
-    throw UsageError("--segment-overlap needs a scan count >= 1 (a segment joins the one "
-                     "before through it)");
 }
 
 /** Checks the output options. */

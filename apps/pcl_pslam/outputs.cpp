@@ -6,18 +6,12 @@
 
 #include <pcl_parallel/evaluation/report.h>
 #include <pcl_parallel/io/atomic_write.h>
-#include <pcl_parallel/io/pose_files.h>
-#include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/parallel.h>
-#include <pcl_parallel/render/map_picture.h>
-
-#include <pcl/pcl_config.h>
-
-#include <boost/version.hpp>
+#include <pcl_parallel/slam/run_outputs.h>
+#include <pcl_parallel/version.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -40,44 +34,12 @@ join(const std::string& dir, const std::string& name)
   return (fs::path(dir) / name).string();
 }
 
-/** A rank's part of the map under MPI. */
-std::string
-mapTileName(int rank, const char* extension)
-{
-  return "map_rank" + std::to_string(rank) + extension;
-}
-
-/** The map of scans [begin, end) at the final poses (slam::assembleMap, deskewed as the
- *  run's resolved parameters say), a progress step a scan. */
-Cloud::Ptr
-buildMap(const Options& o,
-         const Input& in,
-         const Result& r,
-         ProgressReporter& progress,
-         std::size_t begin = 0,
-         std::size_t end = std::size_t(-1))
-{
-  return pcl_parallel::slam::assembleMap(
-      in,
-      r.final,
-      r.parameters,
-      mapVoxel(o, in.scale),
-      [&](int done, int total) { progress.update("map", done, total); },
-      begin,
-      end);
-}
-
 /** The odometry's (where the run had one), the front end's and the final poses' errors
  *  against the simulation's truth: the console, map.png and report.json give the same. */
 std::vector<ev::NamedEvaluation>
 truthErrors(const Input& in, const Result& r)
 {
-  std::vector<ev::NamedEvaluation> rows;
-  if (in.odometry)
-    rows.push_back({"odometry", ev::evaluateTrajectory(in.initial, in.truth)});
-  rows.push_back({"front end", ev::evaluateTrajectory(r.icp, in.truth)});
-  rows.push_back({"final", ev::evaluateTrajectory(r.final, in.truth)});
-  return rows;
+  return ev::evaluateRun(in.odometry ? in.initial : Poses{}, r.icp, r.final, in.truth);
 }
 
 } // namespace
@@ -94,17 +56,28 @@ openOutputDirectory(const std::string& dir)
   }
 }
 
-void
-writeMapTile(const Options& o,
-             const std::string& dir,
-             const Input& in,
-             const Result& r,
-             ProgressReporter& progress)
+pcl_parallel::slam::RunOutputOptions
+runOutputOptions(const Options& o, const Input& in, const Result& r)
 {
-  const Cloud::Ptr map = buildMap(o, in, r, progress, r.spread.own_begin, r.spread.own_end);
-  pcl_parallel::io::writePcdScan(join(dir, mapTileName(r.spread.rank, ".pcd")), *map);
-  if (o.ply)
-    pcl_parallel::io::writePlyScan(join(dir, mapTileName(r.spread.rank, ".ply")), *map);
+  pcl_parallel::slam::RunOutputOptions options;
+  options.map_voxel = mapVoxel(o, in.scale);
+  options.ply = o.ply;
+  options.picture = o.picture;
+  options.style = o.style;
+  options.num_threads = o.threads;
+  if (!in.truth.empty()) {
+    std::string errors = "ATE against the truth (SE(3)-aligned):";
+    char line[128];
+    for (const auto& row : truthErrors(in, r)) {
+      std::snprintf(
+          line, sizeof line, " %s %.3f m,", row.name.c_str(), row.errors.ate.translation.rmse);
+      errors += line;
+    }
+    errors.pop_back();
+    options.caption.push_back(errors);
+  }
+  options.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
+  return options;
 }
 
 void
@@ -119,126 +92,14 @@ printTruthErrors(std::ostream& out, const Input& in, const Result& r)
 
 namespace {
 
-/** scanNNN.frames (3DTK's units for data that came in them), KITTI and TUM poses. */
-void
-writePoseFiles(const std::string& dir,
-               const Input& in,
-               const Result& r,
-               ProgressReporter& progress,
-               std::vector<std::string>& written)
-{
-  const double frames_scale = in.frames_3dtk ? in.scale : 1.0; // uos: cm
-  progress.update("write", 0, 1);
-  const auto names = pcl_parallel::io::writeRunPoses(
-      dir, in.numbers, in.initial, r.icp, r.final, in.stamps, frames_scale, [&] {
-        progress.update("write", 0, 1); // a signal stops between two complete files
-      });
-  written.insert(written.end(), names.begin(), names.end());
-  progress.update("write", 1, 1);
-}
-
-/** map.pcd (and map.ply) at the final poses; under MPI the tiles the ranks wrote, read
- *  back for the picture. Returns the map. */
-Cloud::Ptr
-writeMap(const Options& o,
-         const std::string& dir,
-         const Input& in,
-         const Result& r,
-         ProgressReporter& progress,
-         std::vector<std::string>& written)
-{
-  Cloud::Ptr map(new Cloud);
-  if (r.spread.ranks > 1) { // the tiles every rank wrote (writeMapTile)
-    for (int k = 0; k < r.spread.ranks; ++k) {
-      progress.update("tiles", k, r.spread.ranks);
-      *map += *pcl_parallel::io::loadPcdScan(join(dir, mapTileName(k, ".pcd")));
-    }
-    written.push_back(mapTileName(0, ".pcd") + ".." + mapTileName(r.spread.ranks - 1, ".pcd"));
-    if (o.ply)
-      written.push_back(mapTileName(0, ".ply") + ".." +
-                        mapTileName(r.spread.ranks - 1, ".ply"));
-    progress.update("tiles", r.spread.ranks, r.spread.ranks);
-    return map;
-  }
-  progress.update("map", 0, 1);
-  map = buildMap(o, in, r, progress);
-  progress.update("save", 0, 1);
-  pcl_parallel::io::writePcdScan(join(dir, "map.pcd"), *map);
-  written.push_back("map.pcd");
-  if (o.ply) {
-    progress.update("save", 0, 1);
-    pcl_parallel::io::writePlyScan(join(dir, "map.ply"), *map);
-    written.push_back("map.ply");
-  }
-  progress.update("save", 1, 1);
-  return map;
-}
-
-/** map.png with its caption; returns the style it was drawn in. */
-std::string
-writePicture(const Options& o,
-             const std::string& dir,
-             const Input& in,
-             const Result& r,
-             const Cloud& map,
-             ProgressReporter& progress,
-             std::vector<std::string>& written)
-{
-  progress.update("picture", 0, 1);
-  const double map_voxel = mapVoxel(o, in.scale);
-  pcl_parallel::render::PictureOptions po;
-  po.up = in.up;
-  po.style = o.style;
-  po.cell = map_voxel > 0.0 ? map_voxel : 0.05;
-  po.loops = pcl_parallel::slam::loopLinks(r);
-  po.num_threads = o.threads;
-  char line[256];
-  std::snprintf(line,
-                sizeof line,
-                "%zu scans, %zu map points (%.2f m voxels), %zu loop link%s, pLUM %d "
-                "iteration%s",
-                in.size(),
-                map.size(),
-                map_voxel,
-                po.loops.size(),
-                po.loops.size() == 1 ? "" : "s",
-                r.lum_iterations,
-                r.lum_iterations == 1 ? "" : "s");
-  po.caption.push_back(line);
-  if (!in.truth.empty()) {
-    std::string errors = "ATE against the truth (SE(3)-aligned):";
-    for (const auto& row : truthErrors(in, r)) {
-      std::snprintf(
-          line, sizeof line, " %s %.3f m,", row.name.c_str(), row.errors.ate.translation.rmse);
-      errors += line;
-    }
-    errors.pop_back();
-    po.caption.push_back(errors);
-  }
-  po.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
-  const std::string style =
-      pcl_parallel::render::writeMapPicture(join(dir, "map.png"), map, r.final, po);
-  written.push_back("map.png");
-  progress.update("picture", 1, 1);
-  return style;
-}
-
+/** What the run was built with (a result traced to its build). */
 json
 versionsJson()
 {
-  const auto version = [](int major, int minor, int patch) {
-    return std::to_string(major) + "." + std::to_string(minor) + "." + std::to_string(patch);
-  };
-  return {{"pcl_pslam", PCL_PSLAM_VERSION},
-          {"pcl", PCL_VERSION_PRETTY},
-          {"eigen", version(EIGEN_WORLD_VERSION, EIGEN_MAJOR_VERSION, EIGEN_MINOR_VERSION)},
-          {"boost", BOOST_LIB_VERSION},
-          {"cairo", pcl_parallel::render::cairoVersion()},
-          {"nlohmann_json",
-           version(NLOHMANN_JSON_VERSION_MAJOR,
-                   NLOHMANN_JSON_VERSION_MINOR,
-                   NLOHMANN_JSON_VERSION_PATCH)},
-          {"compiler", __VERSION__}};
+  json versions = {{"pcl_pslam", PCL_PSLAM_VERSION}};
+  for (const auto& [name, version] : pcl_parallel::buildVersions())
+    versions[name] = version;
+  return versions;
 }
 
 json
@@ -298,18 +159,22 @@ writeOutputs(const Options& o,
              ProgressReporter& progress,
              const std::string& command_line)
 {
-  std::vector<std::string> written;
-  writePoseFiles(dir, in, r, progress, written);
-  const Cloud::Ptr map = writeMap(o, dir, in, r, progress, written);
-  const std::string style =
-      o.picture ? writePicture(o, dir, in, r, *map, progress, written) : "";
+  const auto outputs = pcl_parallel::slam::writeRunOutputs(
+      dir,
+      in,
+      r,
+      runOutputOptions(o, in, r),
+      [&](const char* stage, std::size_t done, std::size_t total) {
+        progress.update(stage, static_cast<int>(done), static_cast<int>(total));
+      });
+  std::vector<std::string> written = outputs.written;
   progress.update("report", 0, 1);
   progress.finish();
   json j = reportJson(o, in, r, progress);
   j["command_line"] = command_line;
-  j["map"] = {{"points", map->size()}, {"voxel_m", mapVoxel(o, in.scale)}};
-  if (!style.empty())
-    j["picture_style"] = style;
+  j["map"] = {{"points", outputs.map_points}, {"voxel_m", mapVoxel(o, in.scale)}};
+  if (!outputs.picture_style.empty())
+    j["picture_style"] = outputs.picture_style;
   j["outputs"] = written;
   pcl_parallel::io::writeStreamAtomically(join(dir, "report.json"), [&](std::ostream& out) {
     out << j.dump(2, ' ', false, json::error_handler_t::replace) << '\n';

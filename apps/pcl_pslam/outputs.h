@@ -13,6 +13,7 @@
 #include "progress.h"
 
 #include <pcl_parallel/io/output_directory.h>
+#include <pcl_parallel/slam/run_outputs.h>
 
 #include <memory>
 #include <ostream>
@@ -26,14 +27,10 @@ namespace pcl_pslam {
 std::unique_ptr<pcl_parallel::io::OutputDirectory>
 openOutputDirectory(const std::string& dir);
 
-/** Under MPI, this rank's part of the map (the scans it matched) as map_rank<rank>.pcd (and
- *  .ply with --ply) in `dir`; writeOutputs reads them all back for map.png. */
-void
-writeMapTile(const Options& o,
-             const std::string& dir,
-             const Input& in,
-             const Result& r,
-             ProgressReporter& progress);
+/** The library's options for the run's files (slam::writeRunOutputs, writeMapTile): map
+ *  voxel, PLY, picture and its caption (the errors against the truth, the command). */
+pcl_parallel::slam::RunOutputOptions
+runOutputOptions(const Options& o, const Input& in, const Result& r);
 
 /** Everything a run writes into `dir`, with a progress update (and so a check for a signal)
  *  between files; `command_line` goes into report.json. Returns the names written. */

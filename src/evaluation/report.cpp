@@ -263,6 +263,20 @@ toJson(const FileEvaluation& f, int indent)
   return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace); // as report.json
 }
 
+std::vector<NamedEvaluation>
+evaluateRun(const Poses& odometry,
+            const Poses& front_end,
+            const Poses& final_poses,
+            const Poses& truth)
+{
+  std::vector<NamedEvaluation> rows;
+  if (!odometry.empty())
+    rows.push_back({"odometry", evaluateTrajectory(odometry, truth)});
+  rows.push_back({"front end", evaluateTrajectory(front_end, truth)});
+  rows.push_back({"final", evaluateTrajectory(final_poses, truth)});
+  return rows;
+}
+
 void
 printErrorRows(std::ostream& out, const std::vector<NamedEvaluation>& rows)
 {

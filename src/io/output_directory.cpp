@@ -192,6 +192,26 @@ removeStaleTemporaries(const std::string& dir, const std::string& prefix)
   return stale.size();
 }
 
+TemporaryDirectory::TemporaryDirectory(const std::string& prefix)
+{
+  const fs::path dir = fs::temp_directory_path();
+  removeStaleTemporaries(dir.string(), prefix);
+  static std::atomic<int> serial{0};
+  path_ = (dir / (temporaryName(prefix) + "." + std::to_string(serial++))).string();
+  std::error_code ec;
+  if (!fs::create_directories(path_, ec) || ec)
+    throw std::runtime_error(path_ + ": cannot create a temporary directory (" +
+                             (ec ? ec.message() : "it exists") + ")");
+  registerTemporary(path_);
+}
+
+TemporaryDirectory::~TemporaryDirectory()
+{
+  unregisterTemporary(path_);
+  std::error_code ec;
+  fs::remove_all(path_, ec);
+}
+
 OutputDirectory::OutputDirectory(const std::string& target, OutputNamePredicate owned)
 {
   const fs::path t = targetPath(target);

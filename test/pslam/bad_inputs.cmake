@@ -18,17 +18,17 @@ bad_input(bad_number INPUT "a number that is not one"
   EXIT 2 MESSAGE "the argument ('abc') for option '--reduce' is invalid"
   ARGS demo --voxel abc --out @OUT@)
 bad_input(reduce_out_of_range INPUT "a length below its range (1e-6 to 1e9 in the files' units)"
-  EXIT 2 MESSAGE "--reduce takes 1e-06 to 1e+09 or 0, got 1e-09"
+  EXIT 2 MESSAGE "-r/--reduce takes 1e-06 to 1e+09 or 0, got 1e-09"
   ARGS run @TINY@ -r 1e-9 --out @OUT@)
 bad_input(scale_out_of_range INPUT "--scale beyond 1e-6 to 1e6"
   EXIT 2 MESSAGE "--scale takes 1e-06 to 1e+06, got 1e+30" ARGS run @TINY@ --scale 1e30 --out @OUT@)
 bad_input(threads_out_of_range INPUT "--threads above 1024"
-  EXIT 2 MESSAGE "--threads takes 0 (all cores) to 1024" ARGS run @TINY@ -t 1025 --out @OUT@)
+  EXIT 2 MESSAGE "-t/--threads takes 0 to 1024, got 1025" ARGS run @TINY@ -t 1025 --out @OUT@)
 bad_input(sweep_period_out_of_range INPUT "--sweep-period beyond 1e-4 to 3600 s"
   EXIT 2 MESSAGE "--sweep-period takes 0.0001 to 3600, got 5000"
   ARGS run @TINY@ --deskew --sweep-period 5000 --out @OUT@)
 bad_input(negative_segment_size INPUT "a negative scan count (wrapped to 2^64 - 1 by the parser)"
-  EXIT 2 MESSAGE "--segment-size takes a scan count from 0 (one front end) to 1e8"
+  EXIT 2 MESSAGE "--segment-size takes 0 to 1e+08, got 1.84467e+19"
   ARGS run @TINY@ --segment-size -1 --out @OUT@)
 bad_input(unknown_format INPUT "an unknown scan format"
   EXIT 2 MESSAGE "unknown scan format 'foo'" ARGS run -f foo @TINY@ --out @OUT@)

@@ -102,6 +102,15 @@ struct NamedEvaluation {
   TrajectoryEvaluation errors;
 };
 
+/** A mapping run's trajectories against the truth, a row each: "odometry" (where given,
+ *  non-empty), "front end" and "final" (ATE after SE(3) alignment, RPE as the KITTI devkit
+ *  over kittiLengthsFor(truth), per-frame RPE). */
+std::vector<NamedEvaluation>
+evaluateRun(const Poses& odometry,
+            const Poses& front_end,
+            const Poses& final_poses,
+            const Poses& truth);
+
 /** Several trajectories' errors side by side, a header line and a line each: the ATE's
  *  RMSE (m, deg), the KITTI RPE (%, deg/m) and the per-frame RPE's RMSE (m). */
 void

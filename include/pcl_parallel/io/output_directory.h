@@ -86,6 +86,27 @@ private:
   bool replaces_ = false, committed_ = false;
 };
 
+/** A fresh directory in the system's temporary folder, "PREFIXHOST-PID.N" (those of ended
+ *  processes removed first), removed with its files by the destructor or a signal
+ *  (removeTemporariesNow): scans written to be read back, e.g. a simulated set. */
+class TemporaryDirectory {
+public:
+  explicit TemporaryDirectory(const std::string& prefix);
+  ~TemporaryDirectory();
+  TemporaryDirectory(const TemporaryDirectory&) = delete;
+  TemporaryDirectory&
+  operator=(const TemporaryDirectory&) = delete;
+
+  const std::string&
+  path() const
+  {
+    return path_;
+  }
+
+private:
+  std::string path_;
+};
+
 /** Removes the temporary directories of this process (each OutputDirectory's until its
  *  commit() or destruction, and those of registerTemporary) with their files, by system
  *  calls alone: async-signal-safe, for a signal handler that ends the process at once.
