@@ -2,12 +2,14 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * io/carmen.h: hand-written CARMEN logs (every message, the angle rule, the range limits,
- * the errors) and the three Radish logs of ../shared/data/radish_2d (their README's counts).
+ * The 2D logs' io. io/carmen.h: hand-written CARMEN logs (every message, the angle rule,
+ * the range limits, the errors) and the three Radish logs of ../shared/data/radish_2d (their
+ * README's counts). io/g2o.h: the SE(2) pose graph written and read back.
  */
 #include "test_data.h"
 
 #include <pcl_parallel/io/carmen.h>
+#include <pcl_parallel/io/g2o.h>
 
 #include <boost/iostreams/filter/bzip2.hpp>
 #include <boost/iostreams/filtering_stream.hpp>
@@ -367,4 +369,72 @@ TEST(CarmenData, Fr079AsItsReadmeStates)
 TEST(CarmenData, MitCsailAsItsReadmeStates)
 {
   checkRadishLog({"mit-csail.clf.bz2", 1988, 361, 0, 0, 424.0, 373.6, 0.5, 0.0, 3.3});
+}
+
+// g2o's SE(2) lines: the numbers read back exactly; an edge checked by hand.
+TEST_F(CarmenFiles, G2oSe2WritesVerticesAndEdgesThatReadBack)
+{
+  const std::vector<Eigen::Matrix4d> poses = {
+      planarPose(1, 2, M_PI / 2), planarPose(1, 3, M_PI), planarPose(-0.1, 1e-7, -3.0)};
+  Eigen::Matrix3d info;
+  info << 100, 1, 2, 1, 200, 3, 2, 3, 1000;
+  std::vector<G2oEdgeSe2> edges = {g2oEdgeBetween(poses, 0, 1, info),
+                                   g2oEdgeBetween(poses, 2, 0)};
+  const std::string path = (dir_ / "graph.g2o").string();
+  writeG2oSe2(path, poses, edges);
+  std::ifstream in(path);
+  std::string tag;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    std::size_t id;
+    double x, y, theta;
+    ASSERT_TRUE(in >> tag >> id >> x >> y >> theta);
+    EXPECT_EQ(tag, "VERTEX_SE2");
+    EXPECT_EQ(id, i);
+    EXPECT_EQ(x, poses[i](0, 3));
+    EXPECT_EQ(y, poses[i](1, 3));
+    EXPECT_EQ(theta, std::atan2(poses[i](1, 0), poses[i](0, 0)));
+  }
+  double v[9];
+  std::size_t from, to;
+  ASSERT_TRUE(in >> tag >> from >> to);
+  for (double& x : v)
+    ASSERT_TRUE(in >> x);
+  EXPECT_EQ(tag, "EDGE_SE2");
+  EXPECT_EQ(from, 0u);
+  EXPECT_EQ(to, 1u);
+  // By hand: from (1, 2) facing +y, the pose at (1, 3) facing -x is 1 m ahead, turned +90°.
+  EXPECT_NEAR(v[0], 1.0, 1e-15);
+  EXPECT_NEAR(v[1], 0.0, 1e-15);
+  EXPECT_NEAR(v[2], M_PI / 2, 1e-15);
+  EXPECT_EQ((std::vector<double>(v + 3, v + 9)), (std::vector<double>{100, 1, 2, 200, 3, 1000}));
+  ASSERT_TRUE(in >> tag >> from >> to);
+  EXPECT_EQ(from, 2u);
+  EXPECT_EQ(to, 0u);
+  for (double& x : v)
+    ASSERT_TRUE(in >> x);
+  EXPECT_EQ(v[3], 1.0);
+  EXPECT_EQ(v[4], 0.0);
+  EXPECT_FALSE(in >> tag); // nothing more
+}
+
+// What no SE(2) graph holds is refused before a file is written.
+TEST_F(CarmenFiles, G2oSe2RefusesWhatIsNoPlanarGraph)
+{
+  const std::string path = (dir_ / "bad.g2o").string();
+  std::vector<Eigen::Matrix4d> poses = {planarPose(0, 0, 0), planarPose(1, 0, 0)};
+  EXPECT_NO_THROW(writeG2oSe2(path, poses, {g2oEdgeBetween(poses, 0, 1)}));
+  std::filesystem::remove(path);
+  EXPECT_THROW(g2oEdgeBetween(poses, 0, 2), std::out_of_range);
+  G2oEdgeSe2 beyond;
+  beyond.to = 2;
+  EXPECT_THROW(writeG2oSe2(path, poses, {beyond}), std::invalid_argument);
+  G2oEdgeSe2 skew = g2oEdgeBetween(poses, 0, 1);
+  skew.information(0, 1) = 5;
+  EXPECT_THROW(writeG2oSe2(path, poses, {skew}), std::invalid_argument);
+  poses[1].topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  EXPECT_THROW(writeG2oSe2(path, poses, {}), std::invalid_argument);
+  poses[1] = planarPose(std::nan(""), 0, 0);
+  EXPECT_THROW(writeG2oSe2(path, poses, {}), std::invalid_argument);
+  EXPECT_FALSE(std::filesystem::exists(path));
 }
