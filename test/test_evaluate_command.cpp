@@ -313,13 +313,13 @@ TEST(EvaluateCommand, RelationsGiveThePapersTableAndExitOneWithoutAMatch)
   EXPECT_NEAR(j["translation_m"]["std"].get<double>(), 0.0, 1e-9);
   EXPECT_NEAR(j["rotation_deg"]["mean"].get<double>(), 0.0, 1e-9);
 
-  const Outcome none =
-      evaluate({dir / "est.tum", "--relations", dir.write("far.relations", "1 2 0 0 0 0 0 0\n")});
+  const Outcome none = evaluate(
+      {dir / "est.tum", "--relations", dir.write("far.relations", "1 2 0 0 0 0 0 0\n")});
   EXPECT_EQ(none.code, 1);
   EXPECT_HAS(none.err, "no relation of");
   EXPECT_TRUE(none.out.empty()) << none.out;
-  const Outcome bad =
-      evaluate({dir / "est.tum", "--relations", dir.write("bad.relations", relations + "1 2 3\n")});
+  const Outcome bad = evaluate(
+      {dir / "est.tum", "--relations", dir.write("bad.relations", relations + "1 2 3\n")});
   EXPECT_EQ(bad.code, 1);
   EXPECT_HAS(bad.err, "bad.relations:4:");
   pio::writeKittiPoses(dir / "est.txt", biased);

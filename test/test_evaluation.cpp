@@ -861,16 +861,18 @@ TEST(Relations, BadFilesNameFileAndLine)
   EXPECT_NE(errorOf("short.relations", "1 2 0 0 0 0 0 0\n1 2 3 4 5 6 7\n")
                 .find("short.relations:2: expected 8 numbers"),
             std::string::npos);
-  EXPECT_NE(errorOf("long.relations", "1 2 0 0 0 0 0 0 9\n").find("long.relations:1: more than 8"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf("long.relations", "1 2 0 0 0 0 0 0 9\n").find("long.relations:1: more than 8"),
+      std::string::npos);
   EXPECT_NE(errorOf("nan.relations", "\n1 2 0 nan 0 0 0 0\n")
                 .find("nan.relations:2: column 4 is not a finite number"),
             std::string::npos);
   EXPECT_NE(errorOf("text.relations", "1 2 0 0 0 0 0 zero\n")
                 .find("text.relations:1: column 8 is not a finite number: \"zero\""),
             std::string::npos);
-  EXPECT_NE(errorOf("empty.relations", "# nothing\n").find("empty.relations: holds no relation"),
-            std::string::npos);
+  EXPECT_NE(
+      errorOf("empty.relations", "# nothing\n").find("empty.relations: holds no relation"),
+      std::string::npos);
   EXPECT_THROW(ev::loadRelations(dir / "missing.relations"), std::runtime_error);
 }
 

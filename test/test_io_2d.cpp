@@ -130,9 +130,9 @@ TEST_F(CarmenFiles, FlaserBeamsLieAtCarmensAnglesAndNoReturnsAreDropped)
   ranges[4] = "nan";
   ranges[5] = "inf";
   ranges[90] = "1.5";
-  const auto log =
-      loadCarmenLog(write("f.clf", "# CARMEN Logfile\n" +
-                                       flaser(ranges, "1 2 0.5", "1 2 0.5", "976052857.5 h 1.25")));
+  const auto log = loadCarmenLog(
+      write("f.clf",
+            "# CARMEN Logfile\n" + flaser(ranges, "1 2 0.5", "1 2 0.5", "976052857.5 h 1.25")));
   ASSERT_EQ(log.scans.size(), 1u);
   const CarmenScan& s = log.scans[0];
   EXPECT_EQ(s.message, CarmenLaserMessage::FLaser);
@@ -164,8 +164,8 @@ TEST_F(CarmenFiles, FlaserWithOffsetAndTheLogsParams)
                              "PARAM robot_front_laser_max 5.0 1.0 merci 1.0\n"
                              "PARAM robot_allow_rear_motion off 1.0 merci 1.0\n";
   const std::vector<std::string> ranges = {"1", "2", "5.0", "4.99"};
-  const auto log = loadCarmenLog(
-      write("o.clf", params + flaser(ranges, "1 1.96 1.5707963267948966", "1 2 1.5707963267948966")));
+  const auto log = loadCarmenLog(write(
+      "o.clf", params + flaser(ranges, "1 1.96 1.5707963267948966", "1 2 1.5707963267948966")));
   ASSERT_EQ(log.params.size(), 4u);
   EXPECT_EQ(log.params[0].name, "robot_frontlaser_offset");
   EXPECT_EQ(log.params[0].value, "-0.04");
@@ -213,9 +213,10 @@ TEST_F(CarmenFiles, OdometryCommentsOtherMessagesLineEndsAndBzip2)
 {
   for (const std::string end : {"\n", "\r\n", "\r"}) {
     SCOPED_TRACE(end == "\r" ? "CR" : end == "\n" ? "LF" : "CRLF");
-    const std::string text = "# a comment" + end + "PARAM robot_frontlaser_offset 0.0 nohost 0" +
-                             end + end + "ODOM 1 2 0.25 0.5 -0.1 0 976052857.337 nohost 0.6" +
-                             end + "RLASER 1 2.0 0 0 0 0 0 0 1 h 1" + end +
+    const std::string text = "# a comment" + end +
+                             "PARAM robot_frontlaser_offset 0.0 nohost 0" + end + end +
+                             "ODOM 1 2 0.25 0.5 -0.1 0 976052857.337 nohost 0.6" + end +
+                             "RLASER 1 2.0 0 0 0 0 0 0 1 h 1" + end +
                              "TRUEPOS 0 0 0 0 0 0 1 h 1" + end + "SYNC tag 1 h 1" + end;
     for (const bool bz2 : {false, true}) {
       const auto path = bz2 ? writeBzip2("log.clf.bz2", text) : write("log.clf", text);
@@ -254,7 +255,8 @@ TEST_F(CarmenFiles, BadLinesThrowWithFileAndLine)
   EXPECT_NE(msg.find("count.clf:1: num_readings (field 2) is no count"), std::string::npos)
       << msg;
   msg = errorAt("range.clf", good + flaser({"1", "2m"}, "0 0 0", "0 0 0"));
-  EXPECT_NE(msg.find("range.clf:2: a range (field 4) is not a number: \"2m\""), std::string::npos)
+  EXPECT_NE(msg.find("range.clf:2: a range (field 4) is not a number: \"2m\""),
+            std::string::npos)
       << msg;
   msg = errorAt("pose.clf", flaser({"1"}, "0 nan 0", "0 0 0"));
   EXPECT_NE(msg.find("pose.clf:1: y (field 5) is not finite"), std::string::npos) << msg;
@@ -286,9 +288,10 @@ TEST_F(CarmenFiles, CorruptAndTruncatedBzip2Throw)
   const auto whole = writeBzip2("whole.clf.bz2", text);
   EXPECT_EQ(loadCarmenLog(whole).odometry.size(), 2000u);
   std::ifstream in(whole, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  std::string msg = errorOf(
-      [&] { loadCarmenLog(write("cut.clf.bz2", bytes.substr(0, bytes.size() / 2))); });
+  const std::string bytes((std::istreambuf_iterator<char>(in)),
+                          std::istreambuf_iterator<char>());
+  std::string msg =
+      errorOf([&] { loadCarmenLog(write("cut.clf.bz2", bytes.substr(0, bytes.size() / 2))); });
   EXPECT_NE(msg.find("cut.clf.bz2:"), std::string::npos) << msg;
   msg = errorOf([&] { loadCarmenLog(write("text.clf.bz2", text)); });
   EXPECT_NE(msg.find("text.clf.bz2:1: cannot decompress (bzip2)"), std::string::npos) << msg;
@@ -406,7 +409,8 @@ TEST_F(CarmenFiles, G2oSe2WritesVerticesAndEdgesThatReadBack)
   EXPECT_NEAR(v[0], 1.0, 1e-15);
   EXPECT_NEAR(v[1], 0.0, 1e-15);
   EXPECT_NEAR(v[2], M_PI / 2, 1e-15);
-  EXPECT_EQ((std::vector<double>(v + 3, v + 9)), (std::vector<double>{100, 1, 2, 200, 3, 1000}));
+  EXPECT_EQ((std::vector<double>(v + 3, v + 9)),
+            (std::vector<double>{100, 1, 2, 200, 3, 1000}));
   ASSERT_TRUE(in >> tag >> from >> to);
   EXPECT_EQ(from, 2u);
   EXPECT_EQ(to, 0u);

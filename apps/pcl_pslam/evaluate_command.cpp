@@ -121,7 +121,8 @@ parseEvaluateArguments(const std::vector<std::string>& args,
   }
   po::notify(vm);
   const bool relations = vm.count("relations") > 0;
-  if (relations && (a.estimate_path.empty() || !a.truth_path.empty() || a.relations_path.empty()))
+  if (relations &&
+      (a.estimate_path.empty() || !a.truth_path.empty() || a.relations_path.empty()))
     throw UsageError("--relations FILE needs ESTIMATE and no GROUND_TRUTH");
   if (!relations && (a.estimate_path.empty() || a.truth_path.empty()))
     throw UsageError("needs ESTIMATE and GROUND_TRUTH");

@@ -255,13 +255,13 @@ CarmenReader::readFLaser(const Line& line)
   CarmenScan scan;
   scan.message = CarmenLaserMessage::FLaser;
   scan.start_angle = -M_PI / 2.0; // readlog.c
-  scan.angular_resolution = front_resolution_ > 0.0 ? front_resolution_
-                                                    : carmenGuessAngleIncrement(n);
-  scan.max_range = front_max_ > 0.0 ? std::min(options_.max_range, front_max_)
-                                    : options_.max_range;
+  scan.angular_resolution =
+      front_resolution_ > 0.0 ? front_resolution_ : carmenGuessAngleIncrement(n);
+  scan.max_range =
+      front_max_ > 0.0 ? std::min(options_.max_range, front_max_) : options_.max_range;
   const std::size_t p = 2 + n;
-  scan.laser_pose = planarPose(
-      line.finite(p, "x"), line.finite(p + 1, "y"), line.finite(p + 2, "theta"));
+  scan.laser_pose =
+      planarPose(line.finite(p, "x"), line.finite(p + 1, "y"), line.finite(p + 2, "theta"));
   scan.robot_pose = planarPose(line.finite(p + 3, "odom_x"),
                                line.finite(p + 4, "odom_y"),
                                line.finite(p + 5, "odom_theta"));
@@ -328,8 +328,8 @@ CarmenReader::addScan(const Line& line, CarmenScan& scan, std::size_t first)
     // Not finite, no echo (<= 0), too near, or "no return" (saturation at the maximum).
     if (!std::isfinite(r) || r <= 0.0 || r < options_.min_range || r >= scan.max_range)
       continue;
-    scan.cloud->push_back(pcl::PointXYZ(
-        static_cast<float>(r * cos_[i]), static_cast<float>(r * sin_[i]), 0.0f));
+    scan.cloud->push_back(
+        pcl::PointXYZ(static_cast<float>(r * cos_[i]), static_cast<float>(r * sin_[i]), 0.0f));
   }
   scan.cloud->width = static_cast<std::uint32_t>(scan.cloud->size());
   scan.cloud->height = 1;
@@ -340,8 +340,9 @@ CarmenReader::addScan(const Line& line, CarmenScan& scan, std::size_t first)
 void
 CarmenReader::readOdometry(const Line& line)
 {
-  line.requireFields(10, "ODOM x y theta tv rv accel ipc_timestamp ipc_hostname "
-                         "logger_timestamp");
+  line.requireFields(10,
+                     "ODOM x y theta tv rv accel ipc_timestamp ipc_hostname "
+                     "logger_timestamp");
   CarmenOdometry odom;
   odom.line = line.lineNumber();
   odom.pose = planarPose(line.finite(1, "x"), line.finite(2, "y"), line.finite(3, "theta"));

@@ -70,7 +70,8 @@ g2oEdgeBetween(const std::vector<Eigen::Matrix4d>& poses,
   edge.measurement.topLeftCorner<3, 3>() =
       a.topLeftCorner<3, 3>().transpose() * b.topLeftCorner<3, 3>();
   edge.measurement.topRightCorner<3, 1>() =
-      a.topLeftCorner<3, 3>().transpose() * (b.topRightCorner<3, 1>() - a.topRightCorner<3, 1>());
+      a.topLeftCorner<3, 3>().transpose() *
+      (b.topRightCorner<3, 1>() - a.topRightCorner<3, 1>());
   edge.information = information;
   return edge;
 }

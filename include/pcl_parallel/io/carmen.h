@@ -84,11 +84,11 @@ struct CarmenParam {
 /** A whole log, in file order (which is not time order in every log: sort by timestamp
  *  where order matters). */
 struct CarmenLog {
-  std::vector<CarmenScan> scans;         ///< FLASER and ROBOTLASER1 lines
-  std::vector<CarmenOdometry> odometry;  ///< ODOM lines
-  std::vector<CarmenParam> params;       ///< PARAM lines
+  std::vector<CarmenScan> scans;              ///< FLASER and ROBOTLASER1 lines
+  std::vector<CarmenOdometry> odometry;       ///< ODOM lines
+  std::vector<CarmenParam> params;            ///< PARAM lines
   std::map<std::string, std::size_t> skipped; ///< other messages (RLASER, TRUEPOS, ...) by name
-  std::size_t lines = 0;                 ///< the last line that holds more than white space
+  std::size_t lines = 0; ///< the last line that holds more than white space
 };
 
 /** Reads a CARMEN log: `.bz2` by its extension through a bzip2 decompressor, any other
