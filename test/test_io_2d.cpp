@@ -292,9 +292,12 @@ TEST_F(CarmenFiles, CorruptAndTruncatedBzip2Throw)
                           std::istreambuf_iterator<char>());
   std::string msg =
       errorOf([&] { loadCarmenLog(write("cut.clf.bz2", bytes.substr(0, bytes.size() / 2))); });
-  EXPECT_NE(msg.find("cut.clf.bz2:"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("cut.clf.bz2:1: cannot decompress: the bzip2 stream ends early"),
+            std::string::npos)
+      << msg;
   msg = errorOf([&] { loadCarmenLog(write("text.clf.bz2", text)); });
-  EXPECT_NE(msg.find("text.clf.bz2:1: cannot decompress (bzip2)"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("text.clf.bz2:1: cannot decompress: not bzip2 data"), std::string::npos)
+      << msg;
 }
 
 namespace {

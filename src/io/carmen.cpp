@@ -383,6 +383,20 @@ CarmenReader::readParam(const Line& line)
   log_.params.push_back(std::move(param));
 }
 
+/** What a bzip2 error code (bzlib.h's BZ_*) means for the file. */
+std::string
+bzip2Problem(int code)
+{
+  namespace bz = boost::iostreams::bzip2; // its codes are link-time constants: no switch
+  if (code == bz::data_error_magic)
+    return "not bzip2 data";
+  if (code == bz::data_error)
+    return "corrupt bzip2 data";
+  if (code == bz::unexpected_eof)
+    return "the bzip2 stream ends early (a truncated file)";
+  return "bzip2 error " + std::to_string(code);
+}
+
 /** A bzip2 stream's error (a corrupt or truncated .bz2) with the line it stopped at. */
 template <typename F>
 void
@@ -391,8 +405,11 @@ readingBzip2(const std::string& path, const std::size_t& line_no, F&& f)
   try {
     f();
   }
+  catch (const boost::iostreams::bzip2_error& e) {
+    fail(path, line_no + 1, "cannot decompress: " + bzip2Problem(e.error()));
+  }
   catch (const std::ios_base::failure& e) {
-    fail(path, line_no + 1, std::string("cannot decompress (bzip2): ") + e.what());
+    fail(path, line_no + 1, std::string("cannot decompress: ") + e.what());
   }
 }
 
