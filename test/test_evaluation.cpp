@@ -841,8 +841,8 @@ TEST(Relations, ReadsTheFreiburgFormat)
                                     Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitY()) *
                                     Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()))
                                        .toRotationMatrix();
-  EXPECT_TRUE(r[1].motion.topLeftCorner<3, 3>().isApprox(expected, 1e-14));
-  EXPECT_EQ(r[1].motion.topRightCorner<3, 1>(), Eigen::Vector3d(1, 2, 3));
+  EXPECT_TRUE((r[1].motion.topLeftCorner<3, 3>().isApprox(expected, 1e-14)));
+  EXPECT_EQ((r[1].motion.topRightCorner<3, 1>()), Eigen::Vector3d(1, 2, 3));
 }
 
 TEST(Relations, BadFilesNameFileAndLine)
