@@ -126,7 +126,7 @@ main(int argc, char** argv)
   seed("evaluate", "tum_tum", tum + std::string(1, '\0') + tum);
   seed("evaluate", "tum_kitti", tum + std::string(1, '\0') + kitti.substr(0, 3 * 26));
   // `run`'s command line: NUL-separated tokens after "pcl_pslam run" (or demo).
-  const auto argv = [](std::initializer_list<const char*> tokens) {
+  const auto command = [](std::initializer_list<const char*> tokens) {
     std::string bytes;
     for (const char* t : tokens)
       bytes += std::string(t) + '\0';
@@ -134,7 +134,7 @@ main(int argc, char** argv)
   };
   seed("options",
        "slam6d",
-       argv({"-s",
+       command({"-s",
              "0",
              "-e",
              "65",
@@ -155,7 +155,7 @@ main(int argc, char** argv)
              "dat"}));
   seed("options",
        "deskew",
-       argv({"dir",
+       command({"dir",
              "--deskew",
              "--sweep-period",
              "0.1",
@@ -171,7 +171,7 @@ main(int argc, char** argv)
              "4"}));
   seed("options",
        "ranges",
-       argv({"dir",
+       command({"dir",
              "-r",
              "1e-9",
              "--epsICP",
