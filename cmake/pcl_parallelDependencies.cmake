@@ -25,6 +25,9 @@ _pcl_parallel_find_dependency(MPI COMPONENTS C)
 _pcl_parallel_find_dependency(PCL 1.13 COMPONENTS common search kdtree registration io)
 _pcl_parallel_find_dependency(Eigen3 3.3)
 _pcl_parallel_find_dependency(OpenMP COMPONENTS CXX)
+# Boost.Iostreams' bzip2 filter (io/carmen.cpp reads .clf.bz2): linked privately, but a
+# static pcl_parallel's users link it too. PCL needs it as well (its pcl_io).
+_pcl_parallel_find_dependency(Boost 1.65 COMPONENTS iostreams)
 # Cairo (render/: the map's picture), by pkg-config as Debian ships it (libcairo2-dev):
 # linked privately, but a static pcl_parallel's users link it too.
 _pcl_parallel_find_dependency(PkgConfig)

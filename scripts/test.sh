@@ -79,7 +79,8 @@ tsan() {
 fuzz() {
   local dir=build-fuzz bin=build-fuzz/test/fuzz secs=${FUZZ_SECONDS:-10}
   local targets=(uos_scan uos_pose frames xyz kitti_scan kitti_poses stanford_conf pcd ply
-    kitti_times tum frames_history trajectory frames_dir evaluate options poses)
+    kitti_times tum frames_history trajectory frames_dir evaluate options poses carmen
+    relations)
   export CC=clang-14 CXX=clang++-14
   fuzz_build() {
     mkdir -p "$dir"

@@ -280,4 +280,56 @@ TEST(EvaluateCommand, BadUsageExitsTwo)
   EXPECT_HAS(help.out, "--align");
 }
 
+// --relations: Kümmerle et al.'s metric instead of a ground truth. A heading bias of 10°
+// on every pose turns each 1 m step into an error of 2 sin(5°) m (test_evaluation's
+// Relations tests derive it); table, JSON, and the errors' exit codes.
+TEST(EvaluateCommand, RelationsGiveThePapersTableAndExitOneWithoutAMatch)
+{
+  ScratchDir dir;
+  constexpr double b = 10.0 * M_PI / 180.0;
+  Poses biased;
+  std::vector<double> stamps;
+  std::string relations;
+  for (int i = 0; i < 4; ++i) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = Eigen::AngleAxisd(b, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    m(0, 3) = i;
+    biased.push_back(m);
+    stamps.push_back(50.0 + i);
+    if (i > 0)
+      relations += std::to_string(49 + i) + " " + std::to_string(50 + i) + " 1 0 0 0 0 0\n";
+  }
+  pio::writeTumTrajectory(dir / "est.tum", biased, stamps);
+  const std::string rel = dir.write("steps.relations", relations);
+  const Outcome table = evaluate({dir / "est.tum", "--relations", rel});
+  ASSERT_EQ(table.code, 0) << table.err;
+  EXPECT_HAS(table.out, "matched       3 relations by timestamp");
+  EXPECT_HAS(table.out, "translation [m]");
+  const Outcome json = evaluate({dir / "est.tum", "--relations", rel, "--json"});
+  ASSERT_EQ(json.code, 0) << json.err;
+  const auto j = nlohmann::json::parse(json.out);
+  EXPECT_EQ(j["used"], 3);
+  EXPECT_NEAR(j["translation_m"]["mean"].get<double>(), 2.0 * std::sin(b / 2.0), 1e-9);
+  EXPECT_NEAR(j["translation_m"]["std"].get<double>(), 0.0, 1e-9);
+  EXPECT_NEAR(j["rotation_deg"]["mean"].get<double>(), 0.0, 1e-9);
+
+  const Outcome none = evaluate(
+      {dir / "est.tum", "--relations", dir.write("far.relations", "1 2 0 0 0 0 0 0\n")});
+  EXPECT_EQ(none.code, 1);
+  EXPECT_HAS(none.err, "no relation of");
+  EXPECT_TRUE(none.out.empty()) << none.out;
+  const Outcome bad = evaluate(
+      {dir / "est.tum", "--relations", dir.write("bad.relations", relations + "1 2 3\n")});
+  EXPECT_EQ(bad.code, 1);
+  EXPECT_HAS(bad.err, "bad.relations:4:");
+  pio::writeKittiPoses(dir / "est.txt", biased);
+  const Outcome kitti = evaluate({dir / "est.txt", "--relations", rel});
+  EXPECT_EQ(kitti.code, 1);
+  EXPECT_HAS(kitti.err, "has no time stamps");
+  EXPECT_EQ(evaluate({dir / "est.tum", dir / "est.tum", "--relations", rel}).code, 2);
+  const Outcome missing = evaluate({dir / "est.tum", "--relations", dir / "none.relations"});
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_HAS(missing.err, "none.relations: no such file or directory");
+}
+
 } // namespace

@@ -10,6 +10,7 @@
 
 #include <pcl_parallel/evaluation/alignment.h>
 #include <pcl_parallel/evaluation/pose_error.h>
+#include <pcl_parallel/evaluation/relations.h>
 #include <pcl_parallel/evaluation/report.h>
 #include <pcl_parallel/evaluation/trajectory_error.h>
 #include <pcl_parallel/io/pose_files.h>
@@ -815,3 +816,184 @@ TEST(FileEvaluation, KittiLengthsFromText)
 }
 
 } // namespace
+
+namespace {
+
+/** Relation lines "t1 t2 x y z roll pitch yaw" of the truth's motions between stamps i
+ *  and j (stamps are 100 + i / 10 s). */
+std::vector<ev::Relation>
+relationsOf(const Poses& truth, const std::vector<std::pair<std::size_t, std::size_t>>& pairs)
+{
+  std::vector<ev::Relation> relations;
+  for (const auto& [i, j] : pairs) {
+    ev::Relation r;
+    r.t1 = 100.0 + 0.1 * static_cast<double>(i);
+    r.t2 = 100.0 + 0.1 * static_cast<double>(j);
+    r.motion = truth[i].inverse() * truth[j];
+    relations.push_back(r);
+  }
+  return relations;
+}
+
+std::vector<double>
+stampsOf(std::size_t n)
+{
+  std::vector<double> stamps;
+  for (std::size_t i = 0; i < n; ++i)
+    stamps.push_back(100.0 + 0.1 * static_cast<double>(i));
+  return stamps;
+}
+
+} // namespace
+
+// The relation file's format (the Freiburg benchmark's): t1 t2 x y z roll pitch yaw,
+// R = Rz(yaw) Ry(pitch) Rx(roll); comments and blank lines skipped.
+TEST(Relations, ReadsTheFreiburgFormat)
+{
+  ScratchDir dir;
+  const auto path = dir.write("a.relations",
+                              "# t1 t2 x y z roll pitch yaw\n\n"
+                              "1185.029675 1185.237675 0.055262 -0.000206 0 0 0 0.001014\n"
+                              "10 20 1 2 3 0.1 0.2 0.3\n");
+  const auto r = ev::loadRelations(path);
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_EQ(r[0].line, 3u);
+  EXPECT_DOUBLE_EQ(r[0].t1, 1185.029675);
+  EXPECT_DOUBLE_EQ(r[0].t2, 1185.237675);
+  EXPECT_DOUBLE_EQ(r[0].motion(0, 3), 0.055262);
+  EXPECT_NEAR(std::atan2(r[0].motion(1, 0), r[0].motion(0, 0)), 0.001014, 1e-15);
+  const Eigen::Matrix3d expected = (Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()) *
+                                    Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitY()) *
+                                    Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()))
+                                       .toRotationMatrix();
+  EXPECT_TRUE((r[1].motion.topLeftCorner<3, 3>().isApprox(expected, 1e-14)));
+  EXPECT_EQ((r[1].motion.topRightCorner<3, 1>()), Eigen::Vector3d(1, 2, 3));
+}
+
+TEST(Relations, BadFilesNameFileAndLine)
+{
+  ScratchDir dir;
+  const auto errorOf = [&](const std::string& name, const std::string& text) {
+    try {
+      ev::loadRelations(dir.write(name, text));
+    }
+    catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    ADD_FAILURE() << name << ": no exception";
+    return std::string();
+  };
+  EXPECT_NE(errorOf("short.relations", "1 2 0 0 0 0 0 0\n1 2 3 4 5 6 7\n")
+                .find("short.relations:2: expected 8 numbers"),
+            std::string::npos);
+  EXPECT_NE(
+      errorOf("long.relations", "1 2 0 0 0 0 0 0 9\n").find("long.relations:1: more than 8"),
+      std::string::npos);
+  EXPECT_NE(errorOf("nan.relations", "\n1 2 0 nan 0 0 0 0\n")
+                .find("nan.relations:2: column 4 is not a finite number"),
+            std::string::npos);
+  EXPECT_NE(errorOf("text.relations", "1 2 0 0 0 0 0 zero\n")
+                .find("text.relations:1: column 8 is not a finite number: \"zero\""),
+            std::string::npos);
+  EXPECT_NE(
+      errorOf("empty.relations", "# nothing\n").find("empty.relations: holds no relation"),
+      std::string::npos);
+  EXPECT_THROW(ev::loadRelations(dir / "missing.relations"), std::runtime_error);
+}
+
+// The truth's own motions: every error 0; only relations whose two times both lie within
+// max_diff of a pose are used.
+TEST(Relations, PerfectTrajectoryGivesZeroAndUnmatchedAreCounted)
+{
+  const Poses truth = circle(20, 5.0);
+  auto relations = relationsOf(truth, {{0, 1}, {3, 9}, {19, 2}, {5, 5}});
+  relations.push_back(relations[0]);
+  relations.back().t2 = 100.105; // between two stamps, 5 ms from 100.1 and 100.2
+  relations.push_back(relations[0]);
+  relations.back().t1 = 99.0; // before the trajectory
+  const ev::RelationError e = ev::relationError(stampsOf(20), truth, relations, 0.004);
+  EXPECT_EQ(e.relations, 6u);
+  EXPECT_EQ(e.used, 4u);
+  EXPECT_EQ(e.unmatched, 2u);
+  for (const ev::MeanStd& m :
+       {e.translation, e.translation_squared, e.rotation, e.rotation_squared}) {
+    EXPECT_NEAR(m.mean, 0.0, 1e-6);
+    EXPECT_NEAR(m.std, 0.0, 1e-6);
+  }
+  EXPECT_EQ(ev::relationError(stampsOf(20), truth, relations, 0.006).used, 5u);
+  EXPECT_THROW(ev::relationError(stampsOf(19), truth, relations), std::invalid_argument);
+}
+
+// A constant heading bias b on every pose (x_i·Rz(b)) turns each measured step t into
+// Rz(-b)·t: translation error |Rz(-b)t - t| = 2|t| sin(b/2), rotation error 0. A bias
+// growing by b per pose (x_i·Rz(i b)) on poses at one place: rotation error |j - i|·b.
+TEST(Relations, KnownRotationBiasGivesTheHandComputedNumbers)
+{
+  constexpr double b = 10.0 * kDeg;
+  Poses line, biased;
+  for (int i = 0; i < 5; ++i) {
+    line.push_back(makePose(Eigen::Matrix3d::Identity(), Eigen::Vector3d(i, 0, 0)));
+    biased.push_back(line.back() * makePose(rotZ(b), Eigen::Vector3d::Zero()));
+  }
+  const auto steps = relationsOf(line, {{0, 1}, {1, 2}, {2, 4}});
+  ev::RelationError e = ev::relationError(stampsOf(5), biased, steps);
+  ASSERT_EQ(e.used, 3u);
+  const double one = 2.0 * std::sin(b / 2.0); // steps of 1, 1, 2 m
+  EXPECT_NEAR(e.translation.mean, 4.0 * one / 3.0, 1e-12);
+  EXPECT_NEAR(e.translation.std, one / std::sqrt(3.0), 1e-12); // sample std of 1, 1, 2
+  EXPECT_NEAR(e.translation_squared.mean, 2.0 * one * one, 1e-12);
+  EXPECT_NEAR(e.translation_squared.std, std::sqrt(3.0) * one * one, 1e-12); // of 1, 1, 4
+  EXPECT_NEAR(e.rotation.mean, 0.0, 1e-9);
+
+  Poses still, turning;
+  for (int i = 0; i < 6; ++i) {
+    still.push_back(Eigen::Matrix4d::Identity());
+    turning.push_back(makePose(rotZ(i * 1.0 * kDeg), Eigen::Vector3d::Zero()));
+  }
+  e = ev::relationError(stampsOf(6), turning, relationsOf(still, {{0, 1}, {1, 3}, {2, 5}}));
+  ASSERT_EQ(e.used, 3u);
+  EXPECT_NEAR(e.translation.mean, 0.0, 1e-12);
+  EXPECT_NEAR(e.rotation.mean, 2.0, 1e-9); // 1, 2, 3 degrees
+  EXPECT_NEAR(e.rotation.std, 1.0, 1e-9);
+  EXPECT_NEAR(e.rotation_squared.mean, 14.0 / 3.0, 1e-9); // 1, 4, 9 deg²
+  EXPECT_NEAR(e.rotation_squared.std, std::sqrt(49.0 / 3.0), 1e-9);
+  ASSERT_EQ(e.rotation_deg.size(), 3u);
+  EXPECT_NEAR(e.rotation_deg[2], 3.0, 1e-9);
+}
+
+// Through the files: the trajectory must have time stamps, and a relations file whose
+// times match none of them is an error (no score from no relation).
+TEST(Relations, FileEvaluationNeedsStampsAndAMatch)
+{
+  ScratchDir dir;
+  const Poses truth = circle(10, 3.0);
+  pio::writeTumTrajectory(dir / "est.tum", truth, stampsOf(10));
+  pio::writeKittiPoses(dir / "est.kitti", truth);
+  std::ostringstream rel;
+  rel << std::setprecision(17) << "100 100.5 " << (truth[0].inverse() * truth[5])(0, 3) << ' '
+      << (truth[0].inverse() * truth[5])(1, 3) << " 0 0 0 " << 0.5 * 2.0 * M_PI << '\n';
+  const auto relations = dir.write("r.relations", rel.str());
+  const ev::RelationFileEvaluation f =
+      ev::evaluateRelationsFile(dir / "est.tum", relations, 0.01);
+  EXPECT_EQ(f.errors.used, 1u);
+  EXPECT_NEAR(f.errors.translation.mean, 0.0, 1e-9);
+  EXPECT_NEAR(f.errors.rotation.mean, 0.0, 1e-9);
+  std::ostringstream table;
+  ev::printRelationEvaluation(table, f);
+  EXPECT_NE(table.str().find("matched       1 relations by timestamp"), std::string::npos)
+      << table.str();
+  const auto j = nlohmann::json::parse(ev::toJson(f));
+  EXPECT_EQ(j["used"], 1);
+  EXPECT_EQ(j["unmatched"], 0);
+  EXPECT_NEAR(j["rotation_deg"]["mean"].get<double>(), 0.0, 1e-9);
+  EXPECT_THROW(ev::evaluateRelationsFile(dir / "est.kitti", relations), std::runtime_error);
+  const auto far = dir.write("far.relations", "5 6 0 0 0 0 0 0\n");
+  try {
+    ev::evaluateRelationsFile(dir / "est.tum", far);
+    ADD_FAILURE() << "no exception";
+  }
+  catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("no relation of " + far), std::string::npos)
+        << e.what();
+  }
+}

@@ -4,6 +4,7 @@
  */
 #include "evaluate_command.h"
 
+#include <pcl_parallel/evaluation/relations.h>
 #include <pcl_parallel/evaluation/report.h>
 
 #include <boost/program_options.hpp>
@@ -20,12 +21,17 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: pcl_pslam evaluate ESTIMATE GROUND_TRUTH [options]\n"
+    "       pcl_pslam evaluate ESTIMATE --relations FILE [--max-diff S] [--json]\n"
     "\n"
     "Absolute trajectory error (ATE, as evo_ape) and relative pose errors (per frame as\n"
     "evo_rpe, over path lengths as the KITTI odometry devkit) of ESTIMATE against\n"
     "GROUND_TRUTH. Each is a KITTI poses file (12 numbers a line), a TUM file (timestamp\n"
     "tx ty tz qx qy qz qw) or a directory of 3DTK scanNNN.frames. Poses are paired by\n"
-    "timestamp when both files have them, else by index.\n";
+    "timestamp when both files have them, else by index.\n"
+    "\n"
+    "With --relations, ESTIMATE (a TUM file) is measured against the relative motions of\n"
+    "a Freiburg .relations file (Kuemmerle et al., Autonomous Robots 2009): mean and std\n"
+    "of the translational and rotational errors, absolute and squared.\n";
 
 /** A usage error: exit code 2. */
 struct UsageError : std::runtime_error {
@@ -34,7 +40,7 @@ struct UsageError : std::runtime_error {
 
 /** What `evaluate` is told. */
 struct EvaluateArguments {
-  std::string estimate_path, truth_path, align = "se3", lengths_text = "auto";
+  std::string estimate_path, truth_path, relations_path, align = "se3", lengths_text = "auto";
   std::size_t step = 10, delta = 1;
   ev::FileEvaluationOptions files;
   bool as_json = false;
@@ -73,6 +79,11 @@ evaluateOptions(EvaluateArguments& a)
       po::bool_switch(&a.files.truncate),
       "pairing by index: compare the first min(n, m) poses when the counts differ (else an "
       "error)");
+  add("relations",
+      po::value(&a.relations_path),
+      "a Freiburg .relations file (t1 t2 x y z roll pitch yaw a line): the relation error "
+      "of ESTIMATE (Kuemmerle et al. 2009) instead of the errors against GROUND_TRUTH; "
+      "times match within --max-diff");
   return options;
 }
 
@@ -109,10 +120,14 @@ parseEvaluateArguments(const std::vector<std::string>& args,
     return false;
   }
   po::notify(vm);
-  if (a.estimate_path.empty() || a.truth_path.empty())
+  const bool relations = vm.count("relations") > 0;
+  if (relations &&
+      (a.estimate_path.empty() || !a.truth_path.empty() || a.relations_path.empty()))
+    throw UsageError("--relations FILE needs ESTIMATE and no GROUND_TRUTH");
+  if (!relations && (a.estimate_path.empty() || a.truth_path.empty()))
     throw UsageError("needs ESTIMATE and GROUND_TRUTH");
-  for (const std::string& path : {a.estimate_path, a.truth_path}) // as run's missing DIR
-    if (std::error_code ec; !std::filesystem::exists(path, ec))
+  for (const std::string& path : {a.estimate_path, relations ? a.relations_path : a.truth_path})
+    if (std::error_code ec; !std::filesystem::exists(path, ec)) // as run's missing DIR
       throw UsageError(path + ": no such file or directory");
   ev::EvaluationOptions& eo = a.files.evaluation;
   eo.alignment = parseOption("--align", a.align, ev::alignmentFromString);
@@ -142,6 +157,15 @@ evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
     return 2;
   }
   try {
+    if (!a.relations_path.empty()) {
+      const ev::RelationFileEvaluation e = ev::evaluateRelationsFile(
+          a.estimate_path, a.relations_path, a.files.max_diff, a.files.frames_unit);
+      if (a.as_json)
+        out << ev::toJson(e) << '\n';
+      else
+        ev::printRelationEvaluation(out, e);
+      return 0;
+    }
     const ev::FileEvaluation e = ev::evaluateFiles(a.estimate_path, a.truth_path, a.files);
     if (a.as_json)
       out << ev::toJson(e) << '\n';

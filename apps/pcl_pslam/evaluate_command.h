@@ -3,7 +3,8 @@
  * SPDX-License-Identifier: BSD-3-Clause
  *
  * `pcl_pslam evaluate ESTIMATE GROUND_TRUTH`: ATE and RPE of one trajectory file against
- * another (evaluation::evaluateFiles), as a table or as JSON.
+ * another (evaluation::evaluateFiles), as a table or as JSON; `pcl_pslam evaluate ESTIMATE
+ * --relations FILE`: Kümmerle et al.'s relation error (evaluation::evaluateRelationsFile).
  */
 #pragma once
 

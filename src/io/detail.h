@@ -32,6 +32,7 @@
 #include <string>
 #include <string_view>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 namespace pcl_parallel {
@@ -300,16 +301,15 @@ readLine(std::istream& in, std::string& line, const std::string& path, std::size
   return !line.empty();
 }
 
-/** Calls f(line, line_no) for every line of a text file (readLine's line ends and limit)
+/** Calls f(line, line_no) for every line of a text stream (readLine's line ends and limit)
  *  that holds more than white space, with the line number as an editor shows it (from 1,
- *  blank lines counted), so a reader's errors point at the right line. Reads the file in
- *  blocks (the scans' hot path: a character at a time through the stream is slower than
- *  std::getline). Throws when the file cannot be opened or read. */
+ *  blank lines counted), so a reader's errors point at the right line. Reads in blocks
+ *  (the scans' hot path: a character at a time through the stream is slower than
+ *  std::getline). `path` names the source in errors; throws when it cannot be read. */
 template <typename F>
 void
-forEachLine(const std::string& path, F&& f)
+forEachLine(std::istream& in, const std::string& path, F&& f)
 {
-  std::ifstream in = openOrThrow(path);
   std::vector<char> block(1 << 16);
   std::string line;
   std::size_t line_no = 0;
@@ -350,6 +350,15 @@ forEachLine(const std::string& path, F&& f)
     fail(path, line_no, "read error");
   if (!line.empty())
     emit();
+}
+
+/** forEachLine over the text file at `path`; throws when it cannot be opened. */
+template <typename F>
+void
+forEachLine(const std::string& path, F&& f)
+{
+  std::ifstream in = openOrThrow(path);
+  forEachLine(in, path, std::forward<F>(f));
 }
 
 constexpr std::size_t kNoField = static_cast<std::size_t>(-1);

@@ -16,6 +16,8 @@
 #include "evaluate_command.h" // apps/pcl_pslam
 #include "options.h"          // apps/pcl_pslam
 
+#include <pcl_parallel/evaluation/relations.h>
+#include <pcl_parallel/io/carmen.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/stanford.h>
@@ -260,6 +262,25 @@ read(const std::string& path)
     const Trajectory t = loadTrajectory(path);
     checkTrajectory(t, t.format == PoseFileFormat::Tum);
   }
+  else if (format_name == "carmen") {
+    // Scans as every reader's; poses and time stamps finite.
+    const CarmenLog log = loadCarmenLog(path);
+    for (const CarmenScan& s : log.scans) {
+      checkCloud(*s.cloud);
+      if (!s.laser_pose.allFinite() || !s.robot_pose.allFinite() ||
+          !s.laser_offset.allFinite() || !std::isfinite(s.timestamp) ||
+          s.cloud->size() > s.beams)
+        std::abort();
+    }
+    for (const CarmenOdometry& o : log.odometry)
+      if (!o.pose.allFinite() || !std::isfinite(o.timestamp))
+        std::abort();
+  }
+  else if (format_name == "relations") {
+    for (const auto& r : pcl_parallel::evaluation::loadRelations(path))
+      if (!r.motion.allFinite() || !std::isfinite(r.t1) || !std::isfinite(r.t2))
+        std::abort();
+  }
   else if (format_name == "stanford_conf") {
     for (const auto& entry : loadStanfordConf(path))
       if (!entry.pose.allFinite())
@@ -301,7 +322,9 @@ initialize(const char* format)
                                                                  {"frames_dir", "_dir"},
                                                                  {"evaluate", "_evaluate"},
                                                                  {"options", "_options"},
-                                                                 {"poses", "_poses.txt"}};
+                                                                 {"poses", "_poses.txt"},
+                                                                 {"carmen", ".clf"},
+                                                                 {"relations", ".relations"}};
   format_name = format;
   for (const auto& [name, ext] : kFormats)
     if (format_name == name)

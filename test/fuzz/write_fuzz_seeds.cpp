@@ -109,6 +109,19 @@ main(int argc, char** argv)
        "scan000.frames\n" + frame + std::string(1, '\0') + "scan001.frames\n" + frame + moved +
            std::string(1, '\0') + "scan1000.frames\n" + moved + std::string(1, '\0') +
            "other.frames\n" + frame + std::string(1, '\0') + "scan002.3d\n0 0 0\n");
+  // The 2D logs (io/carmen.h) and Kuemmerle et al.'s relations (evaluation/relations.h).
+  seed("carmen",
+       "messages",
+       "# CARMEN Logfile\nPARAM laser_front_laser_resolution 0.5 1 h 1\n"
+       "PARAM robot_frontlaser_offset 0.0 nohost 0\n"
+       "FLASER 3 1.07 81.83 2.5 1 2 0.5 1 2.04 0.5 976052857.5 nohost 0.1\r\n"
+       "ODOM 0 0 -0.002458 0 0 0 976052857.337284 nohost 0.000000\n"
+       "ROBOTLASER1 0 -1.0 2.0 0.5 3.0 0.01 0 2 1 2 1 7 0.5 0.25 0.1 0.5 0.5 0.2 0 0 0 0 0 "
+       "12.5 h 3.5\nRLASER 1 2.0 0 0 0 0 0 0 1 h 1\n");
+  seed("relations",
+       "freiburg",
+       "1185.029675 1185.237675 0.055262 -0.000206 0.000000 0.000000 0.000000 0.001014\n"
+       "# comment\n10 20 1 2 3 0.1 0.2 0.3\r\n");
   seed("evaluate", "kitti_kitti", kitti + std::string(1, '\0') + kitti);
   seed("evaluate", "tum_tum", tum + std::string(1, '\0') + tum);
   seed("evaluate", "tum_kitti", tum + std::string(1, '\0') + kitti.substr(0, 3 * 26));

@@ -148,3 +148,10 @@ bad_input(evaluate_no_pair INPUT "`evaluate --delta` as long as the trajectory (
 bad_input(evaluate_negative_delta INPUT "`evaluate --delta -1`"
   FILE a.txt "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 1 0 1 0 0 0 0 1 0\n"
   EXIT 2 MESSAGE "take a frame count from 1 to 1e9" ARGS evaluate @IN@/a.txt @IN@/a.txt --delta -1)
+bad_input(evaluate_relations_no_match INPUT "`evaluate --relations` whose times match none of the estimate's"
+  FILE a.tum "0 0 0 0 0 0 0 1\n1 1 0 0 0 0 0 1\n" FILE r.relations "5 6 1 0 0 0 0 0\n"
+  EXIT 1 MESSAGE "has both its times among" ARGS evaluate @IN@/a.tum --relations @IN@/r.relations)
+bad_input(evaluate_relations_and_truth INPUT "`evaluate --relations` with a GROUND_TRUTH too"
+  FILE a.tum "0 0 0 0 0 0 0 1\n1 1 0 0 0 0 0 1\n" FILE r.relations "0 1 1 0 0 0 0 0\n"
+  EXIT 2 MESSAGE "--relations FILE needs ESTIMATE and no GROUND_TRUTH"
+  ARGS evaluate @IN@/a.tum @IN@/a.tum --relations @IN@/r.relations)
