@@ -6,6 +6,7 @@
  * the range limits, the errors) and the three Radish logs of ../shared/data/radish_2d (their
  * README's counts). io/g2o.h: the SE(2) pose graph written and read back.
  */
+#include "scratch_dir.h"
 #include "test_data.h"
 
 #include <pcl_parallel/io/carmen.h>
@@ -28,43 +29,28 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-/** A file in a fresh temporary directory, removed with the fixture. */
+/** Files in a fresh temporary directory (test/common/scratch_dir.h), removed with the
+ *  fixture. */
 class CarmenFiles : public ::testing::Test {
 protected:
-  void
-  SetUp() override
-  {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("pcl_parallel_carmen_" +
-            std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir_);
-  }
-  void
-  TearDown() override
-  {
-    std::filesystem::remove_all(dir_);
-  }
   std::string
   write(const std::string& name, const std::string& content)
   {
-    const auto p = dir_ / name;
-    std::ofstream(p, std::ios::binary) << content;
-    return p.string();
+    return scratch_.write(name, content);
   }
   /** content compressed with bzip2 (Boost.Iostreams, as the reader decompresses it). */
   std::string
   writeBzip2(const std::string& name, const std::string& content)
   {
-    std::ofstream file(dir_ / name, std::ios::binary);
+    std::ofstream file(scratch_ / name, std::ios::binary);
     boost::iostreams::filtering_ostream out;
     out.push(boost::iostreams::bzip2_compressor());
     out.push(file);
     out << content;
     out.reset(); // flushes the compressor's end of stream
-    return (dir_ / name).string();
+    return scratch_ / name;
   }
-  std::filesystem::path dir_;
+  pcl_parallel::test::ScratchDir scratch_;
 };
 
 /** The message of the std::runtime_error that f throws ("" and a failure if none). */
@@ -274,7 +260,7 @@ TEST_F(CarmenFiles, BadLinesThrowWithFileAndLine)
   EXPECT_NE(msg.find("empty.clf: holds no CARMEN message"), std::string::npos) << msg;
   msg = errorAt("long.clf", good + "FLASER " + std::string(70000, '1') + "\n");
   EXPECT_NE(msg.find("long.clf:2: line longer than 65536 bytes"), std::string::npos) << msg;
-  msg = errorOf([&] { loadCarmenLog((dir_ / "missing.clf").string()); });
+  msg = errorOf([&] { loadCarmenLog(scratch_ / "missing.clf"); });
   EXPECT_NE(msg.find("missing.clf: cannot open"), std::string::npos) << msg;
 }
 
@@ -387,7 +373,7 @@ TEST_F(CarmenFiles, G2oSe2WritesVerticesAndEdgesThatReadBack)
   info << 100, 1, 2, 1, 200, 3, 2, 3, 1000;
   std::vector<G2oEdgeSe2> edges = {g2oEdgeBetween(poses, 0, 1, info),
                                    g2oEdgeBetween(poses, 2, 0)};
-  const std::string path = (dir_ / "graph.g2o").string();
+  const std::string path = scratch_ / "graph.g2o";
   writeG2oSe2(path, poses, edges);
   std::ifstream in(path);
   std::string tag;
@@ -428,7 +414,7 @@ TEST_F(CarmenFiles, G2oSe2WritesVerticesAndEdgesThatReadBack)
 // What no SE(2) graph holds is refused before a file is written.
 TEST_F(CarmenFiles, G2oSe2RefusesWhatIsNoPlanarGraph)
 {
-  const std::string path = (dir_ / "bad.g2o").string();
+  const std::string path = scratch_ / "bad.g2o";
   std::vector<Eigen::Matrix4d> poses = {planarPose(0, 0, 0), planarPose(1, 0, 0)};
   EXPECT_NO_THROW(writeG2oSe2(path, poses, {g2oEdgeBetween(poses, 0, 1)}));
   std::filesystem::remove(path);
