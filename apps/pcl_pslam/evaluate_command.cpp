@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "evaluate_command.h"
+#include "option_error.h"
 
 #include <pcl_parallel/evaluation/relations.h>
 #include <pcl_parallel/evaluation/report.h>
@@ -153,7 +154,9 @@ evaluateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
       return 0;
   }
   catch (const std::exception& e) { // po::error or UsageError
-    err << "pcl_pslam evaluate: " << e.what() << " (pcl_pslam evaluate --help)\n";
+    const auto* option = dynamic_cast<const po::error*>(&e);
+    err << "pcl_pslam evaluate: " << (option ? optionErrorMessage(*option, args) : e.what())
+        << " (pcl_pslam evaluate --help)\n";
     return 2;
   }
   try {

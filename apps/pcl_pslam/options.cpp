@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "option_error.h"
 #include "options.h"
 
 #include <pcl_parallel/io/scan_io.h>
@@ -338,8 +339,8 @@ parseOptions(Options& o, int argc, const char* const* argv)
   po::positional_options_description positional;
   positional.add("dir", 1);
   po::variables_map vm;
+  const std::vector<std::string> args(argv + 2, argv + argc);
   try {
-    const std::vector<std::string> args(argv + 2, argv + argc);
     po::store(
         po::command_line_parser(args)
             .options(all)
@@ -350,7 +351,7 @@ parseOptions(Options& o, int argc, const char* const* argv)
     po::notify(vm);
   }
   catch (const po::error& e) {
-    std::string what = e.what();
+    std::string what = optionErrorMessage(e, args);
     if (what.find("too many positional") != std::string::npos)
       what = o.command == "run" ? "run takes one directory" : "demo takes no directory";
     throw UsageError(o.command + ": " + what);

@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "option_error.h"
 #include "progress.h"
 #include "simulate_command.h"
 
@@ -125,7 +126,7 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
     po::notify(vm);
   }
   catch (const po::error& e) {
-    err << "pcl_pslam simulate: " << e.what() << '\n';
+    err << "pcl_pslam simulate: " << optionErrorMessage(e, args) << '\n';
     return 2;
   }
   if (vm.count("help")) {

@@ -151,7 +151,7 @@ options(const std::uint8_t* data, std::size_t size)
   if (o.help || o.command.empty())
     return;
   pcl_parallel::slam::Parameters params = pcl_pslam::toParameters(o, o.scale.value_or(1.0));
-  pcl_parallel::slam::resolve(params, 10.0);
+  params = pcl_parallel::slam::resolve(params, 10.0);
   const double lengths[] = {params.reduction.voxel_size,
                             params.matcher.max_correspondence_distance,
                             params.matcher.final_correspondence_distance,

@@ -50,6 +50,13 @@ bad_input(simulate_too_many_beams INPUT "`simulate --beams 100000000` (before: a
 bad_input(simulate_threads_out_of_range INPUT "`simulate --threads` above 1024"
   EXIT 2 MESSAGE "--threads takes 0 (all cores) to 1024, got 5000"
   ARGS simulate --preset office -t 5000 @OUT@)
+bad_input(option_value_placeholder INPUT "a value holding Boost's placeholder `%value%` (before: Boost's message looped for ever)"
+  EXIT 2 MESSAGE "the option '--start' or its value is invalid" ARGS run @TINY@ -s a%value% --out @OUT@)
+bad_input(evaluate_value_placeholder INPUT "`evaluate` with a value holding `%value%`"
+  EXIT 2 MESSAGE "the option '--delta' or its value is invalid" ARGS evaluate a b --delta %value%)
+bad_input(simulate_value_placeholder INPUT "`simulate` with a value holding `%value%`"
+  EXIT 2 MESSAGE "the option '--seed' or its value is invalid"
+  ARGS simulate --preset office --seed %value% @OUT@)
 
 # Paths (exit 2): checked before the work.
 bad_input(missing_dir INPUT "a scan directory that does not exist"
