@@ -5,6 +5,7 @@
  * Trajectory errors (evaluation/) against hand-computed answers, and the pose files
  * (io/pose_files.h): round trips, the existing 3DTK reader, errors naming file and line.
  */
+#include "error_message.h"
 #include "scratch_dir.h"
 #include "test_data.h"
 
@@ -26,6 +27,8 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <sstream>
+
+using pcl_parallel::test::messageOf;
 
 namespace {
 
@@ -525,21 +528,6 @@ TEST(PoseFiles, ReadsThe3dtkReferenceFrames)
             1e-12);
 }
 
-/** The message of the exception f throws (fails the test when none). */
-template <typename F>
-std::string
-errorOf(F&& f)
-{
-  try {
-    f();
-  }
-  catch (const std::exception& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no exception";
-  return "";
-}
-
 /** The message holds the text (printed when not). */
 #define EXPECT_HAS(message, text)                                                              \
   do {                                                                                         \
@@ -551,32 +539,32 @@ TEST(PoseFiles, BadFilesNameFileAndLine)
 {
   ScratchDir dir;
   const std::string short_line = dir.write("short.txt", "0 0 0 0 0 0 0 1\n\n1 0 0 0 0 0 1\n");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(short_line); }),
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(short_line); }),
              "short.txt:3: expected 8 numbers");
   const std::string word = dir.write("word.txt", "0 0 0 0 0 0 0 1\n1 0 0 x 0 0 0 1\n");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(word); }),
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(word); }),
              "word.txt:2: column 4 is not a finite number: \"x\"");
   const std::string quat = dir.write("quat.txt", "0 0 0 0 0 0 0 2\n");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(quat); }), "quat.txt:1: the quaternion");
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(quat); }), "quat.txt:1: the quaternion");
   const std::string odd = dir.write("odd.txt", "# x y z\n1 2 3 4 5\n");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(odd); }),
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(odd); }),
              "odd.txt:2: unknown pose file format: 5 fields");
   const std::string kitti =
       dir.write("k.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(kitti); }), "k.txt:2:");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(dir / "missing.txt"); }),
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(kitti); }), "k.txt:2:");
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(dir / "missing.txt"); }),
              "missing.txt: no such file");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(dir.write("empty.txt", "# nothing\n")); }),
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(dir.write("empty.txt", "# nothing\n")); }),
              "empty.txt: holds no poses");
   std::filesystem::create_directory(dir / "frames");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(dir / "frames"); }), "holds no .frames");
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(dir / "frames"); }), "holds no .frames");
   const std::string frames = dir.write("frames/scan000.frames",
                                        "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 1\n"
                                        "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0\n");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(dir / "frames"); }),
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(dir / "frames"); }),
              "scan000.frames:2: expected 16 numbers");
-  EXPECT_HAS(errorOf([&] { pio::loadTrajectory(frames); }), "pass the directory");
-  EXPECT_HAS(errorOf([&] { pio::writeKittiPoses(dir / "no/such/dir/p.txt", line(2)); }),
+  EXPECT_HAS(messageOf([&] { pio::loadTrajectory(frames); }), "pass the directory");
+  EXPECT_HAS(messageOf([&] { pio::writeKittiPoses(dir / "no/such/dir/p.txt", line(2)); }),
              "p.txt: cannot open for writing");
   // A non-finite pose is refused before any file exists (no NaN in an output).
   auto bad = line(3);
@@ -602,8 +590,8 @@ TEST(PoseFiles, FuzzFindingsFramesReadersAgree)
       dir.write("row.frames",
                 "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n"
                 "0.99 0.01 0 0 -0.01 0.99 0 0 0 0 1 0 12.5 -3 337.79 2 1\n");
-  EXPECT_HAS(errorOf([&] { pio::loadFrames(row); }), "row.frames:2: columns 4, 8, 12, 16");
-  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(row); }),
+  EXPECT_HAS(messageOf([&] { pio::loadFrames(row); }), "row.frames:2: columns 4, 8, 12, 16");
+  EXPECT_HAS(messageOf([&] { pio::loadFramesFinalPose(row); }),
              "row.frames:2: columns 4, 8, 12, 16");
   // Rounding left by a writer is tolerated, and the row set exactly.
   const std::string rounded =
@@ -612,11 +600,11 @@ TEST(PoseFiles, FuzzFindingsFramesReadersAgree)
   EXPECT_EQ(pio::loadFramesFinalPose(rounded).row(3), Eigen::RowVector4d(0, 0, 0, 1));
   const std::string plus_minus =
       dir.write("pm.frames", "+-1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 2\n");
-  EXPECT_HAS(errorOf([&] { pio::loadFrames(plus_minus); }), "pm.frames:1: column 1");
-  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(plus_minus); }), "pm.frames:1:");
+  EXPECT_HAS(messageOf([&] { pio::loadFrames(plus_minus); }), "pm.frames:1: column 1");
+  EXPECT_HAS(messageOf([&] { pio::loadFramesFinalPose(plus_minus); }), "pm.frames:1:");
   const std::string type = dir.write("type.frames", "1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1 nan\n");
-  EXPECT_HAS(errorOf([&] { pio::loadFrames(type); }), "type.frames:1: column 17");
-  EXPECT_HAS(errorOf([&] { pio::loadFramesFinalPose(type); }), "type.frames:1:");
+  EXPECT_HAS(messageOf([&] { pio::loadFrames(type); }), "type.frames:1: column 17");
+  EXPECT_HAS(messageOf([&] { pio::loadFramesFinalPose(type); }), "type.frames:1:");
   // Commas separate numbers in every text format (as KITTI poses and .xyz), read alike.
   const std::string commas =
       dir.write("commas.frames", "\t1 0 0 0, 0 1 0 0 ,0 0 1 0,0.5,1 , -3 1 2\n");
@@ -636,17 +624,17 @@ TEST(PoseFiles, KittiTimes)
   ScratchDir dir;
   const std::string good = dir.write("times.txt", "0.000000e+00\n\n1.036594e-01\r\n  +2.5 \n");
   EXPECT_EQ(pio::loadKittiTimes(good), (std::vector<double>{0.0, 1.036594e-01, 2.5}));
-  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("two.txt", "1\n2 3\n")); }),
+  EXPECT_HAS(messageOf([&] { pio::loadKittiTimes(dir.write("two.txt", "1\n2 3\n")); }),
              "two.txt:2: expected 1 numbers");
-  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("nan.txt", "1\nnan\n")); }),
+  EXPECT_HAS(messageOf([&] { pio::loadKittiTimes(dir.write("nan.txt", "1\nnan\n")); }),
              "nan.txt:2: column 1 is not a finite number");
-  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir.write("comma.txt", "0,5\n")); }),
+  EXPECT_HAS(messageOf([&] { pio::loadKittiTimes(dir.write("comma.txt", "0,5\n")); }),
              "comma.txt:1: expected 1 numbers");
   const std::string garbage = dir.write("garbage.txt", std::string(5000, '\xff'));
-  const std::string message = errorOf([&] { pio::loadKittiTimes(garbage); });
+  const std::string message = messageOf([&] { pio::loadKittiTimes(garbage); });
   EXPECT_HAS(message, "garbage.txt:1: column 1 is not a finite number: \"\\xff");
   EXPECT_LT(message.size(), garbage.size() + 250) << message;
-  EXPECT_HAS(errorOf([&] { pio::loadKittiTimes(dir / "missing.txt"); }),
+  EXPECT_HAS(messageOf([&] { pio::loadKittiTimes(dir / "missing.txt"); }),
              "missing.txt: no such");
 }
 
@@ -695,7 +683,8 @@ TEST(FileEvaluation, StructureIsWhatThePairedPosesGiveAndWhatIsPrinted)
   Poses bad = truth;
   bad[3](0, 0) = 2.0;
   pio::writeKittiPoses(dir / "bad.txt", bad);
-  EXPECT_HAS(errorOf([&] { ev::evaluateFiles(dir / "est.tum", dir / "bad.txt"); }), "bad.txt");
+  EXPECT_HAS(messageOf([&] { ev::evaluateFiles(dir / "est.tum", dir / "bad.txt"); }),
+             "bad.txt");
 }
 
 // `evaluate --json`: every number the structure holds, under its name, and null (not a
@@ -874,14 +863,7 @@ TEST(Relations, BadFilesNameFileAndLine)
 {
   ScratchDir dir;
   const auto errorOf = [&](const std::string& name, const std::string& text) {
-    try {
-      ev::loadRelations(dir.write(name, text));
-    }
-    catch (const std::runtime_error& e) {
-      return std::string(e.what());
-    }
-    ADD_FAILURE() << name << ": no exception";
-    return std::string();
+    return messageOf<std::runtime_error>([&] { ev::loadRelations(dir.write(name, text)); });
   };
   EXPECT_NE(errorOf("short.relations", "1 2 0 0 0 0 0 0\n1 2 3 4 5 6 7\n")
                 .find("short.relations:2: expected 8 numbers"),

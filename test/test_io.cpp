@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "error_message.h"
 #include "test_data.h"
 
 #include <pcl_parallel/io/atomic_write.h>
@@ -41,6 +42,8 @@
 #include <utility>
 #include <vector>
 
+using pcl_parallel::test::messageOf;
+
 using namespace pcl_parallel::io;
 
 namespace {
@@ -71,21 +74,6 @@ protected:
   }
   std::filesystem::path dir_;
 };
-
-/** The message of the Exception that f throws (a test failure, and "", if it throws none). */
-template <typename Exception, typename F>
-std::string
-messageOf(F&& f)
-{
-  try {
-    f();
-  }
-  catch (const Exception& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no exception";
-  return "";
-}
 
 bool
 mentions(const std::string& message, const std::string& part)

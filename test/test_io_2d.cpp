@@ -6,6 +6,7 @@
  * the range limits, the errors) and the three Radish logs of ../shared/data/radish_2d (their
  * README's counts). io/g2o.h: the SE(2) pose graph written and read back.
  */
+#include "error_message.h"
 #include "scratch_dir.h"
 #include "test_data.h"
 
@@ -22,6 +23,8 @@
 #include <limits>
 #include <sstream>
 #include <string>
+
+using pcl_parallel::test::messageOf;
 
 using namespace pcl_parallel::io;
 
@@ -52,21 +55,6 @@ protected:
   }
   pcl_parallel::test::ScratchDir scratch_;
 };
-
-/** The message of the std::runtime_error that f throws ("" and a failure if none). */
-template <typename F>
-std::string
-errorOf(F&& f)
-{
-  try {
-    f();
-  }
-  catch (const std::runtime_error& e) {
-    return e.what();
-  }
-  ADD_FAILURE() << "no exception";
-  return "";
-}
 
 /** "FLASER n r... x y theta odom_x odom_y odom_theta ipc host logger". */
 std::string
@@ -231,7 +219,7 @@ TEST_F(CarmenFiles, BadLinesThrowWithFileAndLine)
 {
   const std::string good = flaser({"1", "2"}, "0 0 0", "0 0 0");
   const auto errorAt = [&](const std::string& name, const std::string& text) {
-    return errorOf([&] { loadCarmenLog(write(name, text)); });
+    return messageOf<std::runtime_error>([&] { loadCarmenLog(write(name, text)); });
   };
   std::string msg = errorAt("garbage.clf", good + "\xff\xfe garbage\n");
   EXPECT_NE(msg.find("garbage.clf:2: not a CARMEN message"), std::string::npos) << msg;
@@ -260,7 +248,7 @@ TEST_F(CarmenFiles, BadLinesThrowWithFileAndLine)
   EXPECT_NE(msg.find("empty.clf: holds no CARMEN message"), std::string::npos) << msg;
   msg = errorAt("long.clf", good + "FLASER " + std::string(70000, '1') + "\n");
   EXPECT_NE(msg.find("long.clf:2: line longer than 65536 bytes"), std::string::npos) << msg;
-  msg = errorOf([&] { loadCarmenLog(scratch_ / "missing.clf"); });
+  msg = messageOf<std::runtime_error>([&] { loadCarmenLog(scratch_ / "missing.clf"); });
   EXPECT_NE(msg.find("missing.clf: cannot open"), std::string::npos) << msg;
 }
 
@@ -276,12 +264,12 @@ TEST_F(CarmenFiles, CorruptAndTruncatedBzip2Throw)
   std::ifstream in(whole, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)),
                           std::istreambuf_iterator<char>());
-  std::string msg =
-      errorOf([&] { loadCarmenLog(write("cut.clf.bz2", bytes.substr(0, bytes.size() / 2))); });
+  std::string msg = messageOf<std::runtime_error>(
+      [&] { loadCarmenLog(write("cut.clf.bz2", bytes.substr(0, bytes.size() / 2))); });
   EXPECT_NE(msg.find("cut.clf.bz2:1: cannot decompress: the bzip2 stream ends early"),
             std::string::npos)
       << msg;
-  msg = errorOf([&] { loadCarmenLog(write("text.clf.bz2", text)); });
+  msg = messageOf<std::runtime_error>([&] { loadCarmenLog(write("text.clf.bz2", text)); });
   EXPECT_NE(msg.find("text.clf.bz2:1: cannot decompress: not bzip2 data"), std::string::npos)
       << msg;
 }

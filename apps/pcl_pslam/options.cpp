@@ -226,12 +226,12 @@ constexpr Range kRanges[] = {
     {"segment-overlap", "--segment-overlap", 1.0, 1e5}};
 // clang-format on
 
-/** "SHOWN LO to HI[ or 0]" (HI at int's end: "LO or more"). */
+/** "LO to HI[ or 0]" (HI at int's end: "LO or more"). */
 std::string
-describe(const Range& r)
+rangeText(const Range& r)
 {
   std::ostringstream s;
-  s << r.shown << ' ' << r.lo;
+  s << r.lo;
   if (r.hi >= kMaxCount)
     s << " or more";
   else
@@ -254,9 +254,8 @@ checkRanges(const po::variables_map& vm)
                                                       : boost::any_cast<std::size_t>(any);
     if (!(v >= r.lo && v <= r.hi) && !(r.zero_ok && v == 0.0)) {
       std::ostringstream msg;
-      msg << describe(r) << ", got " << v;
-      const std::string text = msg.str();
-      throw UsageError(text.substr(0, text.find(' ')) + " takes" + text.substr(text.find(' ')));
+      msg << r.shown << " takes " << rangeText(r) << ", got " << v;
+      throw UsageError(msg.str());
     }
   }
 }
@@ -316,7 +315,8 @@ helpText(const std::string& command)
     << "Ranges (out of range: exit 2 naming the option; lengths in the files' units):\n";
   std::string line;
   for (const Range& r : kRanges) {
-    const std::string item = describe(r) + (&r == &kRanges[std::size(kRanges) - 1] ? "." : ";");
+    const std::string item = std::string(r.shown) + ' ' + rangeText(r) +
+                             (&r == &kRanges[std::size(kRanges) - 1] ? "." : ";");
     if (line.size() + item.size() > 86)
       s << line << '\n', line.clear();
     line += (line.empty() ? "" : " ") + item;

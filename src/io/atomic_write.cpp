@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <system_error>
 #include <unistd.h>
 
@@ -26,6 +27,13 @@ reason()
 }
 
 } // namespace
+
+bool
+isAtomicWriteTemporary(const std::string& name)
+{
+  static const std::regex temporary("\\..+\\.tmp[0-9]+"); // as writeAtomically names them
+  return std::regex_match(name, temporary);
+}
 
 void
 writeAtomically(const std::string& path, const std::function<void(const std::string&)>& write)

@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/output_directory.h>
 
 #include <algorithm>
@@ -79,7 +80,7 @@ holdsEarlierRun(const fs::path& dir, const OutputNamePredicate& owned)
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     const std::string name = it->path().filename().string();
     any = true;
-    if (!(it->is_regular_file(ec) && (owned(name) || isTemporaryName(name))))
+    if (!(it->is_regular_file(ec) && (owned(name) || isAtomicWriteTemporary(name))))
       foreign.push_back(name);
   }
   if (ec)
@@ -126,16 +127,6 @@ removeFlatDirectory(const char* dir) noexcept
   ::rmdir(dir);
 }
 
-} // namespace
-
-void
-removeTemporariesNow() noexcept
-{
-  for (const TemporarySlot& slot : g_temporaries)
-    if (slot.used)
-      removeFlatDirectory(slot.path);
-}
-
 void
 registerTemporary(const std::string& dir)
 {
@@ -156,19 +147,39 @@ unregisterTemporary(const std::string& dir)
       slot.used = 0;
 }
 
+/** Creates "PREFIXHOST-PID.N" in `dir`, after removing those of ended processes, and
+ *  registers it for removeTemporariesNow(). Returns its path; `ec` is set where it could not
+ *  be created. */
+std::string
+createTemporary(const fs::path& dir, const std::string& prefix, std::error_code& ec)
+{
+  removeStaleTemporaries(dir.string(), prefix);
+  static std::atomic<int> serial{0}; // several in one process (tests)
+  const std::string path =
+      (dir / (temporaryName(prefix) + "." + std::to_string(serial++))).string();
+  if (!fs::create_directory(path, ec) && !ec)
+    ec = std::make_error_code(std::errc::file_exists);
+  if (!ec)
+    registerTemporary(path);
+  return path;
+}
+
+} // namespace
+
+void
+removeTemporariesNow() noexcept
+{
+  for (const TemporarySlot& slot : g_temporaries)
+    if (slot.used)
+      removeFlatDirectory(slot.path);
+}
+
 bool
 isRunOutputName(const std::string& name)
 {
   static const std::regex names("scan[0-9]+\\.frames|poses(_icp)?(_tum)?\\.txt|"
                                 "map(_rank[0-9]+)?\\.(pcd|ply)|map\\.png|report\\.json");
   return std::regex_match(name, names);
-}
-
-bool
-isTemporaryName(const std::string& name)
-{
-  static const std::regex temporary("\\..+\\.tmp[0-9]+");
-  return std::regex_match(name, temporary);
 }
 
 std::string
@@ -194,15 +205,11 @@ removeStaleTemporaries(const std::string& dir, const std::string& prefix)
 
 TemporaryDirectory::TemporaryDirectory(const std::string& prefix)
 {
-  const fs::path dir = fs::temp_directory_path();
-  removeStaleTemporaries(dir.string(), prefix);
-  static std::atomic<int> serial{0};
-  path_ = (dir / (temporaryName(prefix) + "." + std::to_string(serial++))).string();
   std::error_code ec;
-  if (!fs::create_directories(path_, ec) || ec)
-    throw std::runtime_error(path_ + ": cannot create a temporary directory (" +
-                             (ec ? ec.message() : "it exists") + ")");
-  registerTemporary(path_);
+  path_ = createTemporary(fs::temp_directory_path(), prefix, ec);
+  if (ec)
+    throw std::runtime_error(path_ + ": cannot create a temporary directory (" + ec.message() +
+                             ")");
 }
 
 TemporaryDirectory::~TemporaryDirectory()
@@ -227,17 +234,12 @@ OutputDirectory::OutputDirectory(const std::string& target, OutputNamePredicate 
   if (ec || !fs::is_directory(parent))
     throw OutputDirectoryError(parent.string() + ": cannot create the directory (" +
                                (ec ? ec.message() : "not a directory") + ")");
-  const std::string prefix = "." + t.filename().string() + ".pcl_pslam-";
-  removeStaleTemporaries(parent.string(), prefix);
-  static std::atomic<int> serial{0}; // several in one process (tests)
-  path_ = (parent / (temporaryName(prefix) + "." + std::to_string(serial++))).string();
-  if (!fs::create_directory(path_, ec) || ec)
+  path_ = createTemporary(parent, "." + t.filename().string() + ".pcl_pslam-", ec);
+  if (ec)
     throw OutputDirectoryError(
-        target + ": cannot create a temporary directory beside it (" +
-        (ec ? ec.message() : "it exists") +
+        target + ": cannot create a temporary directory beside it (" + ec.message() +
         "): the outputs are written there and swapped in at the end; choose an output "
         "directory in a writable directory");
-  registerTemporary(path_);
 }
 
 OutputDirectory::~OutputDirectory()

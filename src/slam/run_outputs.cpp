@@ -73,21 +73,21 @@ writeMap(const std::string& dir,
       report(progress, "tiles", k, ranks);
       *map += *io::loadPcdScan(join(dir, tileName(k, ".pcd")));
     }
-    for (const char* extension : {".pcd", ".ply"})
-      if (o.ply || extension == std::string(".pcd"))
-        written.push_back(tileName(0, extension) + ".." + tileName(ranks - 1, extension));
+    written.push_back(tileName(0, ".pcd") + ".." + tileName(ranks - 1, ".pcd"));
+    if (o.ply)
+      written.push_back(tileName(0, ".ply") + ".." + tileName(ranks - 1, ".ply"));
     report(progress, "tiles", ranks, ranks);
     return map;
   }
   report(progress, "map", 0, 1);
   map = mapOf(scans, r, o, progress);
-  for (const char* name : {"map.pcd", "map.ply"}) {
-    if (!o.ply && name == std::string("map.ply"))
-      continue;
+  report(progress, "save", 0, 1);
+  io::writePcdScan(join(dir, "map.pcd"), *map);
+  written.push_back("map.pcd");
+  if (o.ply) {
     report(progress, "save", 0, 1);
-    (name == std::string("map.pcd") ? io::writePcdScan : io::writePlyScan)(join(dir, name),
-                                                                           *map);
-    written.push_back(name);
+    io::writePlyScan(join(dir, "map.ply"), *map);
+    written.push_back("map.ply");
   }
   report(progress, "save", 1, 1);
   return map;

@@ -32,6 +32,11 @@ struct WriteAborted : std::runtime_error {
 void
 writeAtomically(const std::string& path, const std::function<void(const std::string&)>& write);
 
+/** Whether a file name is one of writeAtomically's temporaries (".NAME.tmpPID"), as a
+ *  writer that was killed leaves it. */
+bool
+isAtomicWriteTemporary(const std::string& name);
+
 /** writeAtomically through a binary std::ofstream that is opened, closed and checked here:
  *  "PATH: cannot open for writing (REASON)", "PATH: write error (REASON)" (a full disk
  *  shows at the latest when the buffer is written out, so the close is checked too). */

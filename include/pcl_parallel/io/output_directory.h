@@ -30,18 +30,14 @@ using OutputNamePredicate = std::function<bool(const std::string& name)>;
 bool
 isRunOutputName(const std::string& name);
 
-/** A temporary a writer or an earlier version left: ".NAME.tmpPID". */
-bool
-isTemporaryName(const std::string& name);
-
 /**
  * The temporary directory a run writes into, and its swap into the target.
  *
  * The constructor checks the target (absent, empty, or holding only names `owned` accepts
- * and temporaries), creates its missing parents and ".NAME.pcl_pslam-HOST-PID.tmp" beside
- * it, after removing such directories of runs on this host that no longer exist (killed).
- * commit() renames it over the target; the destructor removes it unless committed, and
- * removeTemporariesNow() (a signal) at any time before.
+ * and writeAtomically's temporaries), creates its missing parents and
+ * ".NAME.pcl_pslam-HOST-PID.tmp" beside it, after removing such directories of runs on this
+ * host that no longer exist (killed). commit() renames it over the target; the destructor
+ * removes it unless committed, and removeTemporariesNow() (a signal) at any time before.
  */
 class OutputDirectory {
 public:
@@ -108,18 +104,11 @@ private:
 };
 
 /** Removes the temporary directories of this process (each OutputDirectory's until its
- *  commit() or destruction, and those of registerTemporary) with their files, by system
- *  calls alone: async-signal-safe, for a signal handler that ends the process at once.
- *  Subdirectories, which none of these has, stay. */
+ *  commit() or destruction, each TemporaryDirectory's; at most 8 at a time) with their
+ *  files, by system calls alone: async-signal-safe, for a signal handler that ends the
+ *  process at once. Subdirectories, which none of these has, stay. */
 void
 removeTemporariesNow() noexcept;
-
-/** Adds `dir` (a directory of files, e.g. simulated scans read back) to what
- *  removeTemporariesNow() removes, until unregisterTemporary(dir). At most 8 at a time. */
-void
-registerTemporary(const std::string& dir);
-void
-unregisterTemporary(const std::string& dir);
 
 /** Removes the directories "PREFIXHOST-PID*" in `dir` whose process on this host has
  *  ended (a run killed before it could remove its temporaries). Returns how many. */
