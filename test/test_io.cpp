@@ -13,6 +13,7 @@
 #include <pcl_parallel/io/stanford.h>
 #include <pcl_parallel/io/stderr_capture.h>
 #include <pcl_parallel/io/uos.h>
+#include <pcl_parallel/sim/scan_set_writer.h>
 
 #include <pcl/io/auto_io.h>
 #include <pcl/io/pcd_io.h>
@@ -181,6 +182,57 @@ contentsOf(const std::filesystem::path& dir)
 // A run's outputs are one unit (io::OutputDirectory): the target holds the earlier run's
 // files until commit() swaps the new ones in, byte for byte one run's or the other's;
 // without commit() nothing of the new run stays; names no run writes make it refused.
+// The names a run writes, a simulated scan set holds and an atomic write leaves behind,
+// each against names one character off.
+TEST(FileNames, RunOutputsScanSetsAndTemporariesByTheirShapes)
+{
+  namespace io = pcl_parallel::io;
+  namespace sim = pcl_parallel::sim;
+  for (const char* name : {"scan000.frames",
+                           "scan1234.frames",
+                           "poses.txt",
+                           "poses_icp.txt",
+                           "poses_tum.txt",
+                           "poses_icp_tum.txt",
+                           "map.pcd",
+                           "map.ply",
+                           "map_rank1.pcd",
+                           "map_rank12.ply",
+                           "map.png",
+                           "report.json"})
+    EXPECT_TRUE(io::isRunOutputName(name)) << name;
+  for (const char* name : {"scan.frames",
+                           "scanx.frames",
+                           "scan1.frame",
+                           "poses_tum_icp.txt",
+                           "map_rank.pcd",
+                           "map_rank1.png",
+                           "map.jpg",
+                           "report.json~",
+                           ""})
+    EXPECT_FALSE(io::isRunOutputName(name)) << name;
+  for (const char* name : {"scan000.3d",
+                           "scan042.pose",
+                           "000042.bin",
+                           "123456.pcd",
+                           "odometry.txt",
+                           "times.txt",
+                           "ground_truth.txt"})
+    EXPECT_TRUE(sim::isScanSetName(name)) << name;
+  for (const char* name : {"scan0000.3d",
+                           "scan42.pose",
+                           "00042.bin",
+                           "1234567.pcd",
+                           "000042.ply",
+                           "poses.txt",
+                           "scan000.3d.bak"})
+    EXPECT_FALSE(sim::isScanSetName(name)) << name;
+  for (const char* name : {".map.pcd.tmp1", ".a.tmp1.tmp23", ".x.tmp0"})
+    EXPECT_TRUE(io::isAtomicWriteTemporary(name)) << name;
+  for (const char* name : {"map.pcd.tmp1", "..tmp1", ".map.pcd.tmp", ".map.pcd.tmp1x", ".tmp1"})
+    EXPECT_FALSE(io::isAtomicWriteTemporary(name)) << name;
+}
+
 TEST_F(TempFiles, OutputDirectoryHoldsOneRunsOutputs)
 {
   namespace io = pcl_parallel::io;

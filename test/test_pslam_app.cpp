@@ -549,27 +549,6 @@ TEST(PslamInput, PosesInKittiOrTumFormat)
   fs::remove(dir.parent_path() / "tum_poses.tum");
 }
 
-// Keyframes seconds apart deskewed as if consecutive sweeps are bent by their whole step
-// (mulran: 0.87 m of correction instead of 0.33-0.44): the run warns, unless told the
-// sweep period, or the stamps are a sweep apart.
-TEST(PslamInput, KeyframesDeskewedWithoutASweepPeriodAreWarned)
-{
-  pcl_pslam::Input in;
-  in.has_stamps = true;
-  for (int k = 0; k < 7; ++k)
-    in.stamps.push_back(100.0 + 0.5 * k + (k % 2 ? 0.15 : 0.0)); // 0.35-0.65 s apart
-  EXPECT_NE(pcl_pslam::keyframeWarning(in, true, 0.0).find("--sweep-period"),
-            std::string::npos);
-  EXPECT_EQ(pcl_pslam::keyframeWarning(in, true, 0.1), "");
-  EXPECT_EQ(pcl_pslam::keyframeWarning(in, false, 0.0), "");
-  in.has_stamps = false; // the scan numbers stand in for stamps: nothing known
-  EXPECT_EQ(pcl_pslam::keyframeWarning(in, true, 0.0), "");
-  in.has_stamps = true;
-  for (std::size_t k = 0; k < in.stamps.size(); ++k)
-    in.stamps[k] = 100.0 + 0.1 * static_cast<double>(k); // 10 Hz sweeps
-  EXPECT_EQ(pcl_pslam::keyframeWarning(in, true, 0.0), "");
-}
-
 TEST(PslamInput, UnreadableDirectoryAndScanFileAreErrorsNamingThem)
 {
   if (::geteuid() == 0)

@@ -5,8 +5,8 @@
  * The front end's stages one by one (slam/motion_model.h, deskewer.h, reducer.h,
  * matcher.h, pose_guess.h) and their parameters (parameters.h), each against what it must
  * equal: the automatic lengths' rules, exact poses for the motion model, the voxel filters
- * for the reducer, a known step for the matcher and the pose guess. test_slam runs them
- * together through the Pipeline.
+ * for the reducer, a known step for the matcher and the pose guess; what a run's input and
+ * result suggest (findings.h). test_slam runs them together through the Pipeline.
  */
 #include "random_clouds.h"
 
@@ -14,6 +14,7 @@
 #include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/slam/deskewer.h>
+#include <pcl_parallel/slam/findings.h>
 #include <pcl_parallel/slam/loop_closure.h>
 #include <pcl_parallel/slam/matcher.h>
 #include <pcl_parallel/slam/motion_model.h>
@@ -347,6 +348,66 @@ TEST(PoseGuess, FindsATurnNothingPredicted)
   EXPECT_LT(e.distance, 0.03);
   EXPECT_LT(e.angle, 1.0 * kDeg);
   EXPECT_NEAR(r.report.start_heading, 60 * kDeg, 10 * kDeg);
+}
+
+// Keyframes seconds apart deskewed as if consecutive sweeps are bent by their whole step:
+// a warning, unless the sweep period is given, deskewing is off, or the stamps are a sweep
+// apart.
+TEST(Findings, KeyframesDeskewedWithoutASweepPeriodAreWarned)
+{
+  std::vector<double> stamps;
+  for (int k = 0; k < 7; ++k)
+    stamps.push_back(100.0 + 0.5 * k + (k % 2 ? 0.15 : 0.0)); // 0.35-0.65 s apart
+  slam::DeskewParameters deskew;
+  deskew.enabled = true;
+  EXPECT_NE(slam::keyframeWarning(stamps, deskew).find("median 0.65 s apart"),
+            std::string::npos);
+  deskew.sweep_period = 0.1;
+  EXPECT_EQ(slam::keyframeWarning(stamps, deskew), "");
+  deskew.sweep_period = 0.0;
+  deskew.enabled = false;
+  EXPECT_EQ(slam::keyframeWarning(stamps, deskew), "");
+  deskew.enabled = true;
+  for (std::size_t k = 0; k < stamps.size(); ++k)
+    stamps[k] = 100.0 + 0.1 * static_cast<double>(k); // 10 Hz sweeps
+  EXPECT_EQ(slam::keyframeWarning(stamps, deskew), "");
+  EXPECT_EQ(slam::keyframeWarning({100.0}, deskew), "");
+}
+
+TEST(Findings, DeskewNoteSaysWhichTimesWereUsed)
+{
+  EXPECT_EQ(slam::deskewNote(0, 5, false), "");
+  EXPECT_NE(slam::deskewNote(2, 5, false).find("carry per-point times"), std::string::npos);
+  EXPECT_EQ(slam::deskewNote(5, 5, true), "deskewed by the points' time field");
+  EXPECT_NE(slam::deskewNote(0, 5, true).find("by azimuth"), std::string::npos);
+  EXPECT_NE(slam::deskewNote(2, 5, true).find("in 2 of 5 scans"), std::string::npos);
+}
+
+// Each finding appears exactly when its condition holds, naming the scans by their numbers.
+TEST(Findings, NameThePoseSearchTheOdometryAndTheWorstSteps)
+{
+  slam::MappingResult r;
+  r.reports.resize(4);
+  const std::vector<int> numbers{10, 11, 12, 13};
+  EXPECT_TRUE(slam::findings(r, numbers).empty());
+  r.pose_searched = 3;
+  r.pose_search_won = 2;
+  r.odometry_disagreement = slam::kOdometryDisagreementLimit / 2;
+  auto found = slam::findings(r, numbers);
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_NE(found[0].text.find("3 of 3 matches searched (no initial poses), 2 placed"),
+            std::string::npos);
+  EXPECT_FALSE(found[0].input_suspect);
+  r.pose_search_won = 0;
+  r.odometry_disagreement = 2.0 * slam::kOdometryDisagreementLimit;
+  r.reports[2].sequence_chi2 = 1e6; // beyond any notable threshold
+  r.reports[3].sequence_chi2 = 2e6;
+  found = slam::findings(r, numbers);
+  ASSERT_EQ(found.size(), 2u);
+  EXPECT_TRUE(found[0].input_suspect);
+  EXPECT_NE(found[0].text.find("0.50 times as far"), std::string::npos);
+  EXPECT_NE(found[1].text.find("scans 13 (chi2 2000000), 12 (chi2 1000000)"),
+            std::string::npos);
 }
 
 } // namespace

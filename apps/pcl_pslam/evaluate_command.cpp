@@ -2,13 +2,12 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "arguments.h"
 #include "evaluate_command.h"
-#include "option_error.h"
+#include "options.h" // UsageError
 
 #include <pcl_parallel/evaluation/relations.h>
 #include <pcl_parallel/evaluation/report.h>
-
-#include <boost/program_options.hpp>
 
 #include <filesystem>
 #include <stdexcept>
@@ -33,11 +32,6 @@ constexpr const char* kUsage =
     "With --relations, ESTIMATE (a TUM file) is measured against the relative motions of\n"
     "a Freiburg .relations file (Kuemmerle et al., Autonomous Robots 2009): mean and std\n"
     "of the translational and rotational errors, absolute and squared.\n";
-
-/** A usage error: exit code 2. */
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 /** What `evaluate` is told. */
 struct EvaluateArguments {
@@ -114,13 +108,11 @@ parseEvaluateArguments(const std::vector<std::string>& args,
       "ground-truth", po::value(&a.truth_path));
   po::positional_options_description positional;
   positional.add("estimate", 1).add("ground-truth", 1);
-  po::variables_map vm;
-  po::store(po::command_line_parser(args).options(all).positional(positional).run(), vm);
+  const po::variables_map vm = parseArguments(args, all, positional);
   if (vm.count("help")) {
     out << kUsage << '\n' << options;
     return false;
   }
-  po::notify(vm);
   const bool relations = vm.count("relations") > 0;
   if (relations &&
       (a.estimate_path.empty() || !a.truth_path.empty() || a.relations_path.empty()))

@@ -6,10 +6,8 @@
 
 #include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
-#include <pcl_parallel/slam/preprocess.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <filesystem>
 #include <memory>
 
@@ -28,43 +26,6 @@ openDirectory(const Options& o)
     throw UsageError(e.what());
   }
   return in;
-}
-
-std::string
-deskewNote(const Input& in, bool deskew)
-{
-  if (!deskew)
-    return in.reading.timed_scans == 0
-               ? ""
-               : "the scans carry per-point times: --deskew would deskew each "
-                 "point by its own (unless they are motion-compensated already)";
-  if (in.reading.timed_scans == in.size())
-    return "deskewed by the points' time field";
-  if (in.reading.timed_scans == 0)
-    return "deskewed by azimuth (no per-point times in the scans)";
-  return "deskewed by the points' time field in " + std::to_string(in.reading.timed_scans) +
-         " of " + std::to_string(in.size()) + " scans, else by azimuth";
-}
-
-std::string
-keyframeWarning(const Input& in, bool deskew, double sweep_period)
-{
-  if (!deskew || sweep_period > 0.0 || !in.has_stamps || in.stamps.size() < 2)
-    return "";
-  std::vector<double> gaps;
-  for (std::size_t k = 1; k < in.stamps.size(); ++k)
-    gaps.push_back(in.stamps[k] - in.stamps[k - 1]);
-  const double gap = pcl_parallel::slam::median(gaps);
-  if (!(gap > kMaxSweepSeconds))
-    return "";
-  char text[320];
-  std::snprintf(text,
-                sizeof text,
-                "the scans are a median %.2f s apart, longer than a LiDAR sweep: if they are "
-                "keyframes, --deskew bends each by its whole step; give the sweep's period "
-                "(--sweep-period 0.1 for a 10 Hz LiDAR)",
-                gap);
-  return text;
 }
 
 DemoScans

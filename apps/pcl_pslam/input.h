@@ -29,18 +29,6 @@ struct Input : pcl_parallel::io::ScanDirectory {
 Input
 openDirectory(const Options& o);
 
-/** What the run did about deskewing (by the points' times, by azimuth, or both), or a hint
- *  that the scans carry per-point times; empty: nothing to say. */
-std::string
-deskewNote(const Input& in, bool deskew);
-
-/** Without a sweep period, deskewing takes the step since the previous scan as one sweep:
- *  a warning (else empty) where the stamps lie a median of more than kMaxSweepSeconds apart
- *  (slower than any spinning LiDAR), keyframes each bent by its whole step. */
-std::string
-keyframeWarning(const Input& in, bool deskew, double sweep_period);
-constexpr double kMaxSweepSeconds = 0.25;
-
 /** `demo`'s simulated scans: where, and whether taken while moving (KITTI-like: raw
  *  sweeps with odometry.txt beside). */
 struct DemoScans {

@@ -16,6 +16,7 @@
 #include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/mpi/session.h>
+#include <pcl_parallel/slam/findings.h>
 
 #include <pcl/console/print.h>
 
@@ -36,6 +37,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using Session = pcl_parallel::mpi::Session;
+namespace slam = pcl_parallel::slam;
 
 /** Ends a failed run with `status`; rank 0 prints `message`. A failure of all ranks
  *  together (Session::collective) ends them in step with rank 0's status, after rank 0 has
@@ -88,17 +90,14 @@ openInput(Options& o, const Session& ranks, ProgressReporter& progress, DemoScan
                  : o.no_pose_search ? "; no initial poses: constant-velocity guesses"
                                     : "; no initial poses: constant-velocity guesses, "
                                       "poses searched where a match looks wrong"));
-  if (const std::string w = keyframeWarning(in, o.deskew, o.sweep_period);
-      !w.empty() && ranks.rank() == 0)
-    std::fprintf(stderr, "pcl_pslam: warning: %s\n", w.c_str());
   return in;
 }
 
 /** The pipeline's parameters for the options and the input. */
-pcl_parallel::slam::Parameters
+slam::Parameters
 runParameters(const Options& o, const Input& in)
 {
-  pcl_parallel::slam::Parameters params = toParameters(o, in.scale);
+  slam::Parameters params = toParameters(o, in.scale);
   params.guess.up = Eigen::Vector3d::Unit(in.up);
   if (!in.has_stamps && params.deskew.sweep_period > 0.0)
     throw UsageError("--sweep-period needs the scans' time stamps: no --times and no "
@@ -120,21 +119,23 @@ mapAndWrite(Options& o,
 {
   DemoScans demo;
   Input in = openInput(o, ranks, progress, demo);
-  const pcl_parallel::slam::Parameters params = runParameters(o, in);
-  const Result r = pcl_parallel::slam::mapDirectory(
-      in,
-      params,
-      toMappingOptions(o, ranks.size()),
-      [&](const char* stage, std::size_t done, std::size_t total) {
-        progress.update(stage, static_cast<int>(done), static_cast<int>(total));
-      },
-      in.reading);
+  const slam::Parameters params = runParameters(o, in);
+  if (const std::string w =
+          in.has_stamps ? slam::keyframeWarning(in.stamps, params.deskew) : "";
+      !w.empty() && ranks.rank() == 0)
+    std::fprintf(stderr, "pcl_pslam: warning: %s\n", w.c_str());
+  const auto on_progress = [&](const char* stage, std::size_t k, std::size_t n) {
+    progress.update(stage, k, n);
+  };
+  const Result r = slam::mapDirectory(
+      in, params, toMappingOptions(o, ranks.size()), on_progress, in.reading);
   progress.finish();
   std::size_t points = 0; // every scan's, wherever it was read
   for (const auto& report : r.reports)
     points += report.points;
   const std::string read_time = std::to_string(in.reading.seconds).substr(0, 4) + " s";
-  if (const std::string note = deskewNote(in, params.deskew.enabled);
+  if (const std::string note =
+          slam::deskewNote(in.reading.timed_scans, in.size(), params.deskew.enabled);
       !note.empty() && r.spread.ranks == 1)
     progress.note(note);
   progress.note(std::to_string(points) + " points read" +
@@ -143,16 +144,8 @@ mapAndWrite(Options& o,
                                     : " in " + read_time));
   setWritingOutputs(true);
   if (r.spread.ranks > 1) { // every rank its part of the map, then rank 0 the rest
-    ranks.agree([&] {
-      pcl_parallel::slam::writeMapTile(dir,
-                                       in,
-                                       r,
-                                       runOutputOptions(o, in, r),
-                                       [&](const char*, std::size_t k, std::size_t n) {
-                                         progress.update(
-                                             "map", static_cast<int>(k), static_cast<int>(n));
-                                       });
-    });
+    ranks.agree(
+        [&] { slam::writeMapTile(dir, in, r, runOutputOptions(o, in, r), on_progress); });
     if (ranks.rank() != 0)
       return;
   }

@@ -2,13 +2,11 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "option_error.h"
+#include "arguments.h"
 #include "options.h"
 
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/parallel.h>
-
-#include <boost/program_options.hpp>
 
 #include <algorithm>
 #include <cctype>
@@ -338,17 +336,9 @@ parseOptions(Options& o, int argc, const char* const* argv)
     all.add(d.input).add(d.hidden);
   po::positional_options_description positional;
   positional.add("dir", 1);
-  po::variables_map vm;
   const std::vector<std::string> args(argv + 2, argv + argc);
   try {
-    po::store(
-        po::command_line_parser(args)
-            .options(all)
-            .positional(positional)
-            .style(po::command_line_style::unix_style ^ po::command_line_style::allow_guessing)
-            .run(),
-        vm);
-    po::notify(vm);
+    return parseArguments(args, all, positional);
   }
   catch (const po::error& e) {
     std::string what = optionErrorMessage(e, args);
@@ -356,7 +346,6 @@ parseOptions(Options& o, int argc, const char* const* argv)
       what = o.command == "run" ? "run takes one directory" : "demo takes no directory";
     throw UsageError(o.command + ": " + what);
   }
-  return vm;
 }
 
 /** Checks and converts the input options (format, selection, ranges, units, sweeps). */

@@ -7,6 +7,7 @@
 #include <pcl_parallel/evaluation/report.h>
 #include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/parallel.h>
+#include <pcl_parallel/slam/findings.h>
 #include <pcl_parallel/slam/run_outputs.h>
 #include <pcl_parallel/version.h>
 
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <iostream>
 #include <nlohmann/json.hpp>
 
 #ifndef PCL_PSLAM_VERSION
@@ -80,6 +82,9 @@ runOutputOptions(const Options& o, const Input& in, const Result& r)
   return options;
 }
 
+namespace {
+
+/** The odometry's, the front end's and the final poses' errors against the truth. */
 void
 printTruthErrors(std::ostream& out, const Input& in, const Result& r)
 {
@@ -89,8 +94,6 @@ printTruthErrors(std::ostream& out, const Input& in, const Result& r)
       << lengths.front() << ".." << lengths.back() << " m):\n";
   ev::printErrorRows(out, truthErrors(in, r));
 }
-
-namespace {
 
 /** What the run was built with (a result traced to its build). */
 json
@@ -164,9 +167,7 @@ writeOutputs(const Options& o,
       in,
       r,
       runOutputOptions(o, in, r),
-      [&](const char* stage, std::size_t done, std::size_t total) {
-        progress.update(stage, static_cast<int>(done), static_cast<int>(total));
-      });
+      [&](const char* stage, std::size_t k, std::size_t n) { progress.update(stage, k, n); });
   std::vector<std::string> written = outputs.written;
   progress.update("report", 0, 1);
   progress.finish();
@@ -182,47 +183,6 @@ writeOutputs(const Options& o,
   written.push_back("report.json");
   return written;
 }
-
-namespace {
-
-/** Warnings about the run's results: on stdout where the user should look, on stderr
- *  where the input is likely wrong. */
-void
-printFindings(const Input& in, const Result& r)
-{
-  // Matches the pose search placed came from nothing but the scans: right on a distinct
-  // site, possibly a room or corridor away where the site repeats.
-  if (r.pose_search_won > 0)
-    std::printf("pose search: %zu of %zu matches searched (no initial poses), %zu placed by "
-                "it; where the site repeats (rooms, corridors) check them in map.png, or "
-                "give --poses\n",
-                r.pose_searched,
-                in.size() - 1,
-                r.pose_search_won);
-  // Odometry the scans contradict step after step is in another frame, or broken.
-  if (r.odometry_disagreement &&
-      *r.odometry_disagreement > pcl_parallel::slam::kOdometryDisagreementLimit)
-    std::fprintf(stderr,
-                 "pcl_pslam: warning: pICP moved the scans %.2f times as far from the "
-                 "odometry's steps as the steps are long (median of the first %zu steps): "
-                 "is the odometry in the scanner's frame? (KITTI's poses.txt is the left "
-                 "camera's: apply calib.txt's Tr.) Without it the front end predicts by "
-                 "constant velocity\n",
-                 *r.odometry_disagreement,
-                 pcl_parallel::slam::kOdometryDisagreementSteps);
-  const std::vector<std::size_t> notable = pcl_parallel::slam::notableSequenceSteps(r);
-  if (!notable.empty()) {
-    std::string worst;
-    for (std::size_t k = 0; k < notable.size() && k < 3; ++k)
-      worst += (k ? ", " : "") + std::to_string(in.numbers[notable[k]]) + " (chi2 " +
-               std::to_string(std::lround(r.reports[notable[k]].sequence_chi2)) + ")";
-    std::printf("loop closing disagreed most with the front end's steps to scans %s; "
-                "report.json: sequence_chi2\n",
-                worst.c_str());
-  }
-}
-
-} // namespace
 
 void
 printSummary(const Options& o,
@@ -242,7 +202,10 @@ printSummary(const Options& o,
               in.size() - 1,
               r.lum_iterations,
               r.lum_iterations == 1 ? "" : "s");
-  printFindings(in, r);
+  for (const auto& f : pcl_parallel::slam::findings(r, in.numbers)) // about the input: stderr
+    std::fprintf(f.input_suspect ? stderr : stdout,
+                 f.input_suspect ? "pcl_pslam: warning: %s\n" : "%s\n",
+                 f.text.c_str());
   if (!o.quiet) {
     const auto& t = r.times;
     std::printf("%s: front end %.2f s, loop detection %.2f s, loop closing %.2f s "

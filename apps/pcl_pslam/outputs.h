@@ -16,7 +16,6 @@
 #include <pcl_parallel/slam/run_outputs.h>
 
 #include <memory>
-#include <ostream>
 #include <string>
 #include <vector>
 
@@ -41,10 +40,6 @@ writeOutputs(const Options& o,
              const Result& r,
              ProgressReporter& progress,
              const std::string& command_line);
-
-/** The odometry's, the front end's and the final poses' errors against the truth. */
-void
-printTruthErrors(std::ostream& out, const Input& in, const Result& r);
 
 /** The run's summary on standard output (warnings about the input on standard error). */
 void

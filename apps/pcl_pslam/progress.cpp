@@ -143,7 +143,7 @@ ProgressReporter::elapsed() const
 }
 
 void
-ProgressReporter::update(const std::string& stage, int done, int total)
+ProgressReporter::update(const std::string& stage, std::size_t done, std::size_t total)
 {
   if (signal_ != 0 && stage == signal_stage_)
     std::raise(std::exchange(signal_, 0)); // the test hook, once
@@ -162,8 +162,10 @@ ProgressReporter::update(const std::string& stage, int done, int total)
   last_ = now;
   if (quiet_ || !live_)
     return;
-  const double eta = done > 0 && total > done ? s.seconds / done * (total - done) : 0.0;
-  std::fprintf(out_, "\r\033[K%-7s %5d / %-5d %7.1f s", stage.c_str(), done, total, s.seconds);
+  const double eta =
+      done > 0 && total > done ? s.seconds / static_cast<double>(done) * (total - done) : 0.0;
+  std::fprintf(
+      out_, "\r\033[K%-7s %5zu / %-5zu %7.1f s", stage.c_str(), done, total, s.seconds);
   if (eta > 0.0)
     std::fprintf(out_, "   ETA %.0f s", eta);
   std::fflush(out_);
@@ -192,7 +194,7 @@ ProgressReporter::finish()
   drainWarnings(); // shown even with -q
   if (quiet_)
     return;
-  std::fprintf(out_, "%-7s %5d / %-5d %7.1f s\n", s.name.c_str(), s.steps, total_, s.seconds);
+  std::fprintf(out_, "%-7s %5zu / %-5zu %7.1f s\n", s.name.c_str(), s.steps, total_, s.seconds);
   std::fflush(out_);
 }
 

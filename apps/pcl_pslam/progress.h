@@ -59,7 +59,7 @@ public:
    *  PCL_PSLAM_TEST_SIGNAL_AT=STAGE[:SIG] (a test hook) raises SIGINT (or TERM, HUP, KILL)
    *  at the stage's first update. */
   void
-  update(const std::string& stage, int done, int total);
+  update(const std::string& stage, std::size_t done, std::size_t total);
 
   /** Ends the current stage (prints its line). */
   void
@@ -68,7 +68,7 @@ public:
   struct Stage {
     std::string name;
     double seconds = 0.0;
-    int steps = 0;
+    std::size_t steps = 0;
   };
   const std::vector<Stage>&
   stages() const
@@ -93,7 +93,7 @@ private:
   std::FILE* out_ = stderr; ///< where progress goes (the real stderr)
   Clock::time_point start_, stage_start_, last_;
   bool open_ = false;
-  int total_ = 0;
+  std::size_t total_ = 0;
   std::vector<Stage> stages_;
   std::string signal_stage_; ///< PCL_PSLAM_TEST_SIGNAL_AT's stage
   int signal_ = 0;           ///< and its signal

@@ -2,15 +2,13 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
-#include "option_error.h"
+#include "arguments.h"
 #include "progress.h"
 #include "simulate_command.h"
 
 #include <pcl_parallel/io/output_directory.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
-
-#include <boost/program_options.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -122,8 +120,7 @@ simulateCommand(const std::vector<std::string>& args, std::ostream& out, std::os
   positional.add("dir", 1);
   po::variables_map vm;
   try {
-    po::store(po::command_line_parser(args).options(all).positional(positional).run(), vm);
-    po::notify(vm);
+    vm = parseArguments(args, all, positional);
   }
   catch (const po::error& e) {
     err << "pcl_pslam simulate: " << optionErrorMessage(e, args) << '\n';

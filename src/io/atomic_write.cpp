@@ -2,13 +2,15 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "file_names.h"
+
 #include <pcl_parallel/io/atomic_write.h>
 
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <regex>
+#include <string_view>
 #include <system_error>
 #include <unistd.h>
 
@@ -31,8 +33,10 @@ reason()
 bool
 isAtomicWriteTemporary(const std::string& name)
 {
-  static const std::regex temporary("\\..+\\.tmp[0-9]+"); // as writeAtomically names them
-  return std::regex_match(name, temporary);
+  // .NAME.tmpN, as writeAtomically names them: the last ".tmp" is followed by digits alone.
+  const std::size_t tmp = name.rfind(".tmp");
+  return name.size() > 1 && name[0] == '.' && tmp != std::string::npos && tmp >= 2 &&
+         detail::isNumberedName(std::string_view(name).substr(tmp), ".tmp", 0, {""});
 }
 
 void

@@ -2,6 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "file_names.h"
+
 #include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/output_directory.h>
 
@@ -15,7 +17,6 @@
 #include <dirent.h>
 #include <fcntl.h> // AT_FDCWD, open
 #include <filesystem>
-#include <regex>
 #include <sys/syscall.h>
 #include <unistd.h>
 #include <vector>
@@ -177,9 +178,18 @@ removeTemporariesNow() noexcept
 bool
 isRunOutputName(const std::string& name)
 {
-  static const std::regex names("scan[0-9]+\\.frames|poses(_icp)?(_tum)?\\.txt|"
-                                "map(_rank[0-9]+)?\\.(pcd|ply)|map\\.png|report\\.json");
-  return std::regex_match(name, names);
+  using detail::isNumberedName;
+  return isNumberedName(name, "scan", 0, {".frames"}) ||
+         isNumberedName(name, "map_rank", 0, {".pcd", ".ply"}) ||
+         detail::isOneOf(name,
+                         {"poses.txt",
+                          "poses_icp.txt",
+                          "poses_tum.txt",
+                          "poses_icp_tum.txt",
+                          "map.pcd",
+                          "map.ply",
+                          "map.png",
+                          "report.json"});
 }
 
 std::string

@@ -3,6 +3,7 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include "detail.h"
+#include "file_names.h"
 
 #include <pcl_parallel/io/atomic_write.h>
 #include <pcl_parallel/io/pose_files.h>
@@ -14,7 +15,6 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
-#include <regex>
 #include <string_view>
 #include <system_error>
 #include <tuple>
@@ -329,16 +329,15 @@ loadFramesDirectory(const std::string& dir, double unit)
   requireExisting(dir);
   // scanNNN.frames by number (3DTK pads to 3 digits, so scan1000 follows scan999), others
   // after them by name.
-  static const std::regex numbered("scan([0-9]+)\\.frames");
   std::vector<std::tuple<bool, unsigned long long, std::string>> files;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const std::string name = entry.path().filename().string();
     if (entry.path().extension() != ".frames" || !entry.is_regular_file())
       continue;
-    std::smatch m;
-    if (std::regex_match(name, m, numbered) && m[1].length() < 19)
-      files.emplace_back(false, std::stoull(m[1]), name);
+    constexpr std::size_t kAround = std::string_view("scan.frames").size();
+    if (detail::isNumberedName(name, "scan", 0, {".frames"}) && name.size() < kAround + 19)
+      files.emplace_back(false, std::stoull(name.substr(4, name.size() - kAround)), name);
     else
       files.emplace_back(true, 0, name);
   }

@@ -2,6 +2,8 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include "../io/file_names.h"
+
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
 
@@ -13,7 +15,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <regex>
 #include <stdexcept>
 #include <string>
 
@@ -272,9 +273,10 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
 bool
 isScanSetName(const std::string& name)
 {
-  static const std::regex names("scan[0-9]{3}\\.(3d|pose)|[0-9]{6}\\.(bin|pcd)|"
-                                "(odometry|times|ground_truth)\\.txt");
-  return std::regex_match(name, names);
+  using io::detail::isNumberedName;
+  return isNumberedName(name, "scan", 3, {".3d", ".pose"}) ||
+         isNumberedName(name, "", 6, {".bin", ".pcd"}) ||
+         io::detail::isOneOf(name, {"odometry.txt", "times.txt", "ground_truth.txt"});
 }
 
 ScanSetFormat
