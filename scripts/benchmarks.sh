@@ -201,9 +201,9 @@ if ((mpi)) && [[ -x $mpi_bench ]] && command -v mpirun >/dev/null; then
   if ((!quick)); then
     export TMPDIR=$PWD/$results/tmp # the preset is written there once, then read by each run
     mkdir -p "$TMPDIR"
-    job mpi-pslam-simulate "$mpi_bench" pslam hannover 1 0
-    job mpi-pslam-online-1x1 "$mpi_bench" pslam hannover 1 0
-    ((max_threads > 1)) && job "mpi-pslam-online-1x$max_threads" "$mpi_bench" pslam hannover "$max_threads" 0
+    job mpi-pslam-simulate "${mpirun_[@]}" -np 1 "$mpi_bench" pslam hannover 1 0
+    job mpi-pslam-online-1x1 "${mpirun_[@]}" -np 1 "$mpi_bench" pslam hannover 1 0
+    ((max_threads > 1)) && job "mpi-pslam-online-1x$max_threads" "${mpirun_[@]}" -np 1 "$mpi_bench" pslam hannover "$max_threads" 0
     ((max_threads > 1)) && job "mpi-pslam-segments-${max_threads}x1" "${mpirun_[@]}" -np "$max_threads" "$mpi_bench" pslam hannover 1 "$max_threads"
     rm -rf "$TMPDIR"
     unset TMPDIR

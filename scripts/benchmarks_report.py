@@ -652,6 +652,99 @@ class Report:
 
     # -- benchmarks.md
 
+    def summary_rows(self):
+        """One line per workload: ours against the reference on one thread, and the most
+        threads against one, read from the tables below (ranges over the cases)."""
+        top = max(self.threads)
+        rows = []
+
+        def rng(vals, digits=2):
+            vals = [v for v in vals if v is not None]
+            if not vals:
+                return "—"
+            lo, hi = min(vals), max(vals)
+            return (f"{lo:.{digits}f}x" if f"{lo:.{digits}f}" == f"{hi:.{digits}f}"
+                    else f"{lo:.{digits}f}-{hi:.{digits}f}x")
+
+        kd = self.run("kdtree")
+        t = kd.table("nearest neighbour")
+        if t:
+            h, r = t
+            batch = {int(x[1]): x for x in r if x[0] == "KdTreeIndex::nearestBatch"}
+            if 1 in batch:
+                ratio = (number(batch[top][2]) / number(batch[1][2])
+                         if top in batch and top != 1 else None)
+                rows.append(["k-d tree: nearest-neighbour queries (`nearestBatch`, 1 thread) "
+                             "vs `pcl::search::KdTree`", rng([number(batch[1][3])]),
+                             rng([ratio])])
+        t = kd.table("build")
+        if t:
+            h, r = t
+            ours = {int(x[1]): number(x[2]) for x in r if x[0] == "pcl_parallel::KdTreeIndex"}
+            pcl = [number(x[2]) for x in r if x[0].startswith("pcl::")]
+            if 1 in ours and pcl:
+                rows.append(["k-d tree: build", rng([pcl[0] / ours[1]]),
+                             rng([ours[1] / ours[top]] if top in ours and top != 1 else [])])
+        icp = self.run("icp")
+        for header, r in icp.tables():
+            if not header or header[0] != "pair":
+                continue
+            try:
+                ci, ct = column(header, "implementation"), column(header, "threads")
+                cp, c1 = column(header, "speed-up vs PCL"), column(header, "speed-up vs 1 thread")
+            except KeyError:
+                continue
+            p2p = "points src/tgt" in header
+            for label, keep in (("pICP point-to-point", lambda i: "pICP" in i) if p2p else
+                                ("pICP point-to-plane, field normals",
+                                 lambda i: "field normals" in i),):
+                ours = [x for x in r if keep(x[ci])]
+                vs_pcl = [number(x[cp]) for x in ours if x[ct] == "1"]
+                vs_one = [number(x[c1]) for x in ours if x[ct] == str(top) and top != 1]
+                n = len({x[0] for x in ours})
+                rows.append([f"{label} ({n} pairs) vs PCL", rng(vs_pcl), rng(vs_one)])
+        lum = self.run("lum")
+        t = lum.table("links")
+        if t:
+            h, r = t
+            try:
+                cs, cd = column(h, "speed-up (same pairs)"), column(h, "ours, default")
+                one = {x[0].split(",")[0]: x for x in r if ", 1 thread" in x[0]}
+                many = {x[0].split(",")[0]: x for x in r if f", {top} thread" in x[0]}
+                vs_one = [number(one[k][cd]) / number(many[k][cd]) for k in one
+                          if k in many and top != 1]
+                rows.append([f"pLUM one iteration, bunny ({', '.join(sorted(one))} links) vs "
+                             "PCL's LUM, same pairs", rng([number(x[cs]) for x in one.values()], 0),
+                             rng(vs_one)])
+            except (KeyError, ZeroDivisionError, TypeError):
+                pass
+        t = lum.table("implementation")
+        if t:
+            h, r = t
+            c = column(h, "time [s]")
+            pcl = [number(x[c]) for x in r if x[0].startswith("PCL")]
+            paper = {int(m.group(1)): number(x[c]) for x in r
+                     for m in [re.match(r"ours, paper.*, (\d+) thread", x[0])] if m}
+            if pcl and 1 in paper:
+                rows.append(["pLUM whole relaxation, bunny (paper mode) vs PCL's LUM",
+                             rng([pcl[0] / paper[1]]),
+                             rng([paper[1] / paper[top]] if top in paper and top != 1 else [])])
+        f = self.run("filters").table("voxel")
+        if f:
+            h, r = f
+            try:
+                ct, cv = column(h, "threads"), column(h, "vs PCL")
+                rows.append(["voxel sampling vs `pcl::VoxelGrid` / `pcl::UniformSampling`",
+                             rng([number(x[cv]) for x in r if x[ct] == "1"]), "—"])
+            except KeyError:
+                pass
+        for preset in PRESETS:
+            d = self.pslam(preset)
+            if d and 1 in d["times"] and top in d["times"] and top != 1:
+                rows.append([f"pipeline, preset {PRESET_TITLES[preset]}: total", "—",
+                             rng([d["times"][1]["total [s]"] / d["times"][top]["total [s]"]])])
+        return rows
+
     def write_benchmarks(self, plots, maps):
         doc = Doc()
         doc.add("# Benchmarks", "")
@@ -670,6 +763,13 @@ class Report:
             "default to 1, 2, 4, ... and `nproc`, so a run on a larger machine gives those "
             "columns. The paper's experiments side by side with ours: "
             "[`docs/reproduction.md`](reproduction.md).")
+        rows = self.summary_rows()
+        if rows:
+            top = max(self.threads)
+            doc.para("In short (speed-ups read from the tables below; ranges over their "
+                     "cases; \"1 thread\" against the reference's one thread):")
+            doc.table(["workload", "ours, 1 thread, vs the reference", f"{top} threads vs 1"],
+                      rows)
         doc.para("Contents: [k-d tree](#k-d-tree) · [voxel sampling](#voxel-sampling) · "
                  "[ICP](#icp) · [LUM](#lum) · [contention](#contention-more-threads-beside-"
                  "other-processes) · [the pipeline](#pcl_pslam-the-mapping-pipeline-on-the-"
@@ -819,11 +919,12 @@ class Report:
                              "", ""])
                 continue
             compute = float(m.group(6))
-            base = base or compute
+            if m.group(1) == "1" and m.group(2) == "1":
+                base = compute
             ranks = re.findall(r"rank \d+: (\d+) scans, peak RSS (\d+) MiB", r.text)
             pose = re.search(r"pose 9 translation: (.*)", r.text)
             rows.append([f"{m.group(1)} x {m.group(2)}", f"{compute:.2f}",
-                         f"{base / compute:.2f}x", m.group(7), m.group(5), m.group(8),
+                         f"{base / compute:.2f}x" if base else "—", m.group(7), m.group(5), m.group(8),
                          ", ".join(f"{s} ({p} MiB)" for s, p in ranks),
                          pose.group(1) if pose else ""])
         doc.table(["ranks x threads", "compute [s]", "speed-up", "per iteration [s]",
@@ -831,7 +932,9 @@ class Report:
                    "pose 9 translation"], rows)
         if not pipe:
             return
-        doc.para("`mpi::mapSegments`: the hannover preset in segments, one per rank, each "
+        preset = re.search(r"^(\w+): \d+ scans", self.run(pipe[0]).text, re.M)
+        preset = preset.group(1) if preset else "a"
+        doc.para(f"`mpi::mapSegments`: the {preset} preset in segments, one per rank, each "
                  "mapped as the online pipeline maps a sequence, then loop closing over the "
                  "whole with the graph over the ranks. \"0 segments\" is the online pipeline "
                  "of one process, the baseline. Rank 0's times; \"waiting\" for the other "
@@ -840,7 +943,7 @@ class Report:
         doc.code("\n".join(self.display_command(r) for r in runs))
         doc.para(self.machine_line(runs[1:]) + " The first command writes the preset, the "
                  "others read it.")
-        rows = []
+        rows, base = [], None
         for r in runs[1:]:
             m = re.search(r": (\d+) scans, (\d+) ranks x (\d+) threads, (\d+) segments: total "
                           r"([\d.]+) s \(([\d.]+) scans/s\); rank 0: read ([\d.]+) s, front end "
@@ -853,11 +956,16 @@ class Report:
                 rows.append([r.name, "failed (exit %s)" % r.meta.get("rc")] + [""] * 9)
                 continue
             kept = re.findall(r"keeps (\d+) scans \(([\d.]+) MB\), peak RSS (\d+) MiB", r.text)
-            rows.append([m.group(4), f"{m.group(2)} x {m.group(3)}", m.group(5), m.group(6),
+            total = float(m.group(5))
+            if m.group(4) == "0" and m.group(2) == "1" and m.group(3) == "1":
+                base = total
+            speed = f" ({base / total:.2f}x)" if base else ""
+            rows.append([m.group(4), f"{m.group(2)} x {m.group(3)}", m.group(5) + speed,
+                         m.group(6),
                          m.group(8), m.group(9), m.group(10), m.group(11),
                          f"{a.group(1)} / {a.group(2)}", f"{a.group(4)} MB ({a.group(5)})",
                          ", ".join(f"{k} ({mb} MB, {p} MiB)" for k, mb, p in kept)])
-        doc.table(["segments", "ranks x threads", "total [s]", "scans/s", "front end [s]",
+        doc.table(["segments", "ranks x threads", "total [s] (speed-up)", "scans/s", "front end [s]",
                    "waiting [s]", "loop det. [s]", "loop closing [s]",
                    "ATE front end / final [cm]", "sent outside pLUM (scans sent)",
                    "kept per rank: scans (MB, peak RSS)"], rows)
