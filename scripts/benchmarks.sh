@@ -113,6 +113,10 @@ if [[ -z $python_path && -d build/python ]] && compgen -G 'build/python/pcl_para
   python_path=build/python
 fi
 
+if [[ -d $results && -n $(ls -A "$results") && ! -f $results/machine.txt ]]; then
+  echo "benchmarks: $results holds files of something else; not replacing it (--results)" >&2
+  exit 2
+fi
 rm -rf "$results"
 mkdir -p "$results"
 {
