@@ -35,7 +35,9 @@ PAPER = {
     "hannover": {
         "source": "Sec. VI-C (continuously acquired scans, Leibniz Universität Hannover)",
         "size": "468 scans x ~20,000 points",
-        "rows": [("total", {1: 4526000, 2: None, 4: 3420000})],
+        "rows": [("ICP", {1: None, 2: None, 4: None}),
+                 ("LUM", {1: None, 2: None, 4: None}),
+                 ("total", {1: 4526000, 2: None, 4: 3420000})],
     },
     "riegl": {
         "source": "Table II (Sec. VI-D: RIEGL scans of the main square in Horn)",
@@ -280,22 +282,20 @@ class Report:
         """Speed-up against threads: pICP's pairs, pLUM's bunny cases."""
         icp, lum = self.run("icp"), self.run("lum")
         series_icp, series_lum = {}, {}
-        for header_first in ("pair",):
-            for header, rows in icp.tables():
-                if not header or header[0] != header_first:
+        for header, rows in icp.tables():
+            if not header or header[0] != "pair":
+                continue
+            try:
+                ci, ct, cs = (column(header, "implementation"), column(header, "threads"),
+                              column(header, "time [s]"))
+            except KeyError:
+                continue
+            for r in rows:
+                if "pICP" not in r[ci]:
                     continue
-                try:
-                    ci, ct, cs = (column(header, "implementation"), column(header, "threads"),
-                                  column(header, "time [s]"))
-                except KeyError:
-                    continue
-                for r in rows:
-                    if "pICP" not in r[ci]:
-                        continue
-                    mode = re.sub(r"\s*\(vs PCL.*\)", "", r[ci]).replace("pcl_parallel ", "")
-                    mode = re.sub(r"^pICP ?", "", mode) or "point-to-point"
-                    label = f"{r[0]}, {mode}"
-                    series_icp.setdefault(label, {})[int(r[ct])] = number(r[cs])
+                mode = re.sub(r"\s*\(vs PCL.*\)", "", r[ci]).replace("pcl_parallel ", "")
+                mode = re.sub(r"^pICP ?", "", mode) or "point-to-point"
+                series_icp.setdefault(f"{r[0]}, {mode}", {})[int(r[ct])] = number(r[cs])
         t = lum.table("links")
         if t:
             header, rows = t
@@ -486,6 +486,8 @@ class Report:
         labels, paper2, paper4, ours = [], [], [], {}
         many = [t for t in self.threads if t > 1]
         for exp, stage, p, o in rows:
+            if all(v is None for v in p.values()):
+                continue  # the paper gives no time for this stage
             labels.append(f"{exp}\n{stage}")
             paper2.append(saved(p.get(1), p.get(2)))
             paper4.append(saved(p.get(1), p.get(4)))
@@ -582,7 +584,8 @@ class Report:
             for stage, p in paper["rows"]:
                 p = {t: (v / 1000.0 if v is not None else None) for t, v in p.items()}
                 cells = [{"ICP": "ICP (ours: front end)", "LUM": "LUM (ours: loop closing)",
-                          "total": "total"}[stage], fmt_paper(p[1])]
+                          "total": "total"}[stage],
+                         "not given" if p[1] is None else fmt_paper(p[1])]
                 for t in (2, 4):
                     cells.append("not given" if p[t] is None
                                  else f"{fmt_paper(p[t])} ({pct(saved(p[1], p[t]))})")
