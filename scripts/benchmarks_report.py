@@ -437,7 +437,8 @@ class Report:
         stages = [("read [s]", "read"), ("front end [s]", "front end (pICP)"),
                   ("loop det. [s]", "loop detection"), ("loop closing [s]", "loop closing (pLUM)")]
         colors = ["#bbbbbb", "#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"]
-        fig, axes = plt.subplots(1, len(data), figsize=(2.3 * len(data) + 1.5, 4.4), squeeze=False)
+        fig, axes = plt.subplots(1, len(data), figsize=(max(7.0, 2.3 * len(data) + 1.5), 4.8),
+                                 squeeze=False)
         for ax, (preset, d) in zip(axes[0], data):
             ths = sorted(d["times"])
             bottom = [0.0] * len(ths)
@@ -454,10 +455,11 @@ class Report:
             ax.set_xlabel("threads")
             ax.grid(axis="y", alpha=0.3)
         axes[0][0].set_ylabel("seconds")
-        axes[0][-1].legend(fontsize=7, loc="upper right")
-        fig.suptitle("pcl_pslam pipeline per stage (pcl_parallel_bench pslam-PRESET); "
+        handles, labels = axes[0][0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=8)
+        fig.suptitle("the pipeline's time per stage (pcl_parallel_bench pslam-PRESET)\n"
                      + self.plot_caption(), fontsize=8)
-        fig.tight_layout()
+        fig.tight_layout(rect=(0, 0.07, 1, 1))
         return self.save(fig, "pipeline_stages.png")
 
     def copy_maps(self):
