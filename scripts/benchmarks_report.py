@@ -597,6 +597,10 @@ class Report:
                                  else f"{fmt_num(o[t], 2)} ({pct(saved(o[1], o[t]))})")
                 rows.append(cells)
             doc.table(header, rows)
+            checks = [b[1] for b in self.run(f"pslam-{exp}").blocks
+                      if b[0] == "text" and b[1].startswith(("Machine check", "Final poses"))]
+            if checks:
+                doc.para(" ".join(checks))
             err = d["errors"]
             if err:
                 parts = []
@@ -614,7 +618,7 @@ class Report:
                     parts.append(f"{n} scans {pct(saved(p[1], p[2]))} on 2 threads, "
                                  f"{pct(saved(p[1], p[4]))} on 4")
                 doc.para("Table II's ICP rows for the first scans: " + "; ".join(parts) +
-                         " (the paper's \"up to 48.2%\" is the 3-scan row on four threads).")
+                         " (the paper's \"up to 48.2%\" is the 3-scan row).")
             if exp == "office":
                 p = dict(PAPER["office"]["rows"])["total"]
                 doc.para(f"Sec. VI-A's \"reduced 76.2%\" is t<sub>4</sub> / t<sub>1</sub> of "
@@ -623,9 +627,10 @@ class Report:
         doc.add("## The maps", "")
         maps = [p for p in ("office", "hannover", "riegl") if (self.images / f"map_{p}.png").exists()]
         if maps:
-            doc.para("`pcl_pslam demo --preset NAME` (the same presets, all cores): the map's "
-                     "top view with the trajectory in red, the errors against the truth in "
-                     "the caption.")
+            doc.para("`pcl_pslam demo --preset NAME` (the same presets, all cores; commands in "
+                     "`docs/benchmarks.md`): the map's top view with the trajectory from the "
+                     "green disc to the black ring, the errors against the truth in the "
+                     "caption.")
             for p in maps:
                 doc.para(f"![pcl_pslam demo --preset {p}](images/map_{p}.png)")
         if (self.images / "reproduction_speedup.png").exists():
@@ -651,8 +656,9 @@ class Report:
             f"faster hardware; the ratios between thread counts are what compares.\n"
             f"- **What does not scale.** Reading the scans is serial, and on small sets "
             f"(office: 11 scans) a stage lasts a fraction of a second, where starting threads "
-            f"and other processes on the machine weigh more; `docs/benchmarks.md` has each "
-            f"stage's times.")
+            f"and other processes on the machine weigh more. The benchmark prints seconds to "
+            f"two decimals, so the percentages of stages under a tenth of a second are "
+            f"coarse; `docs/benchmarks.md` has each stage's times.")
         (self.docs / "reproduction.md").write_text(doc.text())
 
     # -- benchmarks.md
@@ -856,8 +862,9 @@ class Report:
             doc.para("![the pipeline's time per stage per preset](images/pipeline_stages.png)")
         if maps:
             cmds = [self.display_command(self.run(f"map-{p}")) for p in maps]
-            doc.para("The maps (`pcl_pslam demo`: top view, the trajectory in red, the errors "
-                     "against the truth in the caption):")
+            doc.para("The maps (`pcl_pslam demo`: top view, the trajectory from the green disc "
+                     "to the black ring, the errors against the truth in the caption; the "
+                     "README shows the office map):")
             doc.code("\n".join(cmds))
             for p in maps:
                 doc.para(f"![pcl_pslam demo --preset {p}](images/map_{p}.png)")
@@ -886,9 +893,9 @@ class Report:
                  "thread makes while `icp()` runs on another Python thread (a held GIL allows "
                  "about none), and two single-threaded `icp()` calls in turn against the same "
                  "two on two Python threads.")
-        if not self.emit_runs(doc, ["python-gil"]):
-            doc.para("Not in this run: the script runs it when the Python module is built "
-                     "(`build/python`, or `--python-path DIR`). By hand:")
+        if not self.emit_runs(doc, ["python-gil"], missing=(
+                "Not in this run: the script runs it when the Python module is built "
+                "(`build/python`, or `--python-path DIR`). By hand:")):
             doc.code("PYTHONPATH=build/python /usr/bin/python3 "
                      "apps/pcl_parallel_bench/python_gil.py")
 
@@ -898,8 +905,8 @@ class Report:
                  "(`lum-seeds`), the real sequences (`real-car`: the mulran car drive's "
                  "keyframes predicted by their times and the pull-away from any start "
                  "keyframe) and the hannover preset without poses (`hannover-steps`).")
-        if not self.emit_runs(doc, ["accuracy"], heading_level=4):
-            doc.para("Not in this run (minutes): `scripts/benchmarks.sh --accuracy` adds it.")
+        self.emit_runs(doc, ["accuracy"], heading_level=4, missing=(
+            "Not in this run (minutes): `scripts/benchmarks.sh --accuracy` adds it."))
         (self.docs / "benchmarks.md").write_text(doc.text())
 
     def write_mpi(self, doc):
