@@ -938,7 +938,8 @@ class Report:
                 base = compute
             ranks = re.findall(r"rank \d+: (\d+) scans, peak RSS (\d+) MiB", r.text)
             pose = re.search(r"pose 9 translation: (.*)", r.text)
-            rows.append([f"{m.group(1)} x {m.group(2)}", f"{compute:.2f}",
+            failed = "" if r.ok else f" (exit {r.meta.get('rc')})"
+            rows.append([f"{m.group(1)} x {m.group(2)}{failed}", f"{compute:.2f}",
                          f"{base / compute:.2f}x" if base else "—", m.group(7), m.group(5), m.group(8),
                          ", ".join(f"{s} ({p} MiB)" for s, p in ranks),
                          pose.group(1) if pose else ""])
@@ -975,7 +976,8 @@ class Report:
             if m.group(4) == "0" and m.group(2) == "1" and m.group(3) == "1":
                 base = total
             speed = f" ({base / total:.2f}x)" if base else ""
-            rows.append([m.group(4), f"{m.group(2)} x {m.group(3)}", m.group(5) + speed,
+            failed = "" if r.ok else f" (exit {r.meta.get('rc')})"
+            rows.append([m.group(4), f"{m.group(2)} x {m.group(3)}{failed}", m.group(5) + speed,
                          m.group(6),
                          m.group(8), m.group(9), m.group(10), m.group(11),
                          f"{a.group(1)} / {a.group(2)}", f"{a.group(4)} MB ({a.group(5)})",
