@@ -625,7 +625,8 @@ TEST(ParallelIcp, Dtk001To000MatchesPaperImplementation)
 // Against pcl::IterativeClosestPoint on the same full-resolution input (PCL's ICP takes
 // ~5-16 s here depending on load; it is the one slow test, release stage only). Also checks the
 // iteration count, and that the remaining difference is PCL's float rounding: PCL with Scalar =
-// double is not run here (another ~5 s), the numbers are in docs/benchmarks.md.
+// double is not run here (another ~5 s); on this pair it is 0.00001 deg / 0.00003 cm from pICP
+// and 0.0004 deg / 0.0126 cm from PCL with Scalar = float.
 TEST(ParallelIcp, Dtk001To000MatchesPcl)
 {
   PCL_PARALLEL_REQUIRE_DATA(scan, "3dtk_dat/scan001.3d");
