@@ -1360,6 +1360,187 @@ TEST(ParallelIcpPointToPlane, FinalHessianIsTheBodyFrameGaussNewtonMatrix)
   EXPECT_TRUE(icp.getFinalHessian().isZero());
 }
 
+// ---------------------------------------------------------------------------------------
+// The planar mode: the paper's 2D special case (Sec. VII).
+
+/** A horizontal 2D scan's points (z = 0): the outline of an L-shaped room around the
+ *  origin with a pillar, a point every `step` metres from `phase` along each wall, noise of
+ *  `sigma` along the walls' normals, and those normals (in the plane) in the normal fields. */
+PointCloud<PointNormal>::Ptr
+planarOutline(float step, float phase, float sigma, std::uint32_t seed)
+{
+  const std::vector<std::vector<Eigen::Vector2f>> walls = {
+      {{-4, -3.5}, {4, -3.5}, {4, 0.5}, {1, 0.5}, {1, 3.5}, {-4, 3.5}, {-4, -3.5}},
+      {{-2, -1.5}, {-1, -1.5}, {-1, -0.5}, {-2, -0.5}, {-2, -1.5}}}; // the pillar
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.0f, sigma);
+  PointCloud<PointNormal>::Ptr cloud(new PointCloud<PointNormal>);
+  for (const auto& outline : walls)
+    for (std::size_t k = 0; k + 1 < outline.size(); ++k) {
+      const Eigen::Vector2f a = outline[k], along = (outline[k + 1] - a).normalized();
+      const Eigen::Vector2f normal(-along.y(), along.x());
+      for (float s = phase; s < (outline[k + 1] - a).norm(); s += step) {
+        const Eigen::Vector2f p = a + s * along + noise(rng) * normal;
+        PointNormal q;
+        q.x = p.x();
+        q.y = p.y();
+        q.z = 0.0f;
+        q.normal_x = normal.x();
+        q.normal_y = normal.y();
+        q.normal_z = 0.0f;
+        cloud->push_back(q);
+      }
+    }
+  return cloud;
+}
+
+/** Planar pICP of planarOutline's second sampling, moved by truth⁻¹, onto its first. */
+Eigen::Matrix4d
+alignPlanarOutlines(PNIcp& icp, const Eigen::Matrix4d& truth, std::size_t points_per_metre)
+{
+  const float step = 1.0f / static_cast<float>(points_per_metre);
+  PointCloud<PointNormal>::Ptr src(new PointCloud<PointNormal>);
+  pcl::transformPointCloudWithNormals(
+      *planarOutline(step, step / 2, 0.003f, 2), *src, truth.inverse().cast<float>());
+  icp.setMaximumIterations(100);
+  icp.setMaxCorrespondenceDistance(1.0);
+  icp.setTransformationEpsilon(1e-12);
+  icp.setInputSource(src);
+  icp.setInputTarget(planarOutline(step, 0.0f, 0.003f, 1));
+  PointCloud<PointNormal> out;
+  icp.align(out);
+  EXPECT_TRUE(icp.usedFastPath());
+  return icp.getFinalTransformationDouble();
+}
+
+/** True where `t` moves nothing out of the x-y plane: no z, roll or pitch, exactly. */
+bool
+exactlyPlanar(const Eigen::Matrix4d& t)
+{
+  return t(2, 0) == 0.0 && t(2, 1) == 0.0 && t(0, 2) == 0.0 && t(1, 2) == 0.0 &&
+         t(2, 2) == 1.0 && t(2, 3) == 0.0;
+}
+
+// Point-to-point: the step found in the plane, and the same x, y and yaw as the
+// unrestricted 6-DOF pICP finds on the same flat data.
+TEST(ParallelIcpPlanar, PointToPointFindsTheStepInThePlane)
+{
+  const Eigen::Matrix4d truth = rigid(5.0 * M_PI / 180.0, {0, 0, 1}, {0.25, -0.15, 0.0});
+  PNIcp planar;
+  planar.setPlanar(true);
+  const Eigen::Matrix4d r = alignPlanarOutlines(planar, truth, 50);
+  EXPECT_TRUE(planar.hasConverged());
+  EXPECT_TRUE(exactlyPlanar(r)) << r;
+  const auto [deg, m] = poseDifference(r, truth);
+  EXPECT_LT(deg, 0.05);
+  EXPECT_LT(m, 2e-3);
+  PNIcp full;
+  const Eigen::Matrix4d f = alignPlanarOutlines(full, truth, 50);
+  const auto [deg_full, m_full] = poseDifference(r, f);
+  EXPECT_LT(deg_full, 1e-3);
+  EXPECT_LT(m_full, 1e-5);
+}
+
+// Point-to-plane on a 2D scan: normals in the plane leave z, roll and pitch unconstrained,
+// so the 6x6 system is singular (reported, no step); its planar 3x3 block is not.
+TEST(ParallelIcpPlanar, PointToPlaneSolvesWhatTheFullSystemCannot)
+{
+  const Eigen::Matrix4d truth = rigid(5.0 * M_PI / 180.0, {0, 0, 1}, {0.25, -0.15, 0.0});
+  PNIcp full;
+  full.setUsePointToPlane(true);
+  alignPlanarOutlines(full, truth, 50);
+  EXPECT_FALSE(full.hasConverged());
+  PNIcp planar;
+  planar.setUsePointToPlane(true);
+  planar.setPlanar(true);
+  const Eigen::Matrix4d r = alignPlanarOutlines(planar, truth, 50);
+  EXPECT_TRUE(planar.hasConverged());
+  EXPECT_TRUE(exactlyPlanar(r)) << r;
+  const auto [deg, m] = poseDifference(r, truth);
+  EXPECT_LT(deg, 0.02);
+  EXPECT_LT(m, 1e-3);
+}
+
+// Eq. 11-13 in 2D against a brute-force search: the yaw minimising Σ w |m - R_z d - t|²
+// over a grid (t the weighted centroids' difference for each yaw), pairs with z anywhere.
+TEST(ParallelIcpPlanar, PlanarMomentsSolveAsTheBruteForceYaw)
+{
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-3.0, 3.0), uw(0.1, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  const Eigen::Matrix4d motion = rigid(2.0, {0, 0, 1}, {0.7, -1.1, 0.0}); // 115 degrees
+  std::vector<Eigen::Vector3f> ds(1000), ms(ds.size());
+  std::vector<double> ws(ds.size());
+  std::vector<pcl_parallel::registration::MatchedPair> pairs(ds.size());
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    ds[i] = Eigen::Vector3d(u(rng), u(rng), u(rng)).cast<float>();
+    const Eigen::Vector3d m = (motion * ds[i].cast<double>().homogeneous()).head<3>();
+    ms[i] = (m + Eigen::Vector3d(noise(rng), noise(rng), noise(rng))).cast<float>();
+    ws[i] = uw(rng);
+    pairs[i] = {{ds[i].x(), ds[i].y(), ds[i].z()}, ms[i].data(), ws[i]};
+  }
+  using Factor = pcl_parallel::registration::PointToPointFactor;
+  std::vector<pcl_parallel::registration::PointToPointMoments> children;
+  for (std::size_t b = 0; b < pairs.size(); b += 256)
+    children.push_back(
+        Factor::child(&pairs[b], std::min<std::size_t>(256, pairs.size() - b), 0));
+  const Eigen::Matrix4d t = Factor::solvePlanar(Factor::combine(children));
+  EXPECT_TRUE(exactlyPlanar(t)) << t;
+  // Brute force: the cost about the weighted centroids, coarse over the circle, then fine.
+  Eigen::Vector2d cd = Eigen::Vector2d::Zero(), cm = Eigen::Vector2d::Zero();
+  double w = 0.0;
+  for (std::size_t i = 0; i < ds.size(); ++i) {
+    cd += ws[i] * ds[i].head<2>().cast<double>();
+    cm += ws[i] * ms[i].head<2>().cast<double>();
+    w += ws[i];
+  }
+  cd /= w;
+  cm /= w;
+  const auto cost = [&](double yaw) {
+    const Eigen::Rotation2Dd r(yaw);
+    double sum = 0.0;
+    for (std::size_t i = 0; i < ds.size(); ++i)
+      sum += ws[i] *
+             (ms[i].head<2>().cast<double>() - cm - r * (ds[i].head<2>().cast<double>() - cd))
+                 .squaredNorm();
+    return sum;
+  };
+  double best = -M_PI, best_cost = cost(best);
+  const auto search = [&](double from, double to, double step) {
+    for (double yaw = from; yaw < to; yaw += step)
+      if (const double c = cost(yaw); c < best_cost)
+        best = yaw, best_cost = c;
+  };
+  search(-M_PI, M_PI, 1e-3);
+  search(best - 1e-3, best + 1e-3, 1e-7);
+  EXPECT_NEAR(std::atan2(t(1, 0), t(0, 0)), best, 2e-7);
+  const Eigen::Vector2d t_brute = cm - Eigen::Rotation2Dd(best) * cd;
+  EXPECT_NEAR(t(0, 3), t_brute.x(), 1e-6);
+  EXPECT_NEAR(t(1, 3), t_brute.y(), 1e-6);
+}
+
+// Planar point-to-point and point-to-plane, bit-identical for 1, 2 and 4 threads (40k
+// points: many blocks).
+TEST(ParallelIcpPlanar, BitIdenticalForAnyThreadCount)
+{
+  const Eigen::Matrix4d truth = rigid(3.0 * M_PI / 180.0, {0, 0, 1}, {0.1, 0.05, 0.0});
+  for (const bool plane : {false, true}) {
+    Eigen::Matrix4d first;
+    for (const unsigned threads : {1u, 2u, 4u}) {
+      PNIcp icp;
+      icp.setPlanar(true);
+      icp.setUsePointToPlane(plane);
+      icp.setNumberOfThreads(threads);
+      const Eigen::Matrix4d r = alignPlanarOutlines(icp, truth, 1000);
+      if (threads == 1)
+        first = r;
+      else
+        EXPECT_EQ(r, first) << (plane ? "point-to-plane, " : "point-to-point, ") << threads
+                            << " threads";
+    }
+  }
+}
+
 // Our ELCH step against PCL's pcl::registration::ELCH where the two coincide: scans evenly
 // spaced along the loop (PCL weighs by edge count, we by path length) and the loop's end
 // at the world origin (PCL rotates about the origin, we about the end scan). Elsewhere

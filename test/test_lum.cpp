@@ -13,6 +13,7 @@
 #include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/registration/lum.h>
+#include <pcl_parallel/registration/pose_graph_solver.h>
 
 #include <pcl/common/transforms.h>
 #include <pcl/console/print.h>
@@ -22,6 +23,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -542,6 +544,158 @@ TEST_F(QuietPcl, PlumIsIdenticalForOneAndTwoThreads)
   const Poses two = runPlum(s, start, links, 2, 3);
   for (std::size_t v = 0; v < one.size(); ++v)
     EXPECT_EQ(one[v], two[v]) << "vertex " << v; // bit-identical
+}
+
+// The planar solve (Sec. VII's 2D case) against the dense system: G X = B assembled over
+// all six components, reduced to the rows and columns of x, y and the yaw, solved densely;
+// the other components of each update zero, the covariance G⁻¹'s planar block.
+TEST(LumMath, PlanarSolveIsTheDenseSystemsPlanarBlock)
+{
+  namespace lum = pcl_parallel::lum;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> g(0.0, 1.0);
+  const std::size_t n = 6;
+  std::vector<lum::LinkBlock, Eigen::aligned_allocator<lum::LinkBlock>> links;
+  for (const auto& [s, t] : std::vector<std::pair<std::uint32_t, std::uint32_t>>{
+           {0, 1}, {1, 2}, {2, 3}, {3, 4}, {4, 5}, {5, 0}, {1, 4}, {3, 0}}) {
+    lum::LinkBlock l;
+    l.source = s;
+    l.target = t;
+    l.valid = true;
+    lum::Matrix6d a;
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c)
+        a(r, c) = g(rng);
+    l.info = a * a.transpose() + lum::Matrix6d::Identity();
+    for (int k = 0; k < 6; ++k)
+      l.grad[k] = g(rng);
+    links.push_back(l);
+  }
+  constexpr int kPlanar[3] = {0, 1, 5}; // t_x, t_y, ω_z
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(3 * (n - 1), 3 * (n - 1));
+  Eigen::VectorXd B = Eigen::VectorXd::Zero(3 * (n - 1));
+  for (const auto& l : links)
+    for (int i = 0; i < 3; ++i) {
+      const auto row = [&](std::uint32_t v) { return 3 * (static_cast<int>(v) - 1) + i; };
+      if (l.source > 0)
+        B[row(l.source)] -= l.grad[kPlanar[i]];
+      if (l.target > 0)
+        B[row(l.target)] += l.grad[kPlanar[i]];
+      for (int j = 0; j < 3; ++j) {
+        const double h = l.info(kPlanar[i], kPlanar[j]);
+        const auto col = [&](std::uint32_t v) { return 3 * (static_cast<int>(v) - 1) + j; };
+        if (l.source > 0)
+          G(row(l.source), col(l.source)) += h;
+        if (l.target > 0)
+          G(row(l.target), col(l.target)) += h;
+        if (l.source > 0 && l.target > 0) {
+          G(row(l.source), col(l.target)) -= h;
+          G(row(l.target), col(l.source)) -= h;
+        }
+      }
+    }
+  const Eigen::VectorXd x = G.ldlt().solve(B);
+  const Eigen::MatrixXd cov = G.inverse();
+  lum::PoseGraphSolver solver;
+  solver.setPlanar(true);
+  std::vector<lum::Vector6d, Eigen::aligned_allocator<lum::Vector6d>> delta;
+  ASSERT_TRUE(solver.solve(n, links, delta));
+  for (std::size_t v = 1; v < n; ++v) {
+    const lum::Matrix6d c = solver.covariance(v);
+    for (int i = 0; i < 6; ++i) {
+      const int p = static_cast<int>(std::find(kPlanar, kPlanar + 3, i) - kPlanar);
+      const int r = 3 * static_cast<int>(v - 1) + p;
+      if (p == 3) { // not planar: no update, no covariance
+        EXPECT_EQ(delta[v][i], 0.0) << v << " " << i;
+        EXPECT_TRUE(c.row(i).isZero() && c.col(i).isZero()) << v << " " << i;
+        continue;
+      }
+      EXPECT_NEAR(delta[v][i], x[r], 1e-9 * (1.0 + std::abs(x[r]))) << v << " " << i;
+      for (int j = 0; j < 3; ++j)
+        EXPECT_NEAR(c(i, kPlanar[j]), cov(r, 3 * static_cast<int>(v - 1) + j), 1e-9)
+            << v << " " << i << " " << j;
+    }
+  }
+  solver.setPlanar(false); // back to six components: the same system as a fresh solver
+  lum::PoseGraphSolver fresh;
+  std::vector<lum::Vector6d, Eigen::aligned_allocator<lum::Vector6d>> full, fresh_full;
+  ASSERT_TRUE(solver.solve(n, links, full));
+  ASSERT_TRUE(fresh.solve(n, links, fresh_full));
+  for (std::size_t v = 0; v < n; ++v)
+    EXPECT_EQ(full[v], fresh_full[v]) << v;
+}
+
+// pLUM on a horizontal 2D scanner's scans (z = 0, walls of a room with an inner wall) from
+// planar poses off by up to 2 degrees and 5 cm: in planar mode the poses end at the truth
+// and exactly in the plane, bit-identical for one and two threads.
+TEST_F(QuietPcl, PlanarPlumKeepsTwoDScansInThePlane)
+{
+  const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
+                       makePose(1.0, 0.5, 0, 0, 0, 0.35),
+                       makePose(2.0, -0.5, 0, 0, 0, -0.25),
+                       makePose(-1.0, 1.0, 0, 0, 0, 0.7),
+                       makePose(0.5, -1.5, 0, 0, 0, 1.57)};
+  std::vector<Eigen::Vector2d> world; // a wall point every 2 cm
+  const double walls[][4] = {{-5, -4, 5, -4},
+                             {5, -4, 5, 4},
+                             {5, 4, -5, 4},
+                             {-5, 4, -5, -4},
+                             {-2, -4, -2, -1},
+                             {2, 4, 2, 1.5}};
+  for (const auto& w : walls) {
+    const Eigen::Vector2d a(w[0], w[1]), b(w[2], w[3]);
+    for (double s = 0.0; s < (b - a).norm(); s += 0.02)
+      world.push_back(a + s * (b - a).normalized());
+  }
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.003);
+  PlumScene scene;
+  scene.truth = truth;
+  for (const auto& pose : truth) {
+    Cloud::Ptr c(new Cloud);
+    const Eigen::Matrix4d inv = pose.inverse();
+    for (const auto& w : world) {
+      const Eigen::Vector4d p = inv * Eigen::Vector4d(w.x(), w.y(), 0.0, 1.0);
+      c->push_back(pcl::PointXYZ(static_cast<float>(p.x() + noise(rng)),
+                                 static_cast<float>(p.y() + noise(rng)),
+                                 0.0f));
+    }
+    scene.clouds.push_back(c);
+  }
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Poses start = truth;
+  for (std::size_t v = 1; v < start.size(); ++v)
+    start[v] = makePose(0.05 * u(rng), 0.05 * u(rng), 0, 0, 0, 2.0 * kDeg * u(rng)) * truth[v];
+  const auto run = [&](unsigned threads) {
+    ParallelLUM<pcl::PointXYZ> lum;
+    lum.setPlanar(true);
+    lum.setNumberOfThreads(threads);
+    for (std::size_t v = 0; v < scene.clouds.size(); ++v)
+      lum.addPointCloud(scene.clouds[v], Eigen::Matrix4f(start[v].cast<float>()));
+    for (const auto& [i, j] : allPairs(truth.size()))
+      lum.addLink(i, j);
+    lum.setCorrespondenceDistanceSchedule(0.3, 0.03, 0.7);
+    lum.setMaxIterations(40);
+    lum.compute();
+    Poses out;
+    for (std::size_t v = 0; v < scene.clouds.size(); ++v)
+      out.push_back(lum.getPoseMatrix(v));
+    return out;
+  };
+  const Poses got = run(1);
+  for (std::size_t v = 0; v < got.size(); ++v) {
+    const Eigen::Matrix4d& p = got[v];
+    EXPECT_TRUE(p(2, 0) == 0.0 && p(2, 1) == 0.0 && p(0, 2) == 0.0 && p(1, 2) == 0.0 &&
+                p(2, 2) == 1.0 && p(2, 3) == 0.0)
+        << "vertex " << v << " leaves the plane:\n"
+        << p;
+  }
+  const Errors e = poseErrors(got, truth);
+  EXPECT_LT(e.max_rot, 0.02 * kDeg);
+  EXPECT_LT(e.max_trans, 2e-3);
+  const Poses two = run(2);
+  for (std::size_t v = 0; v < got.size(); ++v)
+    EXPECT_EQ(two[v], got[v]) << "vertex " << v;
 }
 
 // Links in both directions (a -> b and b -> a) and repeated links, as users add loops:

@@ -46,6 +46,7 @@ struct IcpOptions {
   int iterations = 50;
   double epsilon = 1e-8;
   bool point_to_plane = false;
+  bool planar = false;
   registration::RobustKernel kernel;
   unsigned threads = 0;
 };
@@ -92,6 +93,7 @@ runIcp(const slam::Cloud::Ptr& source,
   icp.setMaximumIterations(o.iterations);
   icp.setTransformationEpsilon(o.epsilon);
   icp.setUsePointToPlane(o.point_to_plane);
+  icp.setPlanar(o.planar);
   icp.setRobustKernel(o.kernel);
   slam::Cloud aligned;
   icp.alignDouble(aligned, init);
@@ -112,9 +114,11 @@ icpBinding(const py::handle& source,
            const std::string& metric,
            const py::handle& robust,
            double epsilon,
+           bool planar,
            const py::handle& threads)
 {
   IcpOptions o;
+  o.planar = planar;
   if (std::isnan(max_distance) || !(max_distance > 0.0))
     throw std::invalid_argument("max_distance: must be > 0 (inf: no gate)");
   o.max_distance = max_distance;
@@ -179,6 +183,7 @@ struct LumOptions {
   double distance = 0.0, final_distance = 0.0, epsilon = 0.0;
   int iterations = 20;
   bool point_to_plane = true;
+  bool planar = false;
   unsigned threads = 0;
 };
 
@@ -199,6 +204,7 @@ runLum(const std::vector<slam::Cloud::Ptr>& scans,
   lum.setMaxIterations(o.iterations);
   lum.setConvergenceThreshold(static_cast<float>(o.epsilon));
   lum.setPointToPlane(o.point_to_plane);
+  lum.setPlanar(o.planar);
   lum.compute();
   slam::Poses out(scans.size());
   for (std::size_t k = 0; k < scans.size(); ++k)
@@ -217,6 +223,7 @@ lumBinding(const py::sequence& scan_list,
            int iterations,
            std::optional<double> epsilon,
            bool point_to_plane,
+           bool planar,
            std::optional<double> link_distance,
            int min_separation,
            const py::handle& threads)
@@ -248,6 +255,7 @@ lumBinding(const py::sequence& scan_list,
     throw std::invalid_argument("epsilon: must be finite and >= 0");
   o.iterations = iterations;
   o.point_to_plane = point_to_plane;
+  o.planar = planar;
   o.threads = toThreads(threads);
   const auto links =
       link_array.is_none()
@@ -314,12 +322,14 @@ bindRegistration(py::module_& m)
         py::arg("metric") = "point_to_point",
         py::arg("robust") = py::none(),
         py::arg("epsilon") = 1e-8,
+        py::arg("planar") = false,
         py::arg("threads") = py::none(),
         "Parallel ICP (ParallelIterativeClosestPoint, alignDouble): the transform that moves "
         "source onto target, from init. max_distance: the correspondence gate (inf: none); "
         "epsilon: PCL's transformation epsilon; metric: \"point_to_point\" or "
         "\"point_to_plane\" (target normals estimated); robust: None or (\"huber\" | "
-        "\"geman_mcclure\", scale).");
+        "\"geman_mcclure\", scale); planar: steps in the x-y plane alone (x, y, yaw: 2D "
+        "scans, z = 0).");
   m.def("lum",
         &lumBinding,
         py::arg("scans"),
@@ -331,6 +341,7 @@ bindRegistration(py::module_& m)
         py::arg("iterations") = 20,
         py::arg("epsilon") = py::none(),
         py::arg("point_to_plane") = true,
+        py::arg("planar") = false,
         py::arg("link_distance") = py::none(),
         py::arg("min_separation") = 5,
         py::arg("threads") = py::none(),
@@ -339,7 +350,8 @@ bindRegistration(py::module_& m)
         "iteration from max_distance to final_distance. links: (K, 2) scan indices; None: "
         "lum_links(poses, link_distance, min_separation, r). Automatic lengths (None) are "
         "the pipeline's for the first scan's median range r: max_distance r/2, "
-        "final_distance r/10, epsilon r/2000, link_distance r.");
+        "final_distance r/10, epsilon r/2000, link_distance r. planar: updates in the x-y "
+        "plane alone (2D scans, z = 0).");
   m.def("lum_links",
         &lumLinksBinding,
         py::arg("poses"),

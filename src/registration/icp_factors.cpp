@@ -11,6 +11,8 @@
 #include <Eigen/QR>
 #include <Eigen/SVD>
 
+#include <cmath>
+
 namespace pcl_parallel {
 namespace registration {
 
@@ -119,6 +121,22 @@ PointToPointFactor::solve(const PointToPointMoments& mo, bool horn)
   return T;
 }
 
+Eigen::Matrix4d
+PointToPointFactor::solvePlanar(const PointToPointMoments& mo)
+{
+  // H_ab = Σ w d'_a m'_b: tr(R_z H) = cos θ (H_xx + H_yy) + sin θ (H_xy - H_yx).
+  const double theta = std::atan2(mo.h[1] - mo.h[3], mo.h[0] + mo.h[4]);
+  const double c = std::cos(theta), s = std::sin(theta);
+  Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+  T(0, 0) = c;
+  T(0, 1) = -s;
+  T(1, 0) = s;
+  T(1, 1) = c;
+  T(0, 3) = mo.cm[0] - (c * mo.cd[0] - s * mo.cd[1]); // t = cm - R cd in the plane (Eq. 7)
+  T(1, 3) = mo.cm[1] - (s * mo.cd[0] + c * mo.cd[1]);
+  return T;
+}
+
 Eigen::Matrix<double, 6, 6>
 NormalEquations::hessian() const
 {
@@ -148,32 +166,75 @@ PointToPlaneFactor::bodyHessian(const NormalEquations& eq,
   return K.transpose() * eq.hessian() * K;
 }
 
+namespace {
+
+/** x solving the Gauss-Newton system (Σ Jᵀ J) x = -Σ Jᵀ r, or false where it is rank
+ *  deficient (fewer independent constraints than unknowns: no unique step, not a wild one). */
+template <int N>
 bool
-PointToPlaneFactor::solve(const NormalEquations& eq, const double ref[3], Eigen::Matrix4d& step)
+gaussNewtonStep(const Eigen::Matrix<double, N, N>& A,
+                const Eigen::Matrix<double, N, 1>& g,
+                Eigen::Matrix<double, N, 1>& x)
 {
-  if (!(eq.w > 0.0))
-    return false;
-  const Eigen::Matrix<double, 6, 6> A = eq.hessian();
-  const Eigen::Matrix<double, 6, 1> g = Eigen::Map<const Eigen::Matrix<double, 6, 1>>(eq.jtr);
-  // Gauss-Newton step: (Σ Jᵀ J) x = -Σ Jᵀ r. A rank-deficient system (fewer than six
-  // independent constraints) has no unique step: report it instead of a wild one.
-  Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(A);
+  Eigen::FullPivLU<Eigen::Matrix<double, N, N>> lu(A);
   lu.setThreshold(1e-12);
-  if (lu.rank() < 6)
+  if (lu.rank() < N)
     return false;
-  const Eigen::Matrix<double, 6, 1> x = lu.solve(-g);
-  if (!x.allFinite())
-    return false;
-  const Eigen::Vector3d omega = x.head<3>();
+  x = lu.solve(-g);
+  return x.allFinite();
+}
+
+/** The rigid step of the linearised motion (ω, t) in unshifted coordinates. */
+Eigen::Matrix4d
+stepAboutCentroid(const NormalEquations& eq,
+                  const double ref[3],
+                  const Eigen::Vector3d& omega,
+                  const Eigen::Vector3d& t)
+{
   // Same linear motion ω × d + t about the weighted centroid c: t_c = t + ω × c.
   const Eigen::Vector3d c = Eigen::Vector3d(eq.sd[0], eq.sd[1], eq.sd[2]) / eq.w;
-  const Eigen::Vector3d t_c = x.tail<3>() + omega.cross(c);
+  const Eigen::Vector3d t_c = t + omega.cross(c);
   const Eigen::Matrix3d R = eulerZYXToRotation(omega[0], omega[1], omega[2]);
   // d -> R (d - r - c) + r + c + t_c in unshifted coordinates.
   const Eigen::Vector3d rc = Eigen::Vector3d(ref[0], ref[1], ref[2]) + c;
-  step = Eigen::Matrix4d::Identity();
+  Eigen::Matrix4d step = Eigen::Matrix4d::Identity();
   step.topLeftCorner<3, 3>() = R;
   step.topRightCorner<3, 1>() = rc + t_c - R * rc;
+  return step;
+}
+
+} // namespace
+
+bool
+PointToPlaneFactor::solve(const NormalEquations& eq, const double ref[3], Eigen::Matrix4d& step)
+{
+  Eigen::Matrix<double, 6, 1> x;
+  if (!(eq.w > 0.0) ||
+      !gaussNewtonStep<6>(
+          eq.hessian(), Eigen::Map<const Eigen::Matrix<double, 6, 1>>(eq.jtr), x))
+    return false;
+  step = stepAboutCentroid(eq, ref, x.head<3>(), x.tail<3>());
+  return true;
+}
+
+bool
+PointToPlaneFactor::solvePlanar(const NormalEquations& eq,
+                                const double ref[3],
+                                Eigen::Matrix4d& step)
+{
+  constexpr int kPlanar[3] = {2, 3, 4}; // ω_z, t_x, t_y of (ω, t)
+  const Eigen::Matrix<double, 6, 6> full = eq.hessian();
+  Eigen::Matrix3d A;
+  Eigen::Vector3d g, x;
+  for (int a = 0; a < 3; ++a) {
+    g[a] = eq.jtr[kPlanar[a]];
+    for (int b = 0; b < 3; ++b)
+      A(a, b) = full(kPlanar[a], kPlanar[b]);
+  }
+  if (!(eq.w > 0.0) || !gaussNewtonStep<3>(A, g, x))
+    return false;
+  step = stepAboutCentroid(
+      eq, ref, Eigen::Vector3d(0.0, 0.0, x[0]), Eigen::Vector3d(x[1], x[2], 0.0));
   return true;
 }
 

@@ -12,7 +12,17 @@
 namespace pcl_parallel {
 namespace lum {
 
+namespace {
+
+/** The components of an update (t, ω) solved for: all six, or the planar t_x, t_y, ω_z. */
+constexpr int kAll[6] = {0, 1, 2, 3, 4, 5};
+constexpr int kPlanar[3] = {0, 1, 5};
+
+} // namespace
+
 struct PoseGraphSolver::Impl {
+  const int* dofs = kAll; ///< the solved components of each vertex's update
+  Eigen::Index k = 6;     ///< how many
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pattern; ///< analysed structure
   std::size_t pattern_n = 0;
@@ -24,6 +34,17 @@ PoseGraphSolver::PoseGraphSolver()
 {}
 PoseGraphSolver::~PoseGraphSolver() = default;
 
+void
+PoseGraphSolver::setPlanar(bool planar)
+{
+  if ((impl_->k == 3) == planar)
+    return;
+  impl_->dofs = planar ? kPlanar : kAll;
+  impl_->k = planar ? 3 : 6;
+  impl_->pattern.clear(); // another structure: analysed again
+  impl_->factorised = false;
+}
+
 bool
 PoseGraphSolver::solve(std::size_t num_vertices,
                        const std::vector<LinkBlock, Eigen::aligned_allocator<LinkBlock>>& links,
@@ -33,20 +54,26 @@ PoseGraphSolver::solve(std::size_t num_vertices,
   impl_->factorised = false;
   if (num_vertices < 2)
     return true;
-  const Eigen::Index dim = static_cast<Eigen::Index>(6 * (num_vertices - 1));
+  const int* dofs = impl_->dofs;
+  const Eigen::Index k = impl_->k;
+  const Eigen::Index dim = k * static_cast<Eigen::Index>(num_vertices - 1);
 
-  // Triplets in link order (deterministic); vertex v maps to rows 6 (v - 1).
+  // Triplets in link order (deterministic); vertex v maps to rows k (v - 1).
   std::vector<Eigen::Triplet<double>> triplets;
-  triplets.reserve(links.size() * 4 * 36);
+  triplets.reserve(links.size() * 4 * k * k);
   Eigen::VectorXd b = Eigen::VectorXd::Zero(dim);
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pattern;
   auto block = [&](std::uint32_t r, std::uint32_t c, const Matrix6d& m, double sign) {
-    const Eigen::Index r0 = 6 * (static_cast<Eigen::Index>(r) - 1);
-    const Eigen::Index c0 = 6 * (static_cast<Eigen::Index>(c) - 1);
-    for (int j = 0; j < 6; ++j)
-      for (int i = 0; i < 6; ++i)
+    const Eigen::Index r0 = k * (static_cast<Eigen::Index>(r) - 1);
+    const Eigen::Index c0 = k * (static_cast<Eigen::Index>(c) - 1);
+    for (Eigen::Index j = 0; j < k; ++j)
+      for (Eigen::Index i = 0; i < k; ++i)
         if (r0 + i >= c0 + j) // lower triangle: what SimplicialLDLT reads
-          triplets.emplace_back(r0 + i, c0 + j, sign * m(i, j));
+          triplets.emplace_back(r0 + i, c0 + j, sign * m(dofs[i], dofs[j]));
+  };
+  auto add = [&](std::uint32_t v, const Vector6d& grad, double sign) {
+    for (Eigen::Index i = 0; i < k; ++i)
+      b[k * (static_cast<Eigen::Index>(v) - 1) + i] += sign * grad[dofs[i]];
   };
   for (const LinkBlock& l : links) {
     if (!l.valid)
@@ -55,11 +82,11 @@ PoseGraphSolver::solve(std::size_t num_vertices,
     const std::uint32_t s = l.source, t = l.target;
     if (s > 0) {
       block(s, s, l.info, 1.0);
-      b.segment<6>(6 * (s - 1)) -= l.grad;
+      add(s, l.grad, -1.0);
     }
     if (t > 0) {
       block(t, t, l.info, 1.0);
-      b.segment<6>(6 * (t - 1)) += l.grad;
+      add(t, l.grad, 1.0);
     }
     if (s > 0 && t > 0) {
       if (s > t)
@@ -87,7 +114,8 @@ PoseGraphSolver::solve(std::size_t num_vertices,
   if (impl_->ldlt.info() != Eigen::Success || !x.allFinite())
     return false;
   for (std::size_t v = 1; v < num_vertices; ++v)
-    delta[v] = x.segment<6>(static_cast<Eigen::Index>(6 * (v - 1)));
+    for (Eigen::Index i = 0; i < k; ++i)
+      delta[v][dofs[i]] = x[k * static_cast<Eigen::Index>(v - 1) + i];
   impl_->factorised = true;
   return true;
 }
@@ -97,12 +125,18 @@ PoseGraphSolver::covariance(std::size_t v) const
 {
   if (v == 0 || !impl_->factorised || v >= impl_->pattern_n)
     return Matrix6d::Zero();
-  const Eigen::Index dim = static_cast<Eigen::Index>(6 * (impl_->pattern_n - 1));
-  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(dim, 6);
-  for (int k = 0; k < 6; ++k)
-    e(static_cast<Eigen::Index>(6 * (v - 1)) + k, k) = 1.0;
+  const Eigen::Index k = impl_->k;
+  const Eigen::Index dim = k * static_cast<Eigen::Index>(impl_->pattern_n - 1);
+  const Eigen::Index row = k * static_cast<Eigen::Index>(v - 1);
+  Eigen::MatrixXd e = Eigen::MatrixXd::Zero(dim, k);
+  for (Eigen::Index i = 0; i < k; ++i)
+    e(row + i, i) = 1.0;
   const Eigen::MatrixXd x = impl_->ldlt.solve(e);
-  return x.middleRows<6>(static_cast<Eigen::Index>(6 * (v - 1)));
+  Matrix6d c = Matrix6d::Zero();
+  for (Eigen::Index i = 0; i < k; ++i)
+    for (Eigen::Index j = 0; j < k; ++j)
+      c(impl_->dofs[i], impl_->dofs[j]) = x(row + i, j);
+  return c;
 }
 
 std::vector<std::uint32_t>

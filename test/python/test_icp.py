@@ -95,3 +95,25 @@ def test_bad_arguments_raise_value_error(kwargs, word):
     pts = np.random.default_rng(0).uniform(size=(20, 3))
     with pytest.raises(ValueError, match=word):
         pp.icp(pts, pts, **kwargs)
+
+
+def test_planar_stays_in_the_plane():
+    # A 2D scan (z = 0): the outline of a 4 x 3 m room with a pillar, moved by a planar step.
+    rng = np.random.default_rng(3)
+    walls = [((-2, -1.5), (2, -1.5)), ((2, -1.5), (2, 1.5)), ((2, 1.5), (-2, 1.5)),
+             ((-2, 1.5), (-2, -1.5)), ((0, 0), (0.5, 0)), ((0.5, 0), (0.5, 0.5))]
+    pts = []
+    for (ax, ay), (bx, by) in walls:
+        for s in np.arange(0.0, 1.0, 0.005):
+            pts.append((ax + s * (bx - ax), ay + s * (by - ay), 0.0))
+    target = np.array(pts) + np.c_[rng.normal(0, 0.002, (len(pts), 2)), np.zeros(len(pts))]
+    yaw = np.radians(4.0)
+    step = np.eye(4)
+    step[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+    step[:2, 3] = (0.1, -0.05)
+    source = (target - step[:3, 3]) @ step[:3, :3]  # step^-1 applied to the target
+    r = pp.icp(source, target, max_distance=0.5, iterations=100, planar=True)
+    t = r.transformation
+    assert r.converged
+    assert (t[2, :] == [0.0, 0.0, 1.0, 0.0]).all() and (t[:2, 2] == 0.0).all()
+    assert np.allclose(t, step, atol=1e-3)

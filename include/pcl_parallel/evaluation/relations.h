@@ -85,9 +85,10 @@ relationError(const std::vector<double>& stamps,
 /** A trajectory file evaluated against a relations file (`pcl_pslam evaluate ESTIMATE
  *  --relations FILE`). */
 struct RelationFileEvaluation {
-  std::string estimate_path, relations_path; ///< the paths as given
-  io::Trajectory estimate;                   ///< as read
-  RelationError errors;                      ///< relationError's result
+  std::string estimate_path;  ///< ESTIMATE as given
+  std::string relations_path; ///< FILE as given
+  io::Trajectory estimate;    ///< as read
+  RelationError errors;       ///< relationError's result
 };
 
 /** Reads the trajectory (io::loadTrajectory; it must have time stamps: TUM) and the

@@ -44,7 +44,7 @@ enum class CarmenLaserMessage {
 /** One laser line. Poses are planar (x, y, θ as a 4x4 rotation about z, z = 0), p_frame =
  *  T·p. Non-template and copyable; the cloud is shared. */
 struct CarmenScan {
-  CarmenLaserMessage message = CarmenLaserMessage::FLaser;
+  CarmenLaserMessage message = CarmenLaserMessage::FLaser; ///< the line's message type
   double timestamp = 0.0;        ///< ipc_timestamp (s): when the scan was taken
   double logger_timestamp = 0.0; ///< seconds since the logger started
   std::size_t line = 0;          ///< the line of the log (from 1), for messages
@@ -77,8 +77,9 @@ struct CarmenOdometry {
 
 /** A PARAM line: a CARMEN parameter as text. */
 struct CarmenParam {
-  std::string name, value; ///< the parameter and its value
-  std::size_t line = 0;    ///< the line of the log (from 1)
+  std::string name;     ///< the parameter
+  std::string value;    ///< its value
+  std::size_t line = 0; ///< the line of the log (from 1)
 };
 
 /** A whole log, in file order (which is not time order in every log: sort by timestamp

@@ -41,6 +41,8 @@ isRunOutputName(const std::string& name);
  */
 class OutputDirectory {
 public:
+  /** Prepares `target` (see above); throws OutputDirectoryError naming it where it cannot
+   *  be used. */
   OutputDirectory(const std::string& target, OutputNamePredicate owned);
   ~OutputDirectory();
   OutputDirectory(const OutputDirectory&) = delete;
@@ -87,12 +89,14 @@ private:
  *  (removeTemporariesNow): scans written to be read back, e.g. a simulated set. */
 class TemporaryDirectory {
 public:
+  /** Creates the directory, named from `prefix`; throws std::runtime_error where it cannot. */
   explicit TemporaryDirectory(const std::string& prefix);
   ~TemporaryDirectory();
   TemporaryDirectory(const TemporaryDirectory&) = delete;
   TemporaryDirectory&
   operator=(const TemporaryDirectory&) = delete;
 
+  /** The directory's path. */
   const std::string&
   path() const
   {

@@ -41,7 +41,8 @@ public:
   /** Shared pointer. */
   using Ptr = pcl::shared_ptr<FusedConvergenceCriteria<Scalar>>;
 
-  /** Criteria over the registration's iteration count, transform and correspondences, as PCL's. */
+  /** Criteria over the registration's iteration count, transform and correspondences, as PCL's.
+   */
   FusedConvergenceCriteria(const int& iterations,
                            const Matrix4& transform,
                            const pcl::Correspondences& correspondences)
@@ -192,6 +193,23 @@ public:
   getRotationMethod() const
   {
     return rotation_method_;
+  }
+
+  /** The paper's 2D special case (Sec. VII, fast path only): every step is a motion in the
+   *  x-y plane, x, y and the yaw about z (Eq. 11-13 in 2D; point-to-plane: the planar
+   *  block of its normal equations). For scans in that plane (a horizontal 2D scanner's,
+   *  z = 0) and a planar guess, whose z, roll and pitch the result then keeps exactly.
+   *  Point-to-plane needs normals in the plane, e.g. from the target's normal fields. */
+  void
+  setPlanar(bool planar)
+  {
+    planar_ = planar;
+  }
+  /** True when the steps are planar (setPlanar). */
+  bool
+  getPlanar() const
+  {
+    return planar_;
   }
 
   /** Point-to-plane error instead of PCL's point-to-point (fast path only), as
@@ -433,6 +451,7 @@ private:
   std::vector<std::uint32_t> warm_;       ///< per order_ entry: last match (tree position)
   std::vector<std::vector<MatchedPair>> pair_buffers_; ///< one per thread: a block's pairs
   bool point_to_plane_ = false;
+  bool planar_ = false;
   bool use_normal_fields_ = true;
   unsigned normal_k_ = 10;
   RobustKernel kernel_;

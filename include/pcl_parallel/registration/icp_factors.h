@@ -90,6 +90,11 @@ struct PointToPointFactor {
    *  Horn's unit quaternion), translation t = cm - R cd (Eq. 7). */
   static Eigen::Matrix4d
   solve(const PointToPointMoments& total, bool horn);
+
+  /** The planar special case (Sec. VII): the yaw maximising Σ w (m - cm)ᵀ R_z (d - cd),
+   *  θ = atan2(H_xy - H_yx, H_xx + H_yy), and t = cm - R cd in x and y alone. */
+  static Eigen::Matrix4d
+  solvePlanar(const PointToPointMoments& total);
 };
 
 /**
@@ -163,6 +168,11 @@ struct PointToPlaneFactor {
    *  reference. False when the system is singular (e.g. all normals parallel). */
   static bool
   solve(const NormalEquations& eq, const double ref[3], Eigen::Matrix4d& step);
+
+  /** The same restricted to the planar parameters (ω_z, t_x, t_y): the 3x3 block of the
+   *  normal equations, the other three held at zero. */
+  static bool
+  solvePlanar(const NormalEquations& eq, const double ref[3], Eigen::Matrix4d& step);
 
   /** eq's Σ w Jᵀ J for a perturbation T Exp(ε) of the estimate T in the source (body)
    *  frame, ε = (ω, t) rotation first (small_gicp's RegistrationResult::H): the

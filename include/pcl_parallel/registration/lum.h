@@ -264,6 +264,20 @@ public:
   {
     return point_to_plane_;
   }
+  /** The paper's 2D special case (Sec. VII): every pose update is a motion in the x-y
+   *  plane (x, y and the yaw; G X = B reduced to those rows), for scans in that plane and
+   *  planar poses, whose z, roll and pitch then stay as they are. */
+  void
+  setPlanar(bool planar)
+  {
+    planar_ = planar;
+  }
+  /** True when the updates are planar (setPlanar). */
+  bool
+  getPlanar() const
+  {
+    return planar_;
+  }
   /** Weight w of the point-to-point term in point-to-plane mode (default 0.01, >= 0). */
   void
   setPointToPointWeight(double weight);
@@ -549,6 +563,7 @@ private:
   double final_correspondence_distance_ = 0.0;
   double correspondence_distance_factor_ = 1.0;
   bool point_to_plane_ = false;
+  bool planar_ = false;
   double point_to_point_weight_ = 0.01;
   std::size_t normal_neighbours_ = 10;
   int link_iterations_ = 1;

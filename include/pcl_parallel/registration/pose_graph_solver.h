@@ -39,6 +39,11 @@ public:
   PoseGraphSolver&
   operator=(const PoseGraphSolver&) = delete;
 
+  /** Solve for x, y and the yaw alone (the planar special case, Sec. VII): the updates'
+   *  other three components are zero, G X = B reduced to its planar rows and columns. */
+  void
+  setPlanar(bool planar);
+
   /** Solves for the updates of all n vertices (delta[0] = 0). Returns false if the
    *  factorisation fails (e.g. a vertex without a valid link). */
   bool
@@ -47,7 +52,8 @@ public:
         std::vector<Vector6d, Eigen::aligned_allocator<Vector6d>>& delta);
 
   /** Marginal covariance of vertex v (1..n-1) from the last factorisation: the 6x6
-   *  diagonal block of G^-1 (paper step 5, "update the covariances"). Zero for v = 0. */
+   *  diagonal block of G^-1 (paper step 5, "update the covariances"; planar: zero outside
+   *  the planar rows and columns). Zero for v = 0. */
   Matrix6d
   covariance(std::size_t v) const;
 

@@ -17,7 +17,7 @@ namespace slam {
 
 /** A sentence about a run. */
 struct Finding {
-  std::string text;
+  std::string text;           ///< one sentence, no newline
   bool input_suspect = false; ///< the input is likely wrong (pcl_pslam: a warning on stderr)
 };
 

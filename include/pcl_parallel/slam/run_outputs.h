@@ -30,8 +30,8 @@ struct RunOutputOptions {
 /** What writeRunOutputs wrote. */
 struct RunOutputs {
   std::vector<std::string> written; ///< the names, in order ("scanNNN.frames" for all of them)
-  std::size_t map_points = 0;
-  std::string picture_style; ///< the style map.png was drawn in; empty without it
+  std::size_t map_points = 0;       ///< points in the map written (map.pcd or this rank's tile)
+  std::string picture_style;        ///< the style map.png was drawn in; empty without it
 };
 
 /**

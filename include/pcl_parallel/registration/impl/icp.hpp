@@ -216,9 +216,9 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::computeTransfor
     computeTransformationFused(output, guess);
     return;
   }
-  if (point_to_plane_ || kernel_.type != RobustKernel::Type::kNone)
+  if (point_to_plane_ || planar_ || kernel_.type != RobustKernel::Type::kNone)
     PCL_WARN("[pcl_parallel::%s::computeTransformation] A user component runs PCL's loop: "
-             "point-to-plane and the robust kernel are ignored.\n",
+             "point-to-plane, the planar mode and the robust kernel are ignored.\n",
              getClassName().c_str());
   if (criteria)
     criteria->clearCorrespondencesMSE();
@@ -297,8 +297,9 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::fusedStep(
     mse = total.n > 0 ? total.sqr_dist / total.n : 0.0;
     if (total.n < static_cast<double>(min_number_correspondences_) || !(total.w > 0.0))
       return true; // the caller reports too few pairs
-    step =
-        PointToPointFactor::solve(total, rotation_method_ == RotationMethod::kHornQuaternion);
+    step = planar_ ? PointToPointFactor::solvePlanar(total)
+                   : PointToPointFactor::solve(
+                         total, rotation_method_ == RotationMethod::kHornQuaternion);
     return true;
   }
 
@@ -399,6 +400,7 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::solvePointToPla
   final_hessian_ = PointToPlaneFactor::bodyHessian(total, ref, final_transformation_double_);
   final_error_ = total.rtr;
   final_weight_ = total.w;
+  const auto solve = planar_ ? &PointToPlaneFactor::solvePlanar : &PointToPlaneFactor::solve;
   if (prior_weight_t_ > 0.0 || prior_weight_r_ > 0.0) {
     NormalEquations with_prior = total;
     PointToPlaneFactor::addPosePrior(with_prior,
@@ -407,9 +409,9 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::solvePointToPla
                                      prior_,
                                      prior_weight_t_,
                                      prior_weight_r_);
-    return PointToPlaneFactor::solve(with_prior, ref, step);
+    return solve(with_prior, ref, step);
   }
-  return PointToPlaneFactor::solve(total, ref, step);
+  return solve(total, ref, step);
 }
 
 template <typename PointSource, typename PointTarget, typename Scalar>

@@ -807,6 +807,7 @@ ParallelLUM<PointT>::solveIteration(Run& run, int it)
     return false;
   }
   // Steps 3-4.
+  solver_->setPlanar(planar_);
   if (!solver_->solve(n, run.blocks, run.delta)) {
     PCL_ERROR("[pcl_parallel::ParallelLUM::compute] The linear system G X = B could not "
               "be solved in iteration %d; poses left unchanged.\n",
