@@ -129,6 +129,16 @@ posesOf(const Lum& lum)
   return out;
 }
 
+/** Every vertex's pose as ParallelLUM keeps it, in double (getPoseMatrix). */
+Poses
+poseMatricesOf(const ParallelLUM<pcl::PointXYZ>& lum)
+{
+  Poses out;
+  for (std::size_t v = 0; v < lum.getNumVertices(); ++v)
+    out.push_back(lum.getPoseMatrix(v));
+  return out;
+}
+
 class QuietPcl : public ::testing::Test {
 protected:
   void
@@ -507,11 +517,8 @@ runPlum(const PlumScene& s,
   lum.setCorrespondenceDistance(0.02);
   lum.setMaxIterations(iterations);
   lum.compute();
-  Poses out;
-  for (std::size_t v = 0; v < s.clouds.size(); ++v)
-    out.push_back(lum.getPoseMatrix(v));
   EXPECT_GT(lum.getCorrespondences(links[0].first, links[0].second)->size(), 100u);
-  return out;
+  return poseMatricesOf(lum);
 }
 
 TEST_F(QuietPcl, PlumRecoversTruthIncludingGimbalLock)
@@ -677,10 +684,7 @@ TEST_F(QuietPcl, PlanarPlumKeepsTwoDScansInThePlane)
     lum.setCorrespondenceDistanceSchedule(0.3, 0.03, 0.7);
     lum.setMaxIterations(40);
     lum.compute();
-    Poses out;
-    for (std::size_t v = 0; v < scene.clouds.size(); ++v)
-      out.push_back(lum.getPoseMatrix(v));
-    return out;
+    return poseMatricesOf(lum);
   };
   const Poses got = run(1);
   for (std::size_t v = 0; v < got.size(); ++v) {
@@ -734,10 +738,7 @@ TEST_F(QuietPcl, PlumBidirectionalAndDuplicateLinksAreDeterministic)
     lum.setMaxIterations(4);
     lum.compute();
     EXPECT_EQ(lum.getNumDroppedLinks(), 0u);
-    Poses out;
-    for (std::size_t v = 0; v < s.clouds.size(); ++v)
-      out.push_back(lum.getPoseMatrix(v));
-    return out;
+    return poseMatricesOf(lum);
   };
   using Links = std::decay_t<decltype(plain)>;
   for (const Links* links : std::initializer_list<const Links*>{&plain, &both}) {
@@ -804,10 +805,7 @@ TEST_F(QuietPcl, PlumTakesGivenNormals)
       lum.setPointNormals(v, given);
     }
     lum.compute();
-    Poses out;
-    for (std::size_t v = 0; v < s.clouds.size(); ++v)
-      out.push_back(lum.getPoseMatrix(v));
-    return out;
+    return poseMatricesOf(lum);
   };
   const Poses estimated = run(Normals::kEstimated), given = run(Normals::kGiven),
               zero = run(Normals::kZero), from_another = run(Normals::kFromAnother);
@@ -854,10 +852,7 @@ TEST_F(QuietPcl, PlumTakesGivenTrees)
     lum.setCorrespondenceDistance(0.05);
     lum.setMaxIterations(3);
     lum.compute();
-    Poses out;
-    for (std::size_t v = 0; v < s.clouds.size(); ++v)
-      out.push_back(lum.getPoseMatrix(v));
-    return out;
+    return poseMatricesOf(lum);
   };
   const Poses own = run(false), given = run(true);
   EXPECT_GT(poseErrors(start, truth).max_trans, 2 * poseErrors(own, truth).max_trans);

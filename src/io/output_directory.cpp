@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cctype>
 #include <cerrno>
 #include <csignal>
 #include <cstdio> // renameat2, RENAME_EXCHANGE (glibc)
@@ -17,6 +16,8 @@
 #include <dirent.h>
 #include <fcntl.h> // AT_FDCWD, open
 #include <filesystem>
+#include <string>
+#include <string_view>
 #include <sys/syscall.h>
 #include <unistd.h>
 #include <vector>
@@ -45,12 +46,11 @@ temporaryPid(const std::string& name, const std::string& prefix)
   const std::string head = prefix + hostName() + "-";
   if (name.compare(0, head.size(), head) != 0)
     return 0;
-  std::size_t end = head.size();
-  long pid = 0;
-  for (; end < name.size() && std::isdigit(static_cast<unsigned char>(name[end])); ++end)
-    pid = pid * 10 + (name[end] - '0');
-  const bool ends = end == name.size() || name[end] == '.';
-  return end > head.size() && ends && pid > 0 ? pid : 0;
+  const std::size_t digits = detail::leadingDigits(std::string_view(name).substr(head.size()));
+  const std::size_t end = head.size() + digits;
+  if (digits == 0 || digits > 18 || (end < name.size() && name[end] != '.'))
+    return 0; // no pid, or more digits than a long holds
+  return std::stol(name.substr(head.size(), digits));
 }
 
 /** The target as a path without a trailing slash, a link to a directory resolved (the
