@@ -44,13 +44,13 @@ bad_input(simulate_unknown_format INPUT "`simulate` with an unknown --format"
 bad_input(simulate_one_beam INPUT "`simulate --beams 1`"
   EXIT 2 MESSAGE "--beams must be 0 (the preset's) or 2 to 4096, got 1"
   ARGS simulate --preset kitti --beams 1 @OUT@)
-bad_input(simulate_too_many_beams INPUT "`simulate --beams 100000000` (before: a sweep without end)"
+bad_input(simulate_too_many_beams INPUT "`simulate --beams 100000000` (a sweep of that many rows would not end)"
   EXIT 2 MESSAGE "--beams must be 0 (the preset's) or 2 to 4096, got 100000000"
   ARGS simulate --preset kitti --beams 100000000 @OUT@)
 bad_input(simulate_threads_out_of_range INPUT "`simulate --threads` above 1024"
   EXIT 2 MESSAGE "--threads takes 0 (all cores) to 1024, got 5000"
   ARGS simulate --preset office -t 5000 @OUT@)
-bad_input(option_value_placeholder INPUT "a value holding Boost's placeholder `%value%` (before: Boost's message looped for ever)"
+bad_input(option_value_placeholder INPUT "a value holding Boost's placeholder `%value%` (Boost 1.74's message substitutes it for ever)"
   EXIT 2 MESSAGE "the option '--start' or its value is invalid" ARGS run @TINY@ -s a%value% --out @OUT@)
 bad_input(evaluate_value_placeholder INPUT "`evaluate` with a value holding `%value%`"
   EXIT 2 MESSAGE "the option '--delta' or its value is invalid" ARGS evaluate a b --delta %value%)
