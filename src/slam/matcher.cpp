@@ -184,6 +184,7 @@ Matcher::Matcher(const Parameters& resolved)
     icp->setTransformationEpsilon(params.transformation_epsilon);
     icp->setUsePointToPlane(params.point_to_plane);
     icp->setUseTargetNormalFields(!params.normals_from_map);
+    icp->setPlanar(resolved.planar);
   }
   if (params.adaptive_threshold) // KISS-ICP: min motion 0.1 m at 1 m voxels, max range
     icp_->threshold.reset(

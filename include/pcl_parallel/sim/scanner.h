@@ -63,6 +63,15 @@ struct ScannerModel {
   double sweep_period = 0.0;
 };
 
+/** True for a horizontal 2D scanner: a TiltingLine at one level pitch, whose points lie
+ *  in its x-y plane (the 2D presets; written as KITTI scan sets, z up). */
+inline bool
+isPlanar(const ScannerModel& s)
+{
+  return s.pattern == ScannerModel::Pattern::TiltingLine && s.azimuth_steps == 1 &&
+         s.min_elevation == 0.0;
+}
+
 /** The unit direction of ray (column, row) in the scanner's frame. */
 Eigen::Vector3d
 rayDirection(const ScannerModel& scanner, int column, int row);
