@@ -178,7 +178,9 @@ struct Descriptions {
       ("no-picture", "do not write map.png")
       ("style", po::value<std::string>(&o.style)->value_name("S"),
        "map.png: height (colour = height above the trajectory), floorplan (walls dark, "
-       "for indoor scans), auto (floorplan when most poses see a ceiling) [default auto]");
+       "for indoor scans), occupancy (rays from the poses: free space light, walls dark; "
+       "for 2D scans), auto (2D scans: occupancy; else floorplan when most poses see a "
+       "ceiling) [default auto]");
     general.add_options()
       ("preset", po::value<std::string>(&o.preset)->value_name("NAME"),
        "demo: the simulated preset to map (office, hannover, riegl, kitti) [default office]")
@@ -315,7 +317,8 @@ helpText(const std::string& command)
        "scanNNN.frames\n"
        "(3DTK, per scan: initial, ICP and final pose, 4x4 column-major + type code; uos\n"
        "data in 3DTK's units), poses.txt / poses_icp.txt (KITTI), poses_tum.txt /\n"
-       "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), map.pcd (binary), map.ply (--ply),\n"
+       "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), graph.g2o (2D: the pose graph,\n"
+       "VERTEX_SE2 and EDGE_SE2), map.pcd (binary), map.ply (--ply),\n"
        "map.png (top view), report.json (parameters, per-scan numbers, stage times).\n\n"
     << "Ranges (out of range: exit 2 naming the option; lengths in the files' units):\n";
   std::string line;
@@ -416,8 +419,10 @@ checkOutputOptions(Options& o, const po::variables_map& vm)
 {
   o.picture = vm.count("no-picture") == 0;
   o.style = lowerCase(o.style);
-  if (o.style != "auto" && o.style != "height" && o.style != "floorplan")
-    throw UsageError("--style needs auto, height or floorplan, got '" + o.style + "'");
+  if (o.style != "auto" && o.style != "height" && o.style != "floorplan" &&
+      o.style != "occupancy")
+    throw UsageError("--style needs auto, height, floorplan or occupancy, got '" + o.style +
+                     "'");
   if (o.out.empty())
     throw UsageError("--out: empty directory name");
 }

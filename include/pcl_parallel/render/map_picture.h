@@ -51,7 +51,13 @@ robustExtent(const std::vector<Eigen::Vector2d>& points,
 /** How writeMapPicture draws the map. */
 struct PictureOptions {
   int up = 2;                 ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
-  std::string style = "auto"; ///< height, floorplan, auto
+  /** height, floorplan, occupancy (needs `scans`) or auto (occupancy with scans, else
+   *  chooseStyle). */
+  std::string style = "auto";
+  /** For the occupancy style (2D scans): each trajectory pose's scan in its scanner frame.
+   *  Per cell, the share of the rays reaching it that end there: walls dark, free space
+   *  light, cells no ray reached grey. */
+  std::vector<Cloud::ConstPtr> scans;
   int size = 1400;            ///< pixels on the long side of the map area
   double radius = 30.0;       ///< metres, for robustExtent
   double cell = 0.1;          ///< metres: points fill cells of this size (the map's voxel)
@@ -61,7 +67,8 @@ struct PictureOptions {
 };
 
 /** Writes the PNG (map and trajectory in metres) under a temporary name, then renamed (io::
- *  writeAtomically). Returns the style used ("height" or "floorplan"). Throws
+ *  writeAtomically). Returns the style used ("height", "floorplan" or "occupancy"). Throws
+ *  std::invalid_argument for the occupancy style without a scan per pose, and
  *  std::runtime_error naming the file when it cannot be written. */
 std::string
 writeMapPicture(const std::string& path,
