@@ -82,9 +82,9 @@ struct Descriptions {
        "the vertical axis [default z; uos: y]")
       ("min-travel", po::value<double>(&o.min_travel)->value_name("M"),
        "a 2D laser log: a scan is kept where the odometry moved M metres or turned "
-       "--min-turn since the last one kept [default 0.5]")
+       "--min-turn since the last one kept [default 0.2]")
       ("min-turn", po::value<double>()->value_name("DEG"),
-       "a 2D laser log: see --min-travel [default 30]");
+       "a 2D laser log: see --min-travel [default 10]");
     // clang-format on
   }
 

@@ -59,8 +59,8 @@ struct ScanDirectoryOptions {
   /** A CARMEN log (`dir` names a .clf or .clf.bz2 file): a laser scan is kept where the
    *  odometry moved at least min_travel (m) or turned at least min_turn (rad) since the
    *  last scan kept, the first scan always. 0 and 0: every scan. */
-  double min_travel = 0.5;
-  double min_turn = 30.0 * M_PI / 180.0; ///< rad; see min_travel
+  double min_travel = 0.2;
+  double min_turn = 10.0 * M_PI / 180.0; ///< rad; see min_travel
 };
 
 /** The selected scan files of a directory with their initial poses and time stamps. */
