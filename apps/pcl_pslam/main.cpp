@@ -20,7 +20,6 @@
 
 #include <pcl/console/print.h>
 
-#include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
@@ -101,7 +100,6 @@ runParameters(const Options& o, const Input& in)
 {
   slam::Parameters params = toParameters(o, in.scale);
   params.guess.up = Eigen::Vector3d::Unit(in.up);
-  params.reduction.max_range = std::min(params.reduction.max_range, in.max_range * in.scale);
   if (!in.has_stamps && params.deskew.sweep_period > 0.0)
     throw UsageError("--sweep-period needs the scans' time stamps: no --times and no "
                      "times.txt in " +
