@@ -10,7 +10,6 @@
 #include <Eigen/Core>
 
 #include <cairo.h>
-
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
@@ -163,11 +162,14 @@ TEST(MapPicture, OccupancyOfTwoDScansFromTheirRays)
   const std::string png = (dir / "map.png").string();
   render::PictureOptions po;
   po.cell = 0.05;
-  EXPECT_THROW(render::writeMapPicture(png, map, path, [&] {
-                 render::PictureOptions o = po;
-                 o.style = "occupancy";
-                 return o;
-               }()),
+  EXPECT_THROW(render::writeMapPicture(png,
+                                       map,
+                                       path,
+                                       [&] {
+                                         render::PictureOptions o = po;
+                                         o.style = "occupancy";
+                                         return o;
+                                       }()),
                std::invalid_argument);
   po.scans = scans;
   ASSERT_EQ(render::writeMapPicture(png, map, path, po), "occupancy");

@@ -285,7 +285,9 @@ liesInScannerPlane(const pcl::PointCloud<pcl::PointXYZ>& scan)
 /** True where the odometry moved or turned enough from `from` to `to` (min_travel,
  *  min_turn). */
 bool
-movedEnough(const Eigen::Matrix4d& from, const Eigen::Matrix4d& to, const ScanDirectoryOptions& o)
+movedEnough(const Eigen::Matrix4d& from,
+            const Eigen::Matrix4d& to,
+            const ScanDirectoryOptions& o)
 {
   const Eigen::Matrix4d step = from.inverse() * to;
   const double turn = std::abs(std::atan2(step(1, 0), step(0, 0)));

@@ -403,8 +403,8 @@ occupancyGrid(const Poses& trajectory,
     const Eigen::Matrix4f pose = trajectory[k].cast<float>();
     const Eigen::Vector2d from = px(view(trajectory[k])) / g.cell_px;
     for (const auto& p : *opt.scans[k]) {
-      const Eigen::Vector3f q = pose.topLeftCorner<3, 3>() * p.getVector3fMap() +
-                                pose.topRightCorner<3, 1>();
+      const Eigen::Vector3f q =
+          pose.topLeftCorner<3, 3>() * p.getVector3fMap() + pose.topRightCorner<3, 1>();
       const Eigen::Vector2d to = px(view(q.data())) / g.cell_px, d = to - from;
       const std::int64_t end = cellOf(to);
       const int steps = std::max(1, static_cast<int>(std::ceil(2.0 * d.norm())));
@@ -655,10 +655,10 @@ writeMapPicture(const std::string& path,
   const PixelFrame px{e.lo, e.hi, opt.size / span.maxCoeff()};
   const int w = std::max(1, static_cast<int>(std::ceil(span.x() * px.scale)));
   const int h = std::max(1, static_cast<int>(std::ceil(span.y() * px.scale)));
-  const std::string style =
-      opt.style != "auto" ? opt.style
-      : opt.scans.empty() ? chooseStyle(map, trajectory, opt.up, opt.num_threads)
-                          : "occupancy";
+  const std::string style = opt.style != "auto" ? opt.style
+                            : opt.scans.empty()
+                                ? chooseStyle(map, trajectory, opt.up, opt.num_threads)
+                                : "occupancy";
   if (style == "occupancy" && opt.scans.size() != trajectory.size())
     throw std::invalid_argument("writeMapPicture: the occupancy style needs a scan per pose");
   const HeightGrid grid = style == "occupancy"

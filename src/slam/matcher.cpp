@@ -12,8 +12,8 @@
 #include <pcl/common/transforms.h>
 
 #include <algorithm>
-#include <limits>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -219,9 +219,9 @@ Matcher::priorSpread() const
   // Translation and rotation each from their own deviations: the combined sigma is
   // dominated by rotation times max range (docs/design.md, "The motion prior's spread").
   // Below min motion a deviation is not measured, so neither is a spread.
-  return std::make_pair(
-      std::max(th.translationSigma(), th.minMotion()),
-      planar_ ? kFree : std::max(th.rotationSigma(), th.minMotion() / th.maxRange()));
+  return std::make_pair(std::max(th.translationSigma(), th.minMotion()),
+                        planar_ ? kFree
+                                : std::max(th.rotationSigma(), th.minMotion() / th.maxRange()));
 }
 
 bool

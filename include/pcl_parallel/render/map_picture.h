@@ -50,7 +50,7 @@ robustExtent(const std::vector<Eigen::Vector2d>& points,
 
 /** How writeMapPicture draws the map. */
 struct PictureOptions {
-  int up = 2;                 ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
+  int up = 2; ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
   /** height, floorplan, occupancy (needs `scans`) or auto (occupancy with scans, else
    *  chooseStyle). */
   std::string style = "auto";
@@ -58,9 +58,9 @@ struct PictureOptions {
    *  Per cell, the share of the rays reaching it that end there: walls dark, free space
    *  light, cells no ray reached grey. */
   std::vector<Cloud::ConstPtr> scans;
-  int size = 1400;            ///< pixels on the long side of the map area
-  double radius = 30.0;       ///< metres, for robustExtent
-  double cell = 0.1;          ///< metres: points fill cells of this size (the map's voxel)
+  int size = 1400;      ///< pixels on the long side of the map area
+  double radius = 30.0; ///< metres, for robustExtent
+  double cell = 0.1;    ///< metres: points fill cells of this size (the map's voxel)
   std::vector<std::string> caption;                           ///< lines under the map
   std::vector<std::pair<std::uint32_t, std::uint32_t>> loops; ///< drawn as links
   unsigned num_threads = 0; ///< for the per-point passes; 0: all cores

@@ -39,7 +39,8 @@ namespace sim {
  * min_range is dropped.
  */
 struct ScannerModel {
-  /** The scan patterns: a spinning head (columns of beams), or Kurt3D's tilting line scanner. */
+  /** The scan patterns: a spinning head (columns of beams), or Kurt3D's tilting line scanner.
+   */
   enum class Pattern { Spherical, TiltingLine };
   /** Which pattern. */
   Pattern pattern = Pattern::Spherical;

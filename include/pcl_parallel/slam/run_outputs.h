@@ -19,9 +19,9 @@ namespace slam {
 
 /** What writeRunOutputs writes beside the poses. */
 struct RunOutputOptions {
-  double map_voxel = 0.1;     ///< map.pcd's voxel (m); 0: every point
-  bool ply = false;           ///< also map.ply
-  bool picture = true;        ///< map.png
+  double map_voxel = 0.1; ///< map.pcd's voxel (m); 0: every point
+  bool ply = false;       ///< also map.ply
+  bool picture = true;    ///< map.png
   /** map.png: height, floorplan, occupancy (2D scans) or auto (2D scans: occupancy, else
    *  render::chooseStyle). */
   std::string style = "auto";
