@@ -601,16 +601,18 @@ names()
 }
 
 /** A 2D preset: a robot with planarLaser() 0.3 m above the floor drives a 3D preset's
- *  route, `scans` stops over `laps` laps, its wheel odometry drifting 3 % of the distance
- *  and 0.02 rad per metre. */
+ *  route (`where`), `scans` stops over one lap, its wheel odometry drifting 3 % of the
+ *  distance and 0.02 rad per metre. */
 Spec
-planarSpec(Spec s, int scans, double laps, std::string description)
+planarSpec(Spec s, int scans, const std::string& where)
 {
   s.scanner = planarLaser();
   s.sensor_height = 0.3;
-  s.scans = scans, s.laps = laps, s.period = 1.0;
+  s.scans = scans, s.laps = 1.0, s.period = 1.0;
   s.translation_noise = 0.03, s.heading_noise = 0.02;
-  s.description = std::move(description);
+  s.description = std::to_string(scans) +
+                  " scans x ~170 points, a horizontal 2D scanner (180 beams, 1 degree, 80 m) " +
+                  where + " (paper Sec. VII)";
   return s;
 }
 
@@ -679,18 +681,10 @@ makeSpec(const std::string& name, std::uint32_t seed)
     s.description = "420 scans x ~120k points, a 64-beam lidar at 10 Hz scanning while "
                     "driving 9 m/s round a block over a ramp, closing the loop (KITTI-like)";
   }
-  else if (name == "office2d")
-    s = planarSpec(makeSpec("office", seed),
-                   150,
-                   1.0,
-                   "150 scans x ~170 points, a horizontal 2D scanner (180 beams, 1 degree, "
-                   "80 m), a scan every 0.2 m round the office floor's loop (paper Sec. VII)");
-  else if (name == "hannover2d")
-    s = planarSpec(makeSpec("hannover", seed),
-                   800,
-                   1.0,
-                   "800 scans x ~170 points, a horizontal 2D scanner (180 beams, 1 degree, "
-                   "80 m), a scan every 0.4 m through the building's corridors and loops");
+  else if (name == "office2d") // a scan every 0.2 m
+    s = planarSpec(makeSpec("office", seed), 150, "round the office floor's loop");
+  else if (name == "hannover2d") // a scan every 0.4 m
+    s = planarSpec(makeSpec("hannover", seed), 800, "through the building's corridors");
   else {
     std::string known;
     for (const auto& n : names())
