@@ -50,29 +50,93 @@ estimateNormals(const KdTreeIndex& tree,
   });
 }
 
+namespace {
+
+/** The scatter matrix of the `count` tree points at `pos` about their mean, summed in
+ *  double relative to `origin`. */
+Eigen::Matrix3d
+neighbourhoodScatter(const KdTreeIndex& tree,
+                     const std::uint32_t* pos,
+                     std::size_t count,
+                     const float origin[3])
+{
+  const Eigen::Vector3f o = Eigen::Vector3f::Map(origin);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (std::size_t j = 0; j < count; ++j)
+    mean += (Eigen::Vector3f::Map(tree.point(pos[j])) - o).cast<double>();
+  mean /= static_cast<double>(count);
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (std::size_t j = 0; j < count; ++j) {
+    const Eigen::Vector3d d =
+        (Eigen::Vector3f::Map(tree.point(pos[j])) - o).cast<double>() - mean;
+    cov += d * d.transpose();
+  }
+  return cov;
+}
+
+/** Every tree position's normal by `normal(position, neighbours, count)` over its k
+ *  nearest neighbours (itself included); a scan's few thousand points over every thread. */
+template <typename NormalOf>
+std::vector<Eigen::Vector3f>
+unitNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads, NormalOf normal)
+{
+  std::vector<Eigen::Vector3f> normals(tree.size(), Eigen::Vector3f::Zero());
+  k = std::max<std::size_t>(k, 3);
+  parallelFor(tree.size(),
+              resolveNumberOfThreads(num_threads),
+              256,
+              [&](std::size_t first, std::size_t last) {
+                std::vector<std::uint32_t> pos(k);
+                std::vector<float> sqr(k);
+                for (std::size_t i = first; i < last; ++i) {
+                  const float* p = tree.point(static_cast<std::uint32_t>(i));
+                  normals[i] = normal(p, pos.data(), tree.knn(p, k, pos.data(), sqr.data()));
+                }
+              });
+  return normals;
+}
+
+} // namespace
+
 std::vector<Eigen::Vector3f>
 estimateUnitNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
 {
-  const std::size_t n = tree.size();
-  std::vector<Eigen::Vector3f> normals(n, Eigen::Vector3f::Zero());
-  k = std::max<std::size_t>(k, 3);
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-  // A scan's few thousand points over every thread.
-  parallelFor(n, threads, 256, [&](std::size_t first, std::size_t last) {
-    std::vector<std::uint32_t> pos(k);
-    std::vector<float> sqr(k);
-    for (std::size_t i = first; i < last; ++i) {
-      const std::uint32_t p = static_cast<std::uint32_t>(i);
-      const std::size_t got = tree.knn(tree.point(p), k, pos.data(), sqr.data());
-      Eigen::Vector3d normal, ev;
-      // A plane needs two clearly non-zero spreads; the normal's must be the smallest.
-      if (!neighbourhoodNormal(tree, pos.data(), got, tree.point(p), normal, ev) ||
-          !(ev(1) > 1e-6 * ev(2)))
-        continue;
-      normals[i] = normal.normalized().cast<float>();
-    }
-  });
-  return normals;
+  return unitNormals(
+      tree, k, num_threads, [&](const float* p, const std::uint32_t* pos, std::size_t got) {
+        Eigen::Vector3d normal, ev;
+        // A plane needs two clearly non-zero spreads; the normal's must be the smallest.
+        if (!neighbourhoodNormal(tree, pos, got, p, normal, ev) || !(ev(1) > 1e-6 * ev(2)))
+          return Eigen::Vector3f::Zero().eval();
+        return normal.normalized().cast<float>().eval();
+      });
+}
+
+std::vector<Eigen::Vector3f>
+estimateUnitNormals(const KdTreeIndex& tree,
+                    std::size_t k,
+                    unsigned num_threads,
+                    const Eigen::Vector3f& plane_normal)
+{
+  // An orthonormal basis (e0, e1) of the plane: the scatter within it is 2x2.
+  const Eigen::Vector3d u = plane_normal.cast<double>().normalized();
+  const Eigen::Vector3d e0 = u.unitOrthogonal(), e1 = u.cross(e0);
+  Eigen::Matrix<double, 3, 2> basis;
+  basis << e0, e1;
+  return unitNormals(
+      tree, k, num_threads, [&](const float* p, const std::uint32_t* pos, std::size_t got) {
+        if (got < 3)
+          return Eigen::Vector3f::Zero().eval();
+        const Eigen::Matrix2d scatter =
+            basis.transpose() * neighbourhoodScatter(tree, pos, got, p) * basis;
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig;
+        eig.computeDirect(scatter);
+        // The line needs a spread along it (1e-12 m²: points not all at one place).
+        if (!(eig.eigenvalues()(1) > 1e-12))
+          return Eigen::Vector3f::Zero().eval();
+        const Eigen::Vector3d normal = basis * eig.eigenvectors().col(0);
+        return normal.allFinite() ? normal.normalized().cast<float>().eval()
+                                  : Eigen::Vector3f::Zero().eval();
+      });
 }
 
 bool
@@ -85,17 +149,7 @@ neighbourhoodNormal(const KdTreeIndex& tree,
 {
   if (count < 3)
     return false;
-  const Eigen::Vector3f o = Eigen::Vector3f::Map(origin);
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (std::size_t j = 0; j < count; ++j)
-    mean += (Eigen::Vector3f::Map(tree.point(pos[j])) - o).cast<double>();
-  mean /= static_cast<double>(count);
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (std::size_t j = 0; j < count; ++j) {
-    const Eigen::Vector3d d =
-        (Eigen::Vector3f::Map(tree.point(pos[j])) - o).cast<double>() - mean;
-    cov += d * d.transpose();
-  }
+  const Eigen::Matrix3d cov = neighbourhoodScatter(tree, pos, count, origin);
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
   eig.computeDirect(cov);
   eigenvalues = eig.eigenvalues();

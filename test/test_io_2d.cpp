@@ -4,7 +4,8 @@
  *
  * The 2D logs' io. io/carmen.h: hand-written CARMEN logs (every message, the angle rule,
  * the range limits, the errors) and the three Radish logs of ../shared/data/radish_2d (their
- * README's counts). io/g2o.h: the SE(2) pose graph written and read back.
+ * README's counts). io/scan_directory.h: a log opened as a sequence of scans. io/g2o.h:
+ * the SE(2) pose graph written and read back.
  */
 #include "error_message.h"
 #include "scratch_dir.h"
@@ -12,6 +13,7 @@
 
 #include <pcl_parallel/io/carmen.h>
 #include <pcl_parallel/io/g2o.h>
+#include <pcl_parallel/io/scan_directory.h>
 
 #include <boost/iostreams/filter/bzip2.hpp>
 #include <boost/iostreams/filtering_stream.hpp>
@@ -350,6 +352,59 @@ TEST(CarmenData, Fr079AsItsReadmeStates)
 TEST(CarmenData, MitCsailAsItsReadmeStates)
 {
   checkRadishLog({"mit-csail.clf.bz2", 1988, 361, 0, 0, 424.0, 373.6, 0.5, 0.0, 3.3});
+}
+
+// A log opened as a scan sequence: time order (its lines are not in every log), the scans
+// numbered in it, kept where the odometry moved or turned enough since the last scan
+// kept, each with the laser's odometry pose and its stamp; 2D; a log's options refused.
+TEST_F(CarmenFiles, LogOpensAsTheScansTakenWhereTheRobotMovedEnough)
+{
+  const std::vector<std::string> r = {"1.0", "2.0", "81.83", "1.5"};
+  // Poses (x, theta) in time order; the lines below put stamp 3 before stamp 2.
+  const double x[] = {0.0, 0.3, 0.6, 0.6, 0.6, 1.2}, th[] = {0.0, 0.0, 0.0, 0.3, 0.6, 0.6};
+  const int line_order[] = {0, 1, 3, 2, 4, 5};
+  std::string text;
+  for (const int i : line_order) {
+    const std::string pose = std::to_string(x[i]) + " 0 " + std::to_string(th[i]);
+    text += flaser(r, pose, pose, std::to_string(10.0 + i) + " host " + std::to_string(i));
+  }
+  text += flaser({"81.83", "81.83", "81.83", "81.83"}, "9 0 0", "9 0 0", "20 host 10");
+  const std::string path = writeBzip2("log.clf.bz2", text);
+  EXPECT_TRUE(isCarmenLogName(path));
+  EXPECT_TRUE(isCarmenLogName("/a/B.CLF"));
+  EXPECT_FALSE(isCarmenLogName("/a/log.clf.gz"));
+  ScanDirectoryOptions o;
+  o.dir = path;
+  o.min_travel = 0.5;
+  o.min_turn = 0.5;
+  const ScanDirectory in = openScanDirectory(o);
+  // Kept: 0 (first), 2 (0.6 m from 0), 4 (turned 0.6 rad from 2), 5 (0.6 m from 4); the
+  // last line has no return.
+  EXPECT_EQ(in.numbers, (std::vector<int>{0, 2, 4, 5}));
+  EXPECT_EQ(in.stamps, (std::vector<double>{10, 12, 14, 15}));
+  EXPECT_EQ(in.log_scans, 7u);
+  EXPECT_TRUE(in.planar);
+  EXPECT_TRUE(in.odometry);
+  EXPECT_TRUE(in.has_stamps);
+  ASSERT_EQ(in.size(), 4u);
+  EXPECT_TRUE(in.initial[2].isApprox(planarPose(0.6, 0, 0.6)));
+  EXPECT_EQ(in.files[1], path + ":4"); // the log's line
+  const auto scan = readScan(in, 1);
+  ASSERT_EQ(scan->size(), 3u); // the no-return beam dropped
+  expectPoint((*scan)[0], 1.0, -90 * kDeg);
+  // -s/-e count the log's scans before the selection by motion; 0 and 0 keep every scan.
+  o.first = 1, o.last = 4;
+  EXPECT_EQ(openScanDirectory(o).numbers, (std::vector<int>{1, 4}));
+  o.min_travel = o.min_turn = 0.0;
+  EXPECT_EQ(openScanDirectory(o).numbers, (std::vector<int>{1, 2, 3, 4}));
+  // What a log holds itself, or too few scans, is refused naming the log.
+  o.first = 0, o.last = -1;
+  o.poses_file = write("poses.txt", "");
+  EXPECT_THROW(openScanDirectory(o), ScanDirectoryUsageError);
+  o.poses_file.clear();
+  o.min_travel = o.min_turn = 100.0;
+  EXPECT_NE(messageOf<ScanDirectoryUsageError>([&] { openScanDirectory(o); }).find(path),
+            std::string::npos);
 }
 
 // g2o's SE(2) lines: the numbers read back exactly; an edge checked by hand.

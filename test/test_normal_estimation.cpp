@@ -132,4 +132,44 @@ TEST(EstimateUnitNormals, RadialOnASphereNoneOnALine)
     EXPECT_EQ(n, Eigen::Vector3f::Zero());
 }
 
+// A 2D scan's normals lie in its plane, normal to the walls' lines: a square room's
+// outline gives each wall's normal (none where the neighbours coincide); the 3D estimate
+// of the same points is the plane's normal, useless to planar pICP.
+TEST(EstimateUnitNormals, InThePlaneOfATwoDScan)
+{
+  std::vector<float> xyz;
+  for (int k = 0; k < 200; ++k) {
+    const float t = -4.0f + 0.04f * k;
+    xyz.insert(xyz.end(), {t, -4.0f, 0.0f, 4.0f, t, 0.0f, -t, 4.0f, 0.0f, -4.0f, -t, 0.0f});
+  }
+  pcl_parallel::KdTreeIndex tree;
+  tree.build(xyz.data(), xyz.size() / 3, 3);
+  const Eigen::Vector3f up = Eigen::Vector3f::UnitZ();
+  const auto in_plane = pcl_parallel::estimateUnitNormals(tree, 10, 2, up);
+  const auto in_3d = pcl_parallel::estimateUnitNormals(tree, 10, 2);
+  for (std::uint32_t pos = 0; pos < tree.size(); ++pos) {
+    const Eigen::Vector3f p = Eigen::Vector3f::Map(tree.point(pos));
+    if (std::abs(p.x()) > 3.5f && std::abs(p.y()) > 3.5f)
+      continue; // a corner
+    const Eigen::Vector3f wall =
+        std::abs(p.x()) > std::abs(p.y()) ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitY();
+    EXPECT_NEAR(std::abs(in_plane[pos].dot(wall)), 1.0f, 1e-5f) << pos;
+    EXPECT_EQ(in_plane[pos].z(), 0.0f) << pos;
+    EXPECT_EQ(in_3d[pos], Eigen::Vector3f::Zero()) << pos; // a line: no 3D plane
+  }
+  // The same about another axis: a wall in the x-z plane, up y.
+  std::vector<float> turned;
+  for (int k = 0; k < 100; ++k)
+    turned.insert(turned.end(), {0.05f * k, 0.0f, 2.0f + 0.01f * k});
+  tree.build(turned.data(), 100, 3);
+  const Eigen::Vector3f normal = Eigen::Vector3f(-0.01f, 0.0f, 0.05f).normalized();
+  for (const Eigen::Vector3f& n :
+       pcl_parallel::estimateUnitNormals(tree, 10, 1, Eigen::Vector3f::UnitY()))
+    EXPECT_NEAR(std::abs(n.dot(normal)), 1.0f, 1e-5f);
+  std::vector<float> one_place(30, 1.0f); // ten points at one place: no line
+  tree.build(one_place.data(), 10, 3);
+  for (const Eigen::Vector3f& n : pcl_parallel::estimateUnitNormals(tree, 10, 1, up))
+    EXPECT_EQ(n, Eigen::Vector3f::Zero());
+}
+
 } // namespace

@@ -2,16 +2,19 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  *
- * render/: the map's picture (its extent, its style, the PNG file).
+ * render/: the map's picture (its extent, its style, the PNG file, the occupancy of 2D
+ * scans read back pixel by pixel).
  */
 #include <pcl_parallel/render/map_picture.h>
 
 #include <Eigen/Core>
 
+#include <cairo.h>
 #include <filesystem>
 #include <fstream>
 #include <gtest/gtest.h>
 #include <iterator>
+#include <memory>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -129,5 +132,71 @@ TEST(MapPicture, StyleAndFile)
     EXPECT_EQ(what.find(missing + ": "), 0u) << what;
     EXPECT_EQ(what.find(".tmp"), std::string::npos) << what;
   }
+  fs::remove_all(dir);
+}
+
+// The occupancy style of 2D scans: a square room scanned from inside, four poses. Its
+// walls are dark, the free space inside white, the margin outside (no ray reached it)
+// grey; the style needs a scan per pose.
+TEST(MapPicture, OccupancyOfTwoDScansFromTheirRays)
+{
+  render::Cloud scan; // a 10 m x 10 m room's walls, seen from (0, 0) in 720 beams
+  for (int b = 0; b < 720; ++b) {
+    const double a = b * M_PI / 360.0, c = std::cos(a), s = std::sin(a);
+    const double range = 5.0 / std::max(std::abs(c), std::abs(s));
+    scan.emplace_back(range * c, range * s, 0.0f);
+  }
+  render::Poses path(4, Eigen::Matrix4d::Identity());
+  render::Cloud map;
+  std::vector<render::Cloud::ConstPtr> scans;
+  for (int i = 0; i < 4; ++i) { // the poses 0.5 m apart along x, each scan in its frame
+    path[i](0, 3) = -0.75 + 0.5 * i;
+    render::Cloud::Ptr local(new render::Cloud(scan));
+    for (auto& p : *local)
+      p.x -= static_cast<float>(path[i](0, 3)); // the walls stay where they are
+    scans.push_back(local);
+  }
+  for (const auto& p : scan)
+    map.push_back(p);
+  const fs::path dir = scratch("occupancy");
+  const std::string png = (dir / "map.png").string();
+  render::PictureOptions po;
+  po.cell = 0.05;
+  EXPECT_THROW(render::writeMapPicture(png,
+                                       map,
+                                       path,
+                                       [&] {
+                                         render::PictureOptions o = po;
+                                         o.style = "occupancy";
+                                         return o;
+                                       }()),
+               std::invalid_argument);
+  po.scans = scans;
+  ASSERT_EQ(render::writeMapPicture(png, map, path, po), "occupancy");
+  // The pixel of (x, y) as writeMapPicture frames the map (robustExtent, 20 px padding).
+  std::vector<Eigen::Vector2d> points, trajectory;
+  for (const auto& p : map)
+    points.emplace_back(p.x, p.y);
+  for (const auto& m : path)
+    trajectory.emplace_back(m(0, 3), m(1, 3));
+  const render::Extent e = render::robustExtent(points, trajectory, po.radius);
+  const double scale = po.size / (e.hi - e.lo).maxCoeff();
+  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> image(
+      cairo_image_surface_create_from_png(png.c_str()), cairo_surface_destroy);
+  ASSERT_EQ(cairo_surface_status(image.get()), CAIRO_STATUS_SUCCESS);
+  const unsigned char* data = cairo_image_surface_get_data(image.get());
+  const int stride = cairo_image_surface_get_stride(image.get());
+  const auto grey = [&](double x, double y) { // the green channel, 0-255
+    const int px = static_cast<int>(20 + (x - e.lo.x()) * scale),
+              py = static_cast<int>(20 + (e.hi.y() - y) * scale);
+    const auto* row = reinterpret_cast<const std::uint32_t*>(data + py * stride);
+    return static_cast<int>((row[px] >> 8) & 0xff);
+  };
+  for (const auto& [x, y] : {std::pair{2.5, 2.5}, {-2.5, -3.0}, {0.0, 3.5}, {3.5, -1.0}})
+    EXPECT_EQ(grey(x, y), 255) << x << " " << y; // free: every ray passed
+  for (const auto& [x, y] : {std::pair{5.0, 2.02}, {-5.0, -1.02}, {1.52, 5.0}, {-1.02, -5.0}})
+    EXPECT_LT(grey(x, y), 128) << x << " " << y; // a wall: most rays reaching it ended there
+  for (const auto& [x, y] : {std::pair{5.3, 0.0}, {-5.3, 2.0}, {0.0, -5.3}})
+    EXPECT_EQ(grey(x, y), static_cast<int>(0.76 * 255)) << x << " " << y; // unseen
   fs::remove_all(dir);
 }

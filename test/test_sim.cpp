@@ -492,9 +492,34 @@ TEST(Scanner, SweepWhileMovingIsSkewedByExactlyTheMotion)
 // ---------------------------------------------------------------------------------------
 // Presets.
 
+// The 2D presets: a horizontal 180-beam scanner, its points in its x-y plane, on a robot
+// driving at a constant height; written as KITTI sets (3DTK's frame has y up).
+TEST(Presets, TwoDPresetsScanInTheScannersPlane)
+{
+  for (const std::string name : {"office2d", "hannover2d"}) {
+    PresetOptions o;
+    o.max_scans = 3;
+    o.num_threads = 2;
+    const SimulatedScanSet set = simulatePreset(name, o);
+    EXPECT_TRUE(isPlanar(set.scanner)) << name;
+    for (std::size_t i = 0; i < set.scans.size(); ++i) {
+      EXPECT_GT(set.scans[i]->size(), 100u) << name;
+      EXPECT_LE(set.scans[i]->size(), 180u) << name;
+      for (const auto& p : *set.scans[i])
+        ASSERT_EQ(p.z, 0.0f) << name;
+      EXPECT_DOUBLE_EQ(set.truth[i](2, 3), 0.3) << name;
+      EXPECT_EQ(set.truth[i](2, 2), 1.0) << name; // level: a rotation about z
+    }
+  }
+  PresetOptions route_only;
+  route_only.poses_only = true;
+  EXPECT_FALSE(isPlanar(simulatePreset("office", route_only).scanner));
+}
+
 TEST(Presets, NamesAndUnknownName)
 {
-  const std::vector<std::string> expected{"office", "hannover", "riegl", "kitti"};
+  const std::vector<std::string> expected{
+      "office", "hannover", "riegl", "kitti", "office2d", "hannover2d"};
   EXPECT_EQ(presetNames(), expected);
   for (const auto& n : expected)
     EXPECT_FALSE(presetDescription(n).empty());

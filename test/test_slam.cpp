@@ -182,6 +182,36 @@ TEST(Pipeline, FrontEndBeatsOdometry)
   EXPECT_LT(lc_ate.translation.rmse, 0.02);
 }
 
+// The paper's 2D special case (Sec. VII) on the office2d preset: a horizontal 2D scanner
+// on a robot with drifting wheel odometry. Planar, every pose keeps the odometry's
+// height, roll and pitch exactly; the map's poses lie within 3 cm of the truth, a third
+// of the odometry's error or less.
+TEST(Pipeline, PlanarScansOfATwoDScannerMapInThePlane)
+{
+  const sim::SimulatedScanSet set = presetScans("office2d", test::kSanitized ? 40 : 150);
+  slam::Parameters p;
+  p.planar = true;
+  p.num_threads = 2;
+  const PipelineRun run = runPipeline(set, p);
+  ASSERT_EQ(run.final.size(), set.truth.size());
+  for (std::size_t i = 0; i < run.final.size(); ++i)
+    for (const Poses* poses : {&run.front_end, &run.final}) {
+      const Pose& m = (*poses)[i];
+      EXPECT_NEAR(m(2, 3), set.odometry[0](2, 3), 1e-9) << i;
+      EXPECT_LT(std::abs(m(2, 0)) + std::abs(m(2, 1)), 1e-12) << i;
+    }
+  const auto ate = [&](const Poses& poses) {
+    return evaluation::absoluteTrajectoryError(poses, set.truth, evaluation::Alignment::SE3)
+        .translation.rmse;
+  };
+  std::printf("ATE rmse: odometry %.4f m, front end %.4f m, final %.4f m\n",
+              ate(set.odometry),
+              ate(run.front_end),
+              ate(run.final));
+  EXPECT_LT(ate(run.final), 0.03);
+  EXPECT_LT(ate(run.final), ate(set.odometry) / 3);
+}
+
 TEST(Segments, SplitSequenceCoversItWithOverlap)
 {
   const auto s = slam::splitSequence(10, 4, 3);

@@ -86,6 +86,7 @@ openInput(Options& o, const Session& ranks, ProgressReporter& progress, DemoScan
   ranks.agree([&] { in = openDirectory(o); });
   in.truth = truth;
   progress.note(std::to_string(in.size()) + " scans" +
+                (in.log_scans ? " of the log's " + std::to_string(in.log_scans) : "") +
                 (in.odometry        ? ""
                  : o.no_pose_search ? "; no initial poses: constant-velocity guesses"
                                     : "; no initial poses: constant-velocity guesses, "

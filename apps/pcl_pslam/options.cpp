@@ -79,7 +79,12 @@ struct Descriptions {
       ("scale", po::value<double>()->value_name("S"),
        "coordinates times S are metres [default 1; uos: 0.01]")
       ("up", po::value<std::string>()->value_name("x|y|z"),
-       "the vertical axis [default z; uos: y]");
+       "the vertical axis [default z; uos: y]")
+      ("min-travel", po::value<double>(&o.min_travel)->value_name("M"),
+       "a 2D laser log: a scan is kept where the odometry moved M metres or turned "
+       "--min-turn since the last one kept [default 0.2]")
+      ("min-turn", po::value<double>()->value_name("DEG"),
+       "a 2D laser log: see --min-travel [default 10]");
     // clang-format on
   }
 
@@ -173,7 +178,9 @@ struct Descriptions {
       ("no-picture", "do not write map.png")
       ("style", po::value<std::string>(&o.style)->value_name("S"),
        "map.png: height (colour = height above the trajectory), floorplan (walls dark, "
-       "for indoor scans), auto (floorplan when most poses see a ceiling) [default auto]");
+       "for indoor scans), occupancy (rays from the poses: free space light, walls dark; "
+       "for 2D scans), auto (2D scans: occupancy; else floorplan when most poses see a "
+       "ceiling) [default auto]");
     general.add_options()
       ("preset", po::value<std::string>(&o.preset)->value_name("NAME"),
        "demo: the simulated preset to map (office, hannover, riegl, kitti) [default office]")
@@ -221,7 +228,8 @@ constexpr Range kRanges[] = {
     {"loopsize", "-l/--loopsize", 1.0, kMaxCount}, {"loop6DAlgo", "-L/--loop6DAlgo", 0.0, 4.0},
     {"threads", "-t/--threads", 0.0, pcl_parallel::kMaxThreads},
     {"segment-size", "--segment-size", 0.0, 1e8},
-    {"segment-overlap", "--segment-overlap", 1.0, 1e5}};
+    {"segment-overlap", "--segment-overlap", 1.0, 1e5},
+    {"min-travel", "--min-travel", 1e-6, 1e9, true}, {"min-turn", "--min-turn", 1e-6, 360.0, true}};
 // clang-format on
 
 /** "LO to HI[ or 0]" (HI at int's end: "LO or more"). */
@@ -289,7 +297,8 @@ helpText(const std::string& command)
   if (command == "run")
     s << "usage: pcl_pslam run [options] DIR\n\n"
          "DIR holds one file per scan; the scans are matched in name order, numbered names\n"
-         "by their numbers (scan2 before scan10, as 3DTK's scanNNN). 3DTK slam6D's\n"
+         "by their numbers (scan2 before scan10, as 3DTK's scanNNN). DIR may also be a 2D\n"
+         "laser log (CARMEN .clf or .clf.bz2), mapped in the plane. 3DTK slam6D's\n"
          "option names work with their meaning, so a slam6D command line such as\n"
          "  pcl_pslam run -s 0 -e 65 -r 10 -i 100 -d 75 -D 250 -I 50 --cldist 750 -f uos dat\n"
          "runs unchanged: lengths on the command line are in the files' units (uos: cm)\n"
@@ -308,7 +317,8 @@ helpText(const std::string& command)
        "scanNNN.frames\n"
        "(3DTK, per scan: initial, ICP and final pose, 4x4 column-major + type code; uos\n"
        "data in 3DTK's units), poses.txt / poses_icp.txt (KITTI), poses_tum.txt /\n"
-       "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), map.pcd (binary), map.ply (--ply),\n"
+       "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), graph.g2o (2D: the pose graph,\n"
+       "VERTEX_SE2 and EDGE_SE2), map.pcd (binary), map.ply (--ply),\n"
        "map.png (top view), report.json (parameters, per-scan numbers, stage times).\n\n"
     << "Ranges (out of range: exit 2 naming the option; lengths in the files' units):\n";
   std::string line;
@@ -373,6 +383,8 @@ checkInputOptions(Options& o, const po::variables_map& vm)
   }
   if (o.sweep_ccw && !o.deskew)
     throw UsageError("--sweep-ccw needs --deskew");
+  if (vm.count("min-turn"))
+    o.min_turn = vm["min-turn"].as<double>() * M_PI / 180.0;
   if (vm.count("sweep-period")) {
     o.sweep_period = *given(vm, "sweep-period");
     if (!o.deskew)
@@ -407,8 +419,10 @@ checkOutputOptions(Options& o, const po::variables_map& vm)
 {
   o.picture = vm.count("no-picture") == 0;
   o.style = lowerCase(o.style);
-  if (o.style != "auto" && o.style != "height" && o.style != "floorplan")
-    throw UsageError("--style needs auto, height or floorplan, got '" + o.style + "'");
+  if (o.style != "auto" && o.style != "height" && o.style != "floorplan" &&
+      o.style != "occupancy")
+    throw UsageError("--style needs auto, height, floorplan or occupancy, got '" + o.style +
+                     "'");
   if (o.out.empty())
     throw UsageError("--out: empty directory name");
 }

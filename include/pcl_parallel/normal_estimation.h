@@ -38,6 +38,18 @@ estimateNormals(const KdTreeIndex& tree,
 std::vector<Eigen::Vector3f>
 estimateUnitNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads);
 
+/** The same for a cloud whose points all lie in one plane (a 2D scan, z = 0): each normal
+ *  lies in that plane (normal to \a plane_normal), along the neighbourhood's least
+ *  variance within it, i.e. normal to a wall's line in the scan. Point-to-plane pairs of
+ *  planar pICP and pLUM then measure the distance to that line (point-to-line ICP,
+ *  Censi, ICRA 2008). Zero where the neighbours do not spread (fewer than 3 points, or
+ *  all at one place). */
+std::vector<Eigen::Vector3f>
+estimateUnitNormals(const KdTreeIndex& tree,
+                    std::size_t k,
+                    unsigned num_threads,
+                    const Eigen::Vector3f& plane_normal);
+
 /**
  * \brief PCA of one neighbourhood, the step every normal estimate here shares: the
  * covariance of the \a count tree points at positions \a pos about their mean (summed in

@@ -189,6 +189,7 @@ isRunOutputName(const std::string& name)
                           "map.pcd",
                           "map.ply",
                           "map.png",
+                          "graph.g2o",
                           "report.json"});
 }
 

@@ -4,6 +4,7 @@
  */
 #include "detail.h"
 
+#include <pcl_parallel/io/carmen.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
@@ -271,11 +272,115 @@ selectScans(const ScanDirectoryOptions& o,
   return selected;
 }
 
+/** Whether every point lies in the scanner's x-y plane: a 2D scan stored as 3D (z = 0,
+ *  up to float rounding of a frame change). */
+bool
+liesInScannerPlane(const pcl::PointCloud<pcl::PointXYZ>& scan)
+{
+  return !scan.empty() && std::all_of(scan.begin(), scan.end(), [](const pcl::PointXYZ& p) {
+    return std::abs(p.z) <= 1e-5f * p.getVector3fMap().norm();
+  });
+}
+
+/** True where the odometry moved or turned enough from `from` to `to` (min_travel,
+ *  min_turn). */
+bool
+movedEnough(const Eigen::Matrix4d& from,
+            const Eigen::Matrix4d& to,
+            const ScanDirectoryOptions& o)
+{
+  const Eigen::Matrix4d step = from.inverse() * to;
+  const double turn = std::abs(std::atan2(step(1, 0), step(0, 0)));
+  return step.topRightCorner<3, 1>().norm() >= o.min_travel || turn >= o.min_turn;
+}
+
+/** A CARMEN log's request: what a directory's options mean for it. */
+void
+checkLogRequest(const ScanDirectoryOptions& o)
+{
+  if (!o.poses_file.empty() || !o.times_file.empty())
+    throw ScanDirectoryUsageError(o.dir + ": a CARMEN log holds its own odometry and time "
+                                          "stamps (no --poses or --times)");
+  if (!(o.min_travel >= 0.0 && o.min_turn >= 0.0 && std::isfinite(o.min_travel) &&
+        std::isfinite(o.min_turn)))
+    throw ScanDirectoryUsageError("the travel and turn between a log's scans must be finite "
+                                  "and >= 0");
+}
+
+/** openScanDirectory for a CARMEN log: its laser scans in time order (the logs' lines are
+ *  not in every log), numbered from 0, chosen by first/last, then by motion. A scan
+ *  without a return is left out. */
+ScanDirectory
+openCarmenLog(const ScanDirectoryOptions& o)
+{
+  checkLogRequest(o);
+  CarmenReadOptions read;
+  read.min_range = o.min_range;
+  read.max_range = std::min(read.max_range, o.max_range);
+  CarmenLog log;
+  try {
+    log = loadCarmenLog(o.dir, read);
+  }
+  catch (const std::runtime_error& e) {
+    throw ScanDataError(withoutPrefix(e.what()));
+  }
+  std::stable_sort(log.scans.begin(), log.scans.end(), [](const auto& a, const auto& b) {
+    return a.timestamp < b.timestamp;
+  });
+  ScanDirectory in;
+  in.format = "clf";
+  in.planar = true;
+  in.has_stamps = true;
+  in.odometry = !o.no_poses;
+  in.min_range = o.min_range;
+  in.max_range = read.max_range;
+  in.log_scans = log.scans.size();
+  std::optional<Eigen::Matrix4d> last; // the odometry of the last scan kept
+  std::size_t selected = 0;
+  for (std::size_t i = 0; i < log.scans.size(); ++i) {
+    const CarmenScan& scan = log.scans[i];
+    if (static_cast<long>(i) < o.first || (o.last >= 0 && static_cast<long>(i) > o.last))
+      continue;
+    ++selected;
+    if (scan.cloud->empty() || (last && !movedEnough(*last, scan.laser_pose, o)))
+      continue;
+    last = scan.laser_pose;
+    in.files.push_back(o.dir + ":" + std::to_string(scan.line));
+    in.numbers.push_back(static_cast<int>(i));
+    in.stamps.push_back(scan.timestamp);
+    in.initial.push_back(o.no_poses ? Eigen::Matrix4d::Identity() : scan.laser_pose);
+    in.clouds.push_back(scan.cloud);
+  }
+  if (in.size() < 2)
+    throw ScanDirectoryUsageError(
+        o.dir + ": " + std::to_string(in.size()) + " of its " + std::to_string(selected) +
+        " selected laser scans (of " + std::to_string(log.scans.size()) +
+        ") have returns and lie apart by the travel or turn asked for; pcl_pslam needs at "
+        "least 2");
+  return in;
+}
+
 } // namespace
+
+bool
+isCarmenLogName(const std::string& path)
+{
+  std::string name = fs::path(path).filename().string();
+  std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
+  const auto ends = [&](const std::string& suffix) {
+    return name.size() > suffix.size() &&
+           name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0;
+  };
+  return ends(".clf") || ends(".clf.bz2");
+}
 
 ScanDirectory
 openScanDirectory(const ScanDirectoryOptions& o)
 {
+  if (std::error_code ec; isCarmenLogName(o.dir) && fs::is_regular_file(o.dir, ec))
+    return openCarmenLog(o);
   checkRequest(o);
   const auto [format, files] = listScanFiles(o);
   ScanDirectory in;
@@ -320,6 +425,7 @@ openScanDirectory(const ScanDirectoryOptions& o)
     in.initial.assign(in.files.size(), Eigen::Matrix4d::Identity());
     in.odometry = false;
   }
+  in.planar = in.up == 2 && liesInScannerPlane(*readScan(in, 0));
   return in;
 }
 
@@ -327,6 +433,11 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr
 readScan(const ScanDirectory& in, std::size_t k, std::vector<double>* point_times)
 {
   const std::string& file = in.files.at(k);
+  if (!in.clouds.empty()) { // a log's, read with it: no point times
+    if (point_times)
+      point_times->clear();
+    return pcl::make_shared<pcl::PointCloud<pcl::PointXYZ>>(*in.clouds.at(k));
+  }
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud;
   try {
     cloud = loadScan(file, in.min_range, in.max_range, point_times);

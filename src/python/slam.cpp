@@ -171,7 +171,7 @@ toParameters(const py::dict& stages, double median_range, const py::handle& thre
     const std::string s = py::str(stage).cast<std::string>();
     if (std::find(std::begin(kStages), std::end(kStages), s) == std::end(kStages))
       throw std::invalid_argument(s + ": not a parameter (stages: reduction, deskew, matcher, "
-                                      "guess, loops; and median_range, threads)");
+                                      "guess, loops; and median_range, planar, threads)");
     if (value.is_none())
       continue;
     if (!py::isinstance<py::dict>(value))
@@ -202,6 +202,7 @@ toDict(const slam::Parameters& p)
   for (const Field& f : fields())
     out[f.stage].cast<py::dict>()[f.name] = f.get(p);
   out["median_range"] = p.median_range;
+  out["planar"] = p.planar;
   out["threads"] = p.num_threads;
   return out;
 }
@@ -293,23 +294,28 @@ bindSlam(py::module_& m)
                        "The streaming SLAM pipeline (slam::Pipeline): scans one at a time, "
                        "pICP against a local map, loops closed by pLUM. Parameters: "
                        "Pipeline(reduction={...}, deskew={...}, matcher={...}, guess={...}, "
-                       "loops={...}, median_range=0, threads=None), keys as "
+                       "loops={...}, median_range=0, planar=False, threads=None), keys as "
                        "slam::Parameters' fields (default_parameters()); automatic lengths "
                        "are resolved at the first scan.")
       .def(py::init([](const py::kwargs& kwargs) {
         py::dict stages;
         double median_range = 0.0;
+        bool planar = false;
         py::object threads = py::none();
         for (const auto& [key, value] : kwargs) {
           const std::string k = key.cast<std::string>();
           if (k == "median_range")
             median_range = fromPython<double>(value, "median_range");
+          else if (k == "planar")
+            planar = fromPython<bool>(value, "planar");
           else if (k == "threads")
             threads = py::reinterpret_borrow<py::object>(value);
           else
             stages[key] = value;
         }
-        return std::make_unique<Pipeline>(toParameters(stages, median_range, threads));
+        slam::Parameters p = toParameters(stages, median_range, threads);
+        p.planar = planar;
+        return std::make_unique<Pipeline>(p);
       }))
       .def("add_scan",
            &Pipeline::addScan,

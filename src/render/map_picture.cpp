@@ -375,6 +375,56 @@ heightGrid(const Cloud& map,
   return g;
 }
 
+/** The occupancy style's grid (2D scans): per cell, of the rays from each pose to its
+ *  scan's points that reach the cell, the share ending there (`top`, in [0, 1]); cells no
+ *  ray reaches stay empty. Rays are walked in half-cell steps, in scan order. */
+HeightGrid
+occupancyGrid(const Poses& trajectory,
+              const View& view,
+              const PixelFrame& px,
+              int w,
+              int h,
+              const PictureOptions& opt)
+{
+  HeightGrid g;
+  g.cell_px = std::max(1.0, opt.cell * px.scale);
+  g.width = static_cast<int>(std::ceil(w / g.cell_px));
+  g.height = static_cast<int>(std::ceil(h / g.cell_px));
+  const std::size_t cells = static_cast<std::size_t>(g.width) * g.height;
+  std::vector<std::uint32_t> hits(cells, 0), visits(cells, 0);
+  const auto cellOf = [&](const Eigen::Vector2d& c) -> std::int64_t {
+    if (!(c.x() >= 0 && c.y() >= 0 && c.x() < g.width && c.y() < g.height))
+      return -1;
+    return static_cast<std::int64_t>(c.y()) * g.width + static_cast<std::int64_t>(c.x());
+  };
+  for (std::size_t k = 0; k < trajectory.size(); ++k) {
+    if (!opt.scans[k])
+      continue;
+    const Eigen::Matrix4f pose = trajectory[k].cast<float>();
+    const Eigen::Vector2d from = px(view(trajectory[k])) / g.cell_px;
+    for (const auto& p : *opt.scans[k]) {
+      const Eigen::Vector3f q =
+          pose.topLeftCorner<3, 3>() * p.getVector3fMap() + pose.topRightCorner<3, 1>();
+      const Eigen::Vector2d to = px(view(q.data())) / g.cell_px, d = to - from;
+      const std::int64_t end = cellOf(to);
+      const int steps = std::max(1, static_cast<int>(std::ceil(2.0 * d.norm())));
+      for (std::int64_t s = 0, last = -1; s < steps; ++s) {
+        const std::int64_t c = cellOf(from + d * (static_cast<double>(s) / steps));
+        if (c >= 0 && c != last && c != end)
+          ++visits[static_cast<std::size_t>(c)];
+        last = c;
+      }
+      if (end >= 0)
+        ++hits[static_cast<std::size_t>(end)], ++visits[static_cast<std::size_t>(end)];
+    }
+  }
+  g.top.assign(cells, -1e30f);
+  for (std::size_t c = 0; c < cells; ++c)
+    if (visits[c] > 0)
+      g.top[c] = static_cast<float>(hits[c]) / static_cast<float>(visits[c]);
+  return g;
+}
+
 /** Paints the canvas white and the grid's cells into the map area (w x h at pad). */
 void
 paintGrid(cairo_surface_t* surface,
@@ -398,6 +448,10 @@ paintGrid(cairo_surface_t* surface,
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x)
       put(x, y, 1, 1, 1);
+  if (style == "occupancy") // unknown: grey
+    for (int y = pad; y < pad + h; ++y)
+      for (int x = pad; x < pad + w; ++x)
+        put(x, y, 0.74, 0.76, 0.8);
   for (int gy = 0; gy < g.height; ++gy)
     for (int gx = 0; gx < g.width; ++gx) {
       const std::size_t c = static_cast<std::size_t>(gy) * g.width + gx;
@@ -408,6 +462,10 @@ paintGrid(cairo_surface_t* surface,
         // A wall or an object stands between floor and ceiling, over some height; a
         // sloping or noisy floor does not.
         const double grey = g.band_hi[c] - g.band_lo[c] >= 0.25 ? 0.25 : 0.84;
+        col = {grey, grey, grey};
+      }
+      else if (style == "occupancy") { // free white; a cell hit by 40 % of its rays black
+        const double grey = 1.0 - std::min(1.0, g.top[c] / 0.4);
         col = {grey, grey, grey};
       }
       else
@@ -452,7 +510,7 @@ drawTrajectory(cairo_t* cr,
              : cairo_line_to(cr, at[i].x(), at[i].y());
     if (pass == 0)
       cairo_set_source_rgb(cr, 1, 1, 1), cairo_set_line_width(cr, 4.5);
-    else if (style == "floorplan")
+    else if (style == "floorplan" || style == "occupancy")
       cairo_set_source_rgb(cr, 0.85, 0.0, 0.0), cairo_set_line_width(cr, 2.0);
     else
       cairo_set_source_rgb(cr, 0.1, 0.1, 0.1), cairo_set_line_width(cr, 2.0);
@@ -508,6 +566,11 @@ drawLegend(cairo_t* cr, const std::string& style, double lo, double hi, double r
   if (style == "floorplan") {
     cairo_move_to(cr, right - 300, y + 14);
     cairo_show_text(cr, "dark: walls and objects, grey: floor/ceiling");
+    return;
+  }
+  if (style == "occupancy") {
+    cairo_move_to(cr, right - 300, y + 14);
+    cairo_show_text(cr, "dark: walls, white: free space, grey: not seen");
     return;
   }
   const double lw = 160, lx = right - lw;
@@ -592,9 +655,15 @@ writeMapPicture(const std::string& path,
   const PixelFrame px{e.lo, e.hi, opt.size / span.maxCoeff()};
   const int w = std::max(1, static_cast<int>(std::ceil(span.x() * px.scale)));
   const int h = std::max(1, static_cast<int>(std::ceil(span.y() * px.scale)));
-  const std::string style =
-      opt.style == "auto" ? chooseStyle(map, trajectory, opt.up, opt.num_threads) : opt.style;
-  const HeightGrid grid = heightGrid(map, trajectory, traj, view, px, w, h, style, opt);
+  const std::string style = opt.style != "auto" ? opt.style
+                            : opt.scans.empty()
+                                ? chooseStyle(map, trajectory, opt.up, opt.num_threads)
+                                : "occupancy";
+  if (style == "occupancy" && opt.scans.size() != trajectory.size())
+    throw std::invalid_argument("writeMapPicture: the occupancy style needs a scan per pose");
+  const HeightGrid grid = style == "occupancy"
+                              ? occupancyGrid(trajectory, view, px, w, h, opt)
+                              : heightGrid(map, trajectory, traj, view, px, w, h, style, opt);
 
   // Canvas: the map, then a band with the legend's row and the caption, wrapped to the
   // canvas width (a tall, narrow map would cut long lines off).

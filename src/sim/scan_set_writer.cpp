@@ -254,8 +254,9 @@ writeScanSet(const SimulatedScanSet& set, const std::string& dir, ScanSetFormat 
                                 " scans but " + std::to_string(set.truth.size()) +
                                 " true and " + std::to_string(set.odometry.size()) +
                                 " odometry poses (or mismatched times)");
-  if (format == ScanSetFormat::Auto)
-    format = set.point_times.empty() ? ScanSetFormat::Uos : ScanSetFormat::Kitti;
+  if (format == ScanSetFormat::Auto) // 3DTK's frame has y up: 2D scans are KITTI's, z up
+    format = set.point_times.empty() && !isPlanar(set.scanner) ? ScanSetFormat::Uos
+                                                               : ScanSetFormat::Kitti;
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))

@@ -42,7 +42,9 @@ LoopCloser::LoopCloser(const Parameters& resolved)
   impl_->icp.setMaxCorrespondenceDistance(params.icp_distance);
   impl_->icp.setMaximumIterations(params.icp_iterations);
   impl_->icp.setTransformationEpsilon(params.icp_epsilon);
+  impl_->icp.setPlanar(resolved.planar);
   auto& lum = impl_->lum;
+  lum.setPlanar(resolved.planar);
   lum.setNumberOfThreads(num_threads_);
   lum.setCorrespondenceDistanceSchedule(
       params.lum_distance, std::min(params.lum_distance, params.lum_final_distance), 0.7);

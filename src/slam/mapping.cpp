@@ -193,11 +193,13 @@ mapDirectory(const io::ScanDirectory& scans,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return scan;
   };
+  Parameters p = params;
+  p.planar = p.planar || scans.planar;
   return mapScans(read,
                   scans.size(),
                   scans.odometry ? scans.initial : Poses(),
                   scans.has_stamps ? scans.stamps : std::vector<double>(),
-                  params,
+                  p,
                   options,
                   progress);
 }

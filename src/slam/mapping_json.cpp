@@ -48,6 +48,7 @@ parametersJson(const Parameters& p)
           {"sweep_clockwise", p.deskew.sweep_clockwise},
           {"pose_search", p.guess.pose_search},
           {"up", std::vector<double>{up.x(), up.y(), up.z()}},
+          {"planar", p.planar},
           {"close_loops", l.enabled}};
 }
 

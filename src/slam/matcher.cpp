@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -165,6 +166,7 @@ Matcher::Matcher(const Parameters& resolved)
     : params_(resolved.matcher)
     , keep_previous_(params_.target == MatchTarget::kPreviousScan ||
                      resolved.guess.guess_from_previous_scan)
+    , planar_(resolved.planar)
     , num_threads_(resolved.num_threads)
     , icp_(new Registration)
     , map_(params_.map_voxel_size,
@@ -184,6 +186,7 @@ Matcher::Matcher(const Parameters& resolved)
     icp->setTransformationEpsilon(params.transformation_epsilon);
     icp->setUsePointToPlane(params.point_to_plane);
     icp->setUseTargetNormalFields(!params.normals_from_map);
+    icp->setPlanar(resolved.planar);
   }
   if (params.adaptive_threshold) // KISS-ICP: min motion 0.1 m at 1 m voxels, max range
     icp_->threshold.reset(
@@ -208,15 +211,17 @@ Matcher::priorSpread() const
   if (!icp_->threshold || !params_.motion_prior)
     return std::nullopt;
   const registration::AdaptiveThreshold& th = *icp_->threshold;
+  constexpr double kFree = std::numeric_limits<double>::infinity();
   if (th.numDeviations() < kPriorSpreadSamples) { // the gate's sigma, rotation at max range
     const double sigma = gate() / 3.0;
-    return std::make_pair(sigma, sigma / th.maxRange());
+    return std::make_pair(sigma, planar_ ? kFree : sigma / th.maxRange());
   }
   // Translation and rotation each from their own deviations: the combined sigma is
   // dominated by rotation times max range (docs/design.md, "The motion prior's spread").
   // Below min motion a deviation is not measured, so neither is a spread.
   return std::make_pair(std::max(th.translationSigma(), th.minMotion()),
-                        std::max(th.rotationSigma(), th.minMotion() / th.maxRange()));
+                        planar_ ? kFree
+                                : std::max(th.rotationSigma(), th.minMotion() / th.maxRange()));
 }
 
 bool

@@ -16,6 +16,11 @@ namespace {
 /** The registered sample's voxel, in reduction voxels: KISS-ICP registers a 1.5x coarser
  *  sample than it keeps; ours is coarser still. The front end and the loop pICP share it. */
 constexpr double kSourceVoxels = 3.0;
+/** 2D scans (Parameters::planar) are lines of a few hundred points: their registered
+ *  sample is KISS-ICP's 1.5 voxels, and loops are looked for within 4 median ranges (a
+ *  corridor's median range is a metre or two, the drift around a floor's loop more). */
+constexpr double kPlanarSourceVoxels = 1.5;
+constexpr double kPlanarLoopRanges = 4.0;
 
 /** A length: the user's if set (> 0), else `automatic`. */
 double
@@ -39,7 +44,8 @@ resolve(const Parameters& p, double median_range)
   ReductionParameters& red = q.reduction;
   red.voxel_size = orAuto(red.voxel_size, r / 20.0);
   const double voxel = red.voxel_size;
-  red.source_voxel_size = orAuto(red.source_voxel_size, kSourceVoxels * voxel);
+  red.source_voxel_size =
+      orAuto(red.source_voxel_size, (p.planar ? kPlanarSourceVoxels : kSourceVoxels) * voxel);
 
   MatcherParameters& m = q.matcher;
   m.map_voxel_size = orAuto(m.map_voxel_size, 2.0 * voxel);
@@ -52,7 +58,7 @@ resolve(const Parameters& p, double median_range)
       m.max_correspondence_distance, orAuto(m.final_correspondence_distance, 2.0 * voxel));
 
   LoopClosureParameters& l = q.loops;
-  l.distance = orAuto(l.distance, r);
+  l.distance = orAuto(l.distance, p.planar ? kPlanarLoopRanges * r : r);
   l.overlap_distance = orAuto(l.overlap_distance, 2.0 * voxel);
   l.icp_distance = orAuto(l.icp_distance, m.max_correspondence_distance);
   if (l.icp_iterations <= 0)

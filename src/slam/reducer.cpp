@@ -32,12 +32,17 @@ scanTree(const Cloud& reduced, unsigned num_threads)
  *  lie along one ring, a nearly linear neighbourhood (docs/design.md, "Normals once per
  *  scan"). pLUM's estimator, by tree position, back in point order. */
 std::vector<Eigen::Vector3f>
-reducedNormals(const KdTreeIndex& tree, std::size_t num_points, unsigned num_threads)
+reducedNormals(const KdTreeIndex& tree,
+               std::size_t num_points,
+               unsigned num_threads,
+               const std::optional<Eigen::Vector3f>& plane_normal)
 {
   std::vector<Eigen::Vector3f> normals(num_points, Eigen::Vector3f::Zero());
   if (tree.empty())
     return normals;
-  const std::vector<Eigen::Vector3f> by_position = estimateUnitNormals(tree, 10, num_threads);
+  const std::vector<Eigen::Vector3f> by_position =
+      plane_normal ? estimateUnitNormals(tree, 10, num_threads, *plane_normal)
+                   : estimateUnitNormals(tree, 10, num_threads);
   for (std::uint32_t pos = 0; pos < tree.size(); ++pos)
     normals[tree.id(pos)] = by_position[pos];
   return normals;
@@ -45,10 +50,14 @@ reducedNormals(const KdTreeIndex& tree, std::size_t num_points, unsigned num_thr
 
 } // namespace
 
-Reducer::Reducer(double voxel_size, double source_voxel_size, unsigned num_threads)
+Reducer::Reducer(double voxel_size,
+                 double source_voxel_size,
+                 unsigned num_threads,
+                 const std::optional<Eigen::Vector3f>& plane_normal)
     : voxel_size_(voxel_size)
     , source_voxel_size_(source_voxel_size)
     , num_threads_(num_threads)
+    , plane_normal_(plane_normal)
 {}
 
 ReducedScan
@@ -71,7 +80,7 @@ Reducer::describe(ReducedScan& scan) const
   if (scan.tree)
     return;
   scan.tree = scanTree(*scan.reduced, num_threads_);
-  scan.normals = reducedNormals(*scan.tree, scan.reduced->size(), num_threads_);
+  scan.normals = reducedNormals(*scan.tree, scan.reduced->size(), num_threads_, plane_normal_);
 }
 
 MapCloud::Ptr

@@ -2,10 +2,12 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/io/g2o.h>
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/render/map_picture.h>
+#include <pcl_parallel/slam/pose_graph_se2.h>
 #include <pcl_parallel/slam/run_outputs.h>
 
 #include <cstdio>
@@ -107,6 +109,9 @@ writePicture(const std::string& dir,
   po.cell = o.map_voxel > 0.0 ? o.map_voxel : 0.05;
   po.loops = loopLinks(r);
   po.num_threads = o.num_threads;
+  if ((r.parameters.planar && o.style == "auto") || o.style == "occupancy")
+    for (std::size_t k = 0; k < scans.size(); ++k) // the occupancy style's rays
+      po.scans.push_back(io::readScan(scans, k));
   char line[256];
   std::snprintf(line,
                 sizeof line,
@@ -147,6 +152,10 @@ writeRunOutputs(const std::string& dir,
                         [&] {
                           report(progress, "write", 0, 1); // a stop between two complete files
                         });
+  if (result.parameters.planar) { // 2D: the pose graph for g2o
+    io::writeG2oSe2(join(dir, "graph.g2o"), result.final, measureLinksSe2(scans, result));
+    out.written.push_back("graph.g2o");
+  }
   report(progress, "write", 1, 1);
   const Cloud::Ptr map = writeMap(dir, scans, result, options, progress, out.written);
   out.map_points = map->size();

@@ -75,6 +75,14 @@ bad_input(out_holds_other_files INPUT "an --out holding files no run wrote (they
   FILE out/notes.md "mine\n"
   EXIT 2 MESSAGE "the output directory holds what no run wrote (notes.md)"
   ARGS run @TINY@ -q --out @IN@/out)
+bad_input(log_with_poses INPUT "a 2D laser log with --poses (the log holds its odometry)"
+  FILE log.clf "FLASER 3 1 1 1 0 0 0 0 0 0 1 h 1\nFLASER 3 1 1 1 1 0 0 1 0 0 2 h 2\n"
+  EXIT 2 MESSAGE "log.clf: a CARMEN log holds its own odometry and time stamps"
+  ARGS run @IN@/log.clf --poses @IN@/log.clf -q --out @OUT@)
+bad_input(log_too_few_scans INPUT "a 2D laser log whose robot never moves (one scan kept)"
+  FILE log.clf "FLASER 3 1 1 1 0 0 0 0 0 0 1 h 1\nFLASER 3 1 1 1 0 0 0 0 0 0 2 h 2\n"
+  EXIT 2 MESSAGE "log.clf: 1 of its 2 selected laser scans"
+  ARGS run @IN@/log.clf -q --out @OUT@)
 
 # Data (exit 1): the message names the file (and line).
 bad_input(no_scans INPUT "a directory without scan files"
@@ -85,6 +93,9 @@ bad_input(empty_scan INPUT "an empty scan file"
 bad_input(non_numeric INPUT "a text scan with a word for a number"
   FILE a.xyz "0 0 1\n1 0 1\n0 1 1\n" FILE b.xyz "0 0 1\nfoo bar baz\n"
   EXIT 1 MESSAGE "b.xyz:2: column 1 is not a number" ARGS run @IN@ --out @OUT@)
+bad_input(bad_log_line INPUT "a 2D laser log with a line of too few fields"
+  FILE log.clf "FLASER 3 1 1 1 0 0 0 0 0 0 1 h 1\nFLASER 3 1 1\n"
+  EXIT 1 MESSAGE "log.clf:2: " ARGS run @IN@/log.clf -q --out @OUT@)
 bad_input(no_finite_points INPUT "a scan of NaN points only"
   FILE a.xyz "0 0 1\n1 0 1\n0 1 1\n" FILE b.xyz "nan nan nan\n"
   EXIT 1 MESSAGE "b.xyz: no finite points" ARGS run @IN@ --out @OUT@)

@@ -66,6 +66,7 @@ def test_parameters_named_as_in_cpp():
     assert p.parameters["matcher"]["max_iterations"] == 20
     assert p.parameters["loops"]["enabled"] is False and p.resolved_parameters is None
     assert len(p) == 0 and p.poses.shape == (0, 4, 4) and p.map().shape == (0, 3)
+    assert d["planar"] is False and pp.Pipeline(planar=True).parameters["planar"] is True
 
 
 @pytest.mark.parametrize("kwargs, word", [
@@ -80,6 +81,7 @@ def test_parameters_named_as_in_cpp():
     ({"loops": 3}, "loops"),
     ({"threads": 2.0}, "threads"),
     ({"median_range": -1.0}, "median_range"),
+    ({"planar": 1}, "planar"),
 ])
 def test_bad_parameters_raise_value_error(kwargs, word):
     with pytest.raises(ValueError, match=word.replace(".", r"\.")):

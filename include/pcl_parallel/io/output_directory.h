@@ -26,7 +26,7 @@ struct OutputDirectoryError : std::runtime_error {
 using OutputNamePredicate = std::function<bool(const std::string& name)>;
 
 /** The files `pcl_pslam run` writes: scanNNN.frames, poses*.txt, map.{pcd,ply,png},
- *  map_rankN.{pcd,ply}, report.json. */
+ *  map_rankN.{pcd,ply}, graph.g2o, report.json. */
 bool
 isRunOutputName(const std::string& name);
 

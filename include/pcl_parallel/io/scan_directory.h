@@ -9,6 +9,7 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <limits>
 #include <optional>
 #include <stdexcept>
@@ -18,7 +19,9 @@
 /* A directory of scans as 3DTK's slam6D and KITTI lay them out: the scan files of one
  * format, numbered by their names, with odometry (3DTK .pose files beside the scans, or a
  * KITTI / TUM poses file) and time stamps (times.txt), checked so that every problem is
- * one message naming the file. The scans themselves are read one at a time (readScan). */
+ * one message naming the file. The scans themselves are read one at a time (readScan).
+ * A 2D laser log (CARMEN .clf, .clf.bz2) is opened as such a directory: its laser scans
+ * taken where the robot moved or turned enough, with their odometry and time stamps. */
 
 namespace pcl_parallel {
 namespace io {
@@ -53,6 +56,11 @@ struct ScanDirectoryOptions {
   std::optional<double> scale; ///< coordinates times this are metres (default: .3d 0.01)
   int up = -1;                 ///< vertical axis (-1: .3d y, else z)
   bool no_poses = false;       ///< ignore the .pose files beside .3d scans
+  /** A CARMEN log (`dir` names a .clf or .clf.bz2 file): a laser scan is kept where the
+   *  odometry moved at least min_travel (m) or turned at least min_turn (rad) since the
+   *  last scan kept, the first scan always. 0 and 0: every scan. */
+  double min_travel = 0.2;
+  double min_turn = 10.0 * M_PI / 180.0; ///< rad; see min_travel
 };
 
 /** The selected scan files of a directory with their initial poses and time stamps. */
@@ -70,6 +78,13 @@ struct ScanDirectory {
   bool frames_3dtk = false; ///< data in 3DTK's frame and units: .frames in those
   double min_range = 0.0;   ///< files' units
   double max_range = std::numeric_limits<double>::infinity(); ///< files' units
+  /** 2D scans (slam::Parameters::planar): every point of the first scan lies in the
+   *  scanner's x-y plane, `up` being z (a CARMEN log's always do). */
+  bool planar = false;
+  /** A log's scans, read with it (readScan returns copies); empty for a directory. */
+  std::vector<pcl::PointCloud<pcl::PointXYZ>::Ptr> clouds;
+  /** A log's laser scans before the selection by motion (0: a directory). */
+  std::size_t log_scans = 0;
 
   /** Number of selected scans. */
   std::size_t
@@ -82,10 +97,17 @@ struct ScanDirectory {
 /** The scan files of o.dir selected by first/last, sorted as a user numbered them
  *  (scan2 before scan10, as 3DTK's scanNNN; else by name), numbered by the numbers in
  *  their names where every file has a distinct one (else their positions), with their
- *  initial poses and time stamps; no scan is read yet. Throws ScanDirectoryUsageError or
- *  ScanDataError (above). */
+ *  initial poses and time stamps; only the first scan is read (is it 2D?). Where o.dir
+ *  names a CARMEN log (isCarmenLogName): its laser scans in time order, numbered from 0,
+ *  selected by first/last and then by motion (min_travel, min_turn), each with the
+ *  laser's odometry pose and its time stamp; poses_file, times_file, format, scale and up
+ *  do not apply to it. Throws ScanDirectoryUsageError or ScanDataError (above). */
 ScanDirectory
 openScanDirectory(const ScanDirectoryOptions& o);
+
+/** True for a CARMEN log's name: .clf or .clf.bz2 (any case). */
+bool
+isCarmenLogName(const std::string& path);
 
 /** Scan k of `in`, in metres, within the range limits; with `point_times`, the points'
  *  times from the file's time field (loadScan), or none. Throws ScanDataError naming the

@@ -50,18 +50,25 @@ robustExtent(const std::vector<Eigen::Vector2d>& points,
 
 /** How writeMapPicture draws the map. */
 struct PictureOptions {
-  int up = 2;                 ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
-  std::string style = "auto"; ///< height, floorplan, auto
-  int size = 1400;            ///< pixels on the long side of the map area
-  double radius = 30.0;       ///< metres, for robustExtent
-  double cell = 0.1;          ///< metres: points fill cells of this size (the map's voxel)
+  int up = 2; ///< vertical axis (0 x, 1 y, 2 z); the view looks down it
+  /** height, floorplan, occupancy (needs `scans`) or auto (occupancy with scans, else
+   *  chooseStyle). */
+  std::string style = "auto";
+  /** For the occupancy style (2D scans): each trajectory pose's scan in its scanner frame.
+   *  Per cell, the share of the rays reaching it that end there: walls dark, free space
+   *  light, cells no ray reached grey. */
+  std::vector<Cloud::ConstPtr> scans;
+  int size = 1400;      ///< pixels on the long side of the map area
+  double radius = 30.0; ///< metres, for robustExtent
+  double cell = 0.1;    ///< metres: points fill cells of this size (the map's voxel)
   std::vector<std::string> caption;                           ///< lines under the map
   std::vector<std::pair<std::uint32_t, std::uint32_t>> loops; ///< drawn as links
   unsigned num_threads = 0; ///< for the per-point passes; 0: all cores
 };
 
 /** Writes the PNG (map and trajectory in metres) under a temporary name, then renamed (io::
- *  writeAtomically). Returns the style used ("height" or "floorplan"). Throws
+ *  writeAtomically). Returns the style used ("height", "floorplan" or "occupancy"). Throws
+ *  std::invalid_argument for the occupancy style without a scan per pose, and
  *  std::runtime_error naming the file when it cannot be written. */
 std::string
 writeMapPicture(const std::string& path,

@@ -25,7 +25,10 @@ namespace sim {
  *             uneven ground, one loop (Table II);
  * - kitti:    420 scans x ~120k points, a 64-beam lidar at 10 Hz taking raw (skewed)
  *             scans while driving 9 m/s around a block over uneven ground and a ramp, the
- *             last ~40 m revisiting the start (see SimulatedScanSet for the sweep times).
+ *             last ~40 m revisiting the start (see SimulatedScanSet for the sweep times);
+ * - office2d, hannover2d: 150 and 800 scans x ~170 points, a horizontal 2D scanner (180
+ *             beams, 1 degree, 80 m; the CARMEN logs' SICK) on a robot driving the office
+ *             loop and the building's corridors, wheel odometry (paper Sec. VII).
  * Every preset has drifting odometry: per step of length L, Gaussian errors of
  * translation_noise * L along and across the heading and heading_noise * L in yaw,
  * composed onto the true step (pitch and roll come from the truth, as from an IMU).

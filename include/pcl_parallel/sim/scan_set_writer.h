@@ -17,7 +17,7 @@ namespace pcl_parallel {
 namespace sim {
 
 /** Which files writeScanSet writes: Auto is Kitti for a set taken while moving (it has
- *  point_times), Uos otherwise. */
+ *  point_times) or by a 2D scanner (isPlanar: 3DTK's frame has y up), Uos otherwise. */
 enum class ScanSetFormat { Auto, Uos, Kitti, Pcd };
 
 /** The format named "auto", "uos", "kitti" or "pcd"; throws std::invalid_argument. */

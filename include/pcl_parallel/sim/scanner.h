@@ -39,7 +39,8 @@ namespace sim {
  * min_range is dropped.
  */
 struct ScannerModel {
-  /** The scan patterns: a spinning head (columns of beams), or Kurt3D's tilting line scanner. */
+  /** The scan patterns: a spinning head (columns of beams), or Kurt3D's tilting line scanner.
+   */
   enum class Pattern { Spherical, TiltingLine };
   /** Which pattern. */
   Pattern pattern = Pattern::Spherical;
@@ -62,6 +63,15 @@ struct ScannerModel {
    *  of its points, from the pose at that time. 0: stop-and-go, one pose a scan. */
   double sweep_period = 0.0;
 };
+
+/** True for a horizontal 2D scanner: a TiltingLine at one level pitch, whose points lie
+ *  in its x-y plane (the 2D presets; written as KITTI scan sets, z up). */
+inline bool
+isPlanar(const ScannerModel& s)
+{
+  return s.pattern == ScannerModel::Pattern::TiltingLine && s.azimuth_steps == 1 &&
+         s.min_elevation == 0.0;
+}
 
 /** The unit direction of ray (column, row) in the scanner's frame. */
 Eigen::Vector3d

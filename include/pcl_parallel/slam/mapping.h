@@ -137,7 +137,8 @@ struct DirectoryReading {
 };
 
 /** mapScans over a directory's scans, each read (io::readScan) when the pipeline takes it,
- *  with the directory's odometry and time stamps where it has them. Per-point times are
+ *  with the directory's odometry and time stamps where it has them, planar for 2D scans
+ *  (io::ScanDirectory::planar). Per-point times are
  *  read with params.deskew; without it the first scan's only, so that `reading` tells the
  *  caller whether the scans carry them. */
 MappingResult

@@ -118,12 +118,15 @@ public:
 private:
   struct Registration;
   /** The motion prior's standard deviations where pICP takes one (adaptive threshold and
-   *  motion_prior): translation and rotation (rad). */
+   *  motion_prior): translation and rotation (rad; infinite for 2D scans, whose walls fix
+   *  the heading while wheel odometry's heading error is biased: docs/design.md, "2D
+   *  logs"). */
   std::optional<std::pair<double, double>>
   priorSpread() const;
 
   MatcherParameters params_;
   bool keep_previous_; ///< for matches to the previous scan (the target, or the guess's)
+  bool planar_;        ///< Parameters::planar
   unsigned num_threads_;
   std::unique_ptr<Registration> icp_;
   LocalMap map_;

@@ -148,6 +148,12 @@ struct Parameters {
   /** The scans' median range r, which sets the automatic lengths and converts rotations
    *  to displacements; auto: the first scan's. */
   double median_range = 0.0;
+  /** The paper's 2D special case (Sec. VII): the scans are a 2D scanner's, in its plane
+   *  normal to guess.up, and it moves in that plane. pICP and pLUM solve for the
+   *  translation in the plane and the heading alone, and normals lie in the plane (the
+   *  walls' lines). mapDirectory sets it for a directory's 2D scans (io::ScanDirectory::
+   *  planar). */
+  bool planar = false;
   unsigned num_threads = 0; ///< 0: all cores
 };
 

@@ -7,6 +7,10 @@
 #include <pcl_parallel/slam/scan_record.h>
 #include <pcl_parallel/slam/types.h>
 
+#include <Eigen/Core>
+
+#include <optional>
+
 namespace pcl_parallel {
 namespace slam {
 
@@ -18,8 +22,12 @@ namespace slam {
 class Reducer {
 public:
   /** A reducer at \a voxel_size (kept points) and \a source_voxel_size (registered sample) on
-   *  \a num_threads threads. */
-  Reducer(double voxel_size, double source_voxel_size, unsigned num_threads);
+   *  \a num_threads threads; with \a plane_normal, of 2D scans in the plane normal to it
+   *  (Parameters::planar), whose normals lie in that plane. */
+  Reducer(double voxel_size,
+          double source_voxel_size,
+          unsigned num_threads,
+          const std::optional<Eigen::Vector3f>& plane_normal = std::nullopt);
 
   /** The deskewed scan reduced at voxel_size; no tree or normals yet (describe). */
   ReducedScan
@@ -31,7 +39,8 @@ public:
   source(const ReducedScan& scan) const;
 
   /** Builds the scan's one k-d tree and its normals (PCA of each reduced point's 10
-   *  nearest reduced points, zero where degenerate), unless built. */
+   *  nearest reduced points, zero where degenerate; of 2D scans, within their plane),
+   *  unless built. */
   void
   describe(ReducedScan& scan) const;
 
@@ -39,6 +48,7 @@ private:
   double voxel_size_;
   double source_voxel_size_;
   unsigned num_threads_;
+  std::optional<Eigen::Vector3f> plane_normal_;
 };
 
 /** The reduced points with their normals, NaN where none (pICP then skips a pair there),

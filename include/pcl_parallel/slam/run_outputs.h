@@ -19,10 +19,12 @@ namespace slam {
 
 /** What writeRunOutputs writes beside the poses. */
 struct RunOutputOptions {
-  double map_voxel = 0.1;     ///< map.pcd's voxel (m); 0: every point
-  bool ply = false;           ///< also map.ply
-  bool picture = true;        ///< map.png
-  std::string style = "auto"; ///< map.png: height, floorplan or auto (render::chooseStyle)
+  double map_voxel = 0.1; ///< map.pcd's voxel (m); 0: every point
+  bool ply = false;       ///< also map.ply
+  bool picture = true;    ///< map.png
+  /** map.png: height, floorplan, occupancy (2D scans) or auto (2D scans: occupancy, else
+   *  render::chooseStyle). */
+  std::string style = "auto";
   std::vector<std::string> caption; ///< map.png's lines after the run's own
   unsigned num_threads = 0;         ///< 0: all cores
 };
@@ -36,7 +38,8 @@ struct RunOutputs {
 
 /**
  * Writes into `dir`: scanNNN.frames (in the files' units where the scans came in 3DTK's),
- * poses.txt and poses_icp.txt (KITTI), poses_tum.txt and poses_icp_tum.txt (TUM), the map of
+ * poses.txt and poses_icp.txt (KITTI), poses_tum.txt and poses_icp_tum.txt (TUM), for a 2D
+ * run graph.g2o (VERTEX_SE2 at the final poses, EDGE_SE2 per link: measureLinksSe2), the map of
  * every scan at the final poses (assembleMap) as map.pcd (and map.ply), and map.png with a
  * caption (scans, map points, loops, pLUM iterations, then options.caption). Under MPI
  * (result.spread.ranks > 1) the map is the ranks' tiles (writeMapTile) read back for map.png.
