@@ -188,6 +188,17 @@ for p in "${presets[@]}"; do
   job "map-$p" "$pslam" demo --preset "$p" --quiet -o "$results/map-$p"
 done
 
+# 2D (paper Sec. VII): the 2D presets against their truth, and the three CARMEN logs as they
+# come, each against its recorded duration.
+for p in office2d hannover2d; do
+  job "map-$p" "$pslam" demo --preset "$p" --quiet -t "$max_threads" -o "$results/map-$p"
+done
+for log in intel fr079 mit-csail; do
+  [[ -f $data/radish_2d/$log.clf.bz2 ]] &&
+    job "log-$log" "$pslam" run "$data/radish_2d/$log.clf.bz2" --quiet -t "$max_threads" \
+      -o "$results/log-$log"
+done
+
 # MPI: pLUM on the bunny over ranks, and (full run) the pipeline on hannover over ranks.
 if ((mpi)) && [[ -x $mpi_bench ]] && command -v mpirun >/dev/null; then
   mpirun_=(mpirun --oversubscribe --bind-to none)

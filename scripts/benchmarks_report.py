@@ -9,6 +9,7 @@ numbers are quoted from its tables (PAPER below, with their places in the paper)
 Python 3 standard library and matplotlib (Debian's python3-matplotlib).
 """
 import argparse
+import json
 import re
 import shutil
 import sys
@@ -53,6 +54,8 @@ PAPER_RIEGL_ICP_PARTS = {2: {1: 20750, 2: 10985, 4: 10938},
                          6: {1: 134031, 2: 77390, 4: 77047}}
 
 PRESETS = ["office", "riegl", "hannover", "kitti", "kitti-cv"]
+PRESETS_2D = ["office2d", "hannover2d"]
+LOGS_2D = ["intel", "fr079", "mit-csail"]
 PRESET_TITLES = {"office": "office", "riegl": "riegl", "hannover": "hannover",
                  "kitti": "kitti (odometry)", "kitti-cv": "kitti (no odometry)"}
 
@@ -463,10 +466,12 @@ class Report:
         return self.save(fig, "pipeline_stages.png")
 
     def copy_maps(self):
-        """pcl_pslam demo's map.png per preset (top view, trajectory in red)."""
+        """pcl_pslam's map.png per preset and 2D log (top view, trajectory in red)."""
         done = []
-        for preset in PRESETS:
+        for preset in PRESETS + PRESETS_2D + LOGS_2D:
             src = self.results / f"map-{preset}" / "map.png"
+            if not src.exists():
+                src = self.results / f"log-{preset}" / "map.png"
             if not src.exists():
                 continue
             dst = self.images / f"map_{preset}.png"
@@ -785,6 +790,7 @@ class Report:
                  "[ICP](#icp) · [LUM](#lum) · [contention](#contention-more-threads-beside-"
                  "other-processes) · [the pipeline](#pcl_pslam-the-mapping-pipeline-on-the-"
                  "presets) · [simulation](#simulation) · [memory](#memory) · [MPI](#mpi) · "
+                 "[2D](#2d-the-presets-and-the-carmen-logs) · "
                  "[Python](#python-the-gil-released) · [accuracy studies](#accuracy-studies)")
 
         doc.add("## k-d tree", "")
@@ -860,14 +866,17 @@ class Report:
         self.emit_runs(doc, names)
         if "pipeline_stages.png" in plots:
             doc.para("![the pipeline's time per stage per preset](images/pipeline_stages.png)")
-        if maps:
-            cmds = [self.display_command(self.run(f"map-{p}")) for p in maps]
+        maps_3d = [p for p in maps if p in PRESETS]
+        if maps_3d:
+            cmds = [self.display_command(self.run(f"map-{p}")) for p in maps_3d]
             doc.para("The maps (`pcl_pslam demo`: top view, the trajectory from the green disc "
                      "to the black ring, the errors against the truth in the caption; the "
                      "README shows the office map):")
             doc.code("\n".join(cmds))
-            for p in maps:
+            for p in maps_3d:
                 doc.para(f"![pcl_pslam demo --preset {p}](images/map_{p}.png)")
+
+        self.write_2d(doc, maps)
 
         doc.add("## Simulation", "")
         doc.para("Wall time to simulate each preset of `sim/presets.h` (ray casting, poses, "
@@ -986,6 +995,55 @@ class Report:
                    "waiting [s]", "loop det. [s]", "loop closing [s]",
                    "ATE front end / final [cm]", "sent outside pLUM (scans sent)",
                    "kept per rank: scans (MB, peak RSS)"], rows)
+
+    def write_2d(self, doc, maps):
+        """The 2D presets against their truth and the CARMEN logs against their durations."""
+        doc.add("## 2D: the presets and the CARMEN logs", "")
+        doc.para("The paper's 2D special case (Sec. VII): `pcl_pslam demo` on the 2D presets "
+                 "(a horizontal 180-beam scanner on a robot with wheel odometry; the errors "
+                 "against the truth) and `pcl_pslam run` on the three logs of "
+                 "`../shared/data/radish_2d` as they come (scans kept where the robot moved "
+                 "0.2 m or turned 10°). \"Recorded\" is the time from the first to the last "
+                 "kept scan's stamp.")
+        runs = [self.run(f"map-{p}") for p in PRESETS_2D] + [self.run(f"log-{log}")
+                                                            for log in LOGS_2D]
+        if not any(r.ran for r in runs):
+            doc.para("Not measured in this run.")
+            return
+        doc.code("\n".join(self.display_command(r) for r in runs if r.ran))
+        doc.para(self.machine_line(runs))
+        rows = []
+        for preset in PRESETS_2D:
+            path = self.results / f"map-{preset}" / "report.json"
+            if not path.exists():
+                continue
+            rep = json.loads(path.read_text())
+            err = rep.get("errors_against_truth", {})
+            cell = lambda k: (f"{err[k]['ate_m'] * 100:.1f} cm, {err[k]['ate_deg']:.2f}°"
+                              if k in err else "—")
+            rows.append([preset, str(len(rep["scans"])), cell("odometry"), cell("front_end"),
+                         cell("final"), f"{rep['total_seconds']:.1f}"])
+        if rows:
+            doc.table(["preset", "scans", "odometry ATE", "front end ATE", "final ATE",
+                       "run [s]"], rows)
+        runs = runs[len(PRESETS_2D):]
+        rows = []
+        for log, r in zip(LOGS_2D, runs):
+            path = self.results / f"log-{log}" / "report.json"
+            if not r.ok or not path.exists():
+                rows.append([log, f"failed (exit {r.meta.get('rc')})"] + [""] * 5)
+                continue
+            rep = json.loads(path.read_text())
+            stamps = [sc["stamp"] for sc in rep["scans"]]
+            recorded, seconds = stamps[-1] - stamps[0], rep["total_seconds"]
+            rows.append([log, str(len(stamps)), str(len(rep["loops"])), f"{seconds:.1f}",
+                         f"{recorded:.0f}", f"1/{recorded / seconds:.0f}",
+                         str(rep["map"]["points"])])
+        doc.table(["log", "scans kept", "loop links", "run [s]", "recorded [s]",
+                   "run / recorded", "map points (0.1 m)"], rows)
+        for name in PRESETS_2D + LOGS_2D:
+            if name in maps:
+                doc.para(f"![{name}](images/map_{name}.png)")
 
     def write(self):
         self.images.mkdir(parents=True, exist_ok=True)

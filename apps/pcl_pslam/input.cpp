@@ -61,11 +61,10 @@ void
 useDemoScans(Options& o, const DemoScans& scans)
 {
   o.dir = scans.dir;
-  if (scans.moving) { // KITTI-like: odometry.txt beside, raw sweeps
-    if (!o.no_poses)
-      o.poses_file = (fs::path(scans.dir) / "odometry.txt").string();
-    o.deskew = true;
-  }
+  // A KITTI-like set (sweeps taken while moving, 2D scans) has odometry.txt beside.
+  if (std::error_code ec; !o.no_poses && fs::exists(fs::path(scans.dir) / "odometry.txt", ec))
+    o.poses_file = (fs::path(scans.dir) / "odometry.txt").string();
+  o.deskew = o.deskew || scans.moving; // raw sweeps
 }
 
 } // namespace pcl_pslam

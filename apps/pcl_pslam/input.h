@@ -42,8 +42,8 @@ struct DemoScans {
 DemoScans
 simulateDemo(const Options& o);
 
-/** Points o.dir at the demo's scans (and, for sweeps taken while moving, o.poses_file and
- *  o.deskew). */
+/** Points o.dir at the demo's scans, o.poses_file at their odometry.txt where they have one
+ *  (KITTI-like sets), and sets o.deskew for sweeps taken while moving. */
 void
 useDemoScans(Options& o, const DemoScans& scans);
 
