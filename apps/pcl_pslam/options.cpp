@@ -81,10 +81,8 @@ struct Descriptions {
       ("up", po::value<std::string>()->value_name("x|y|z"),
        "the vertical axis [default z; uos: y]")
       ("min-travel", po::value<double>(&o.min_travel)->value_name("M"),
-       "a 2D laser log: a scan is kept where the odometry moved M metres or turned "
-       "--min-turn since the last one kept [default 0.2]")
-      ("min-turn", po::value<double>()->value_name("DEG"),
-       "a 2D laser log: see --min-travel [default 10]");
+       "a 2D log: keep a scan where the odometry moved M m or turned --min-turn [default 0.2]")
+      ("min-turn", po::value<double>()->value_name("DEG"), "see --min-travel [default 10]");
     // clang-format on
   }
 
@@ -177,13 +175,12 @@ struct Descriptions {
        "voxel size of map.pcd/map.ply [default: -r when given, else 0.1 m]")
       ("no-picture", "do not write map.png")
       ("style", po::value<std::string>(&o.style)->value_name("S"),
-       "map.png: height (colour = height above the trajectory), floorplan (walls dark, "
-       "for indoor scans), occupancy (rays from the poses: free space light, walls dark; "
-       "for 2D scans), auto (2D scans: occupancy; else floorplan when most poses see a "
-       "ceiling) [default auto]");
+       "map.png: height (colour = height above the trajectory), floorplan (walls dark), "
+       "occupancy (2D: the scans' rays), auto (2D: occupancy; floorplan when most poses "
+       "see a ceiling) [default auto]");
     general.add_options()
       ("preset", po::value<std::string>(&o.preset)->value_name("NAME"),
-       "demo: the simulated preset to map (office, hannover, riegl, kitti) [default office]")
+       "demo: the simulated preset to map (pcl_pslam simulate --list) [default office]")
       ("keep", po::value<std::string>(&o.keep)->value_name("DIR"),
        "demo: write the simulated scans to DIR and keep them [default: a temporary folder]")
       ("threads,t", po::value<unsigned>(&o.threads)->value_name("N"),
@@ -317,9 +314,8 @@ helpText(const std::string& command)
        "scanNNN.frames\n"
        "(3DTK, per scan: initial, ICP and final pose, 4x4 column-major + type code; uos\n"
        "data in 3DTK's units), poses.txt / poses_icp.txt (KITTI), poses_tum.txt /\n"
-       "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), graph.g2o (2D: the pose graph,\n"
-       "VERTEX_SE2 and EDGE_SE2), map.pcd (binary), map.ply (--ply),\n"
-       "map.png (top view), report.json (parameters, per-scan numbers, stage times).\n\n"
+       "poses_icp_tum.txt (TUM: time x y z qx qy qz qw), graph.g2o (2D: the pose graph),\n"
+       "map.pcd, map.ply (--ply), map.png, report.json (parameters, per-scan numbers).\n\n"
     << "Ranges (out of range: exit 2 naming the option; lengths in the files' units):\n";
   std::string line;
   for (const Range& r : kRanges) {
@@ -419,8 +415,8 @@ checkOutputOptions(Options& o, const po::variables_map& vm)
 {
   o.picture = vm.count("no-picture") == 0;
   o.style = lowerCase(o.style);
-  if (o.style != "auto" && o.style != "height" && o.style != "floorplan" &&
-      o.style != "occupancy")
+  if (const char* s[] = {"auto", "height", "floorplan", "occupancy"};
+      std::find(std::begin(s), std::end(s), o.style) == std::end(s))
     throw UsageError("--style needs auto, height, floorplan or occupancy, got '" + o.style +
                      "'");
   if (o.out.empty())

@@ -30,12 +30,6 @@ namespace pcl_pslam {
 
 namespace {
 
-std::string
-join(const std::string& dir, const std::string& name)
-{
-  return (fs::path(dir) / name).string();
-}
-
 /** The odometry's (where the run had one), the front end's and the final poses' errors
  *  against the simulation's truth: the console, map.png and report.json give the same. */
 std::vector<ev::NamedEvaluation>
@@ -177,9 +171,10 @@ writeOutputs(const Options& o,
   if (!outputs.picture_style.empty())
     j["picture_style"] = outputs.picture_style;
   j["outputs"] = written;
-  pcl_parallel::io::writeStreamAtomically(join(dir, "report.json"), [&](std::ostream& out) {
-    out << j.dump(2, ' ', false, json::error_handler_t::replace) << '\n';
-  });
+  pcl_parallel::io::writeStreamAtomically(
+      (fs::path(dir) / "report.json").string(), [&](std::ostream& out) {
+        out << j.dump(2, ' ', false, json::error_handler_t::replace) << '\n';
+      });
   written.push_back("report.json");
   return written;
 }
