@@ -19,6 +19,13 @@
 namespace pcl_parallel {
 namespace slam {
 
+namespace {
+/** 2D loop matches: the largest share of either scan's points that may lie in the space
+ *  the other saw through (people walking by, doors); a match shifted along a corridor or
+ *  into the next room of one size puts walls there. */
+constexpr double kMaxLoopConflicts = 0.05;
+} // namespace
+
 struct LoopCloser::Impl {
   ParallelLUM<PointT> lum;
   ParallelIterativeClosestPoint<PointT, PointT, double> icp;
@@ -31,6 +38,8 @@ LoopCloser::LoopCloser(const Parameters& resolved)
     : params_(resolved.loops)
     , median_range_(resolved.median_range)
     , source_voxel_size_(resolved.reduction.source_voxel_size)
+    , planar_up_(resolved.planar ? std::optional<Eigen::Vector3d>(resolved.guess.up)
+                                 : std::nullopt)
     , num_threads_(resolved.num_threads)
     , impl_(new Impl)
 {
@@ -218,7 +227,7 @@ LoopCloser::matchPair(std::uint32_t i)
 {
   const std::size_t j = scans_.size() - 1;
   share(i, owner(j));
-  std::vector<double> result(18, 0.0);
+  std::vector<double> result(19, 0.0);
   if (owns(j)) {
     const Cloud::ConstPtr target =
         scans_[i] ? scans_[i] : Cloud::ConstPtr(impl_->lum.getPointCloud(i));
@@ -234,6 +243,12 @@ LoopCloser::matchPair(std::uint32_t i)
       result[0] = 1.0;
       Pose::Map(&result[1]) = measured;
       result[17] = overlap(*scans_[j], measured, *impl_->trees[i], params_.overlap_distance);
+      if (planar_up_) // either scan's points in the space the other saw through
+        result[18] =
+            std::max(FreeSpace(*target, *planar_up_)
+                         .conflicts(*scans_[j], measured, params_.overlap_distance),
+                     FreeSpace(*scans_[j], *planar_up_)
+                         .conflicts(*target, measured.inverse(), params_.overlap_distance));
     }
   }
   if (exchange_)
@@ -284,8 +299,10 @@ LoopCloser::detect()
     for (std::size_t k = i + 1; k <= j; ++k)
       path +=
           registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k], median_range_);
-    c.accepted = c.overlap >= params_.min_overlap &&
-                 c.error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path);
+    c.accepted =
+        c.overlap >= params_.min_overlap &&
+        c.error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path) &&
+        match[18] <= kMaxLoopConflicts;
   }
   if (c.accepted) {
     c.distributed = params_.distribute_error && c.error > params_.overlap_distance;

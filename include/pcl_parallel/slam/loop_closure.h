@@ -8,6 +8,7 @@
 #include <pcl_parallel/slam/types.h>
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 namespace pcl_parallel {
@@ -200,6 +201,9 @@ private:
   LoopClosureParameters params_;
   double median_range_;      ///< converts a rotation error to a displacement
   double source_voxel_size_; ///< the newer scan's sample when a loop pair is matched
+  /** 2D scans (Parameters::planar): a loop match must also agree with the space each
+   *  scan saw through (FreeSpace), about this vertical. */
+  std::optional<Eigen::Vector3d> planar_up_;
   unsigned num_threads_;
   std::unique_ptr<Impl> impl_;
   std::shared_ptr<ScanExchange> exchange_;
