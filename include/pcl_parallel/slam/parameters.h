@@ -150,9 +150,11 @@ struct Parameters {
   double median_range = 0.0;
   /** The paper's 2D special case (Sec. VII): the scans are a 2D scanner's, in its plane
    *  normal to guess.up, and it moves in that plane. pICP and pLUM solve for the
-   *  translation in the plane and the heading alone, and normals lie in the plane (the
-   *  walls' lines). mapDirectory sets it for a directory's 2D scans (io::ScanDirectory::
-   *  planar). */
+   *  translation in the plane and the heading alone, normals lie in the plane (the walls'
+   *  lines), the motion prior holds the translation only, loop matches must agree with
+   *  the space both scans saw through, and resolve() sets a finer registered sample and a
+   *  wider loop distance (docs/design.md, "2D logs"). mapDirectory sets it for a
+   *  directory's 2D scans (io::ScanDirectory::planar). */
   bool planar = false;
   unsigned num_threads = 0; ///< 0: all cores
 };
