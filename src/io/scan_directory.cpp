@@ -9,6 +9,7 @@
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/io/uos.h>
+#include <pcl_parallel/pose_math.h>
 #include <pcl_parallel/slam/preprocess.h>
 
 #include <algorithm>
@@ -290,8 +291,8 @@ movedEnough(const Eigen::Matrix4d& from,
             const ScanDirectoryOptions& o)
 {
   const Eigen::Matrix4d step = from.inverse() * to;
-  const double turn = std::abs(std::atan2(step(1, 0), step(0, 0)));
-  return step.topRightCorner<3, 1>().norm() >= o.min_travel || turn >= o.min_turn;
+  return step.topRightCorner<3, 1>().norm() >= o.min_travel ||
+         rotationAngle(step.topLeftCorner<3, 3>()) >= o.min_turn;
 }
 
 /** A CARMEN log's request: what a directory's options mean for it. */

@@ -139,12 +139,15 @@ effectiveScans(const Cloud& source,
   return count * count / sum_sqr;
 }
 
-/** pICP's body-frame Hessian (rotation first) over the residual variance, in the pose
- *  graph's order (translation first). */
+} // namespace
+
 Information
-information(const Eigen::Matrix<double, 6, 6>& hessian, double error, double weight)
+matchInformation(const Eigen::Matrix<double, 6, 6>& hessian,
+                 double error,
+                 double weight,
+                 double min_weight)
 {
-  if (!(weight > 6.0) || !hessian.allFinite())
+  if (!(weight > min_weight) || !hessian.allFinite())
     return Information::Zero();
   const double variance = std::max(error / weight, 1e-12);
   Information out;
@@ -152,8 +155,6 @@ information(const Eigen::Matrix<double, 6, 6>& hessian, double error, double wei
       hessian.topRightCorner<3, 3>(), hessian.topLeftCorner<3, 3>();
   return out / variance;
 }
-
-} // namespace
 
 struct Matcher::Registration {
   // The target's normals come with it (setUseTargetNormalFields): estimated once per scan.
@@ -309,7 +310,8 @@ Matcher::measure(ScanRecord& r, const Cloud& source)
   Icp& icp = to_map ? icp_->icp : icp_->to_previous;
   ScanReport& report = r.report;
   report.fitness = icp.getFitnessScore(report.gate * report.gate); // squared, as PCL's
-  r.information = information(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
+  r.information =
+      matchInformation(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
   r.information_pairs = icp.getFinalWeight();
   // The map's tree, built over map_.cloud(), whose points' scans map_.scans() holds.
   const auto* tree =

@@ -33,11 +33,7 @@ struct Pipeline::Stages {
       : motion(p.deskew.sweep_period, p.reduction.voxel_size)
       , deskewer(
             p.deskew.enabled, p.deskew.sweep_clockwise, p.reduction.voxel_size, p.num_threads)
-      , reducer(p.reduction.voxel_size,
-                p.reduction.source_voxel_size,
-                p.num_threads,
-                p.planar ? std::optional<Eigen::Vector3f>(p.guess.up.cast<float>())
-                         : std::nullopt)
+      , reducer(p)
       , matcher(p)
       , guess(p, matcher, reducer, motion)
   {}

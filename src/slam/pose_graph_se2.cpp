@@ -4,10 +4,10 @@
  */
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/registration/icp.h>
+#include <pcl_parallel/slam/matcher.h>
 #include <pcl_parallel/slam/pose_graph_se2.h>
 #include <pcl_parallel/slam/reducer.h>
 
-#include <algorithm>
 #include <stdexcept>
 
 namespace pcl_parallel {
@@ -15,19 +15,19 @@ namespace slam {
 
 namespace {
 
-/** pICP's body-frame Hessian (rotation first) over the residual variance, in g2o's
- *  SE(2) order (x, y, yaw). */
+/** The (x, y, yaw) block of a planar match's information (matchInformation, translation
+ *  first), exactly symmetric as g2o's upper triangle takes it. */
 Eigen::Matrix3d
-planarInformation(const Eigen::Matrix<double, 6, 6>& hessian, double error, double weight)
+planarInformation(const ParallelIterativeClosestPoint<PointT, MapPoint, float>& icp)
 {
-  if (!(weight > 3.0) || !hessian.allFinite())
-    return Eigen::Matrix3d::Zero();
-  const int rows[3] = {3, 4, 2};
+  const Information full =
+      matchInformation(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight(), 3.0);
+  const int rows[3] = {0, 1, 5};
   Eigen::Matrix3d out;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      out(i, j) = hessian(rows[i], rows[j]);
-  return 0.5 * (out + out.transpose()) / std::max(error / weight, 1e-12); // exactly symmetric
+      out(i, j) = full(rows[i], rows[j]);
+  return 0.5 * (out + out.transpose());
 }
 
 } // namespace
@@ -38,10 +38,7 @@ measureLinksSe2(const io::ScanDirectory& scans, const MappingResult& result)
   const Parameters& p = result.parameters;
   if (!p.planar)
     throw std::invalid_argument("measureLinksSe2: the run was not planar");
-  const Reducer reducer(p.reduction.voxel_size,
-                        p.reduction.source_voxel_size,
-                        p.num_threads,
-                        p.guess.up.cast<float>());
+  const Reducer reducer(p);
   std::vector<ReducedScan> reduced(scans.size());
   for (std::size_t k = 0; k < scans.size(); ++k) {
     reduced[k] = reducer.reduce(*io::readScan(scans, k));
@@ -66,10 +63,7 @@ measureLinksSe2(const io::ScanDirectory& scans, const MappingResult& result)
     e.from = target;
     e.to = source;
     e.measurement = icp.hasConverged() ? Pose(icp.getFinalTransformationDouble()) : guess;
-    e.information = icp.hasConverged() ? planarInformation(icp.getFinalHessian(),
-                                                           icp.getFinalError(),
-                                                           icp.getFinalWeight())
-                                       : Eigen::Matrix3d::Zero();
+    e.information = icp.hasConverged() ? planarInformation(icp) : Eigen::Matrix3d::Zero();
     edges.push_back(e);
   }
   return edges;

@@ -60,6 +60,14 @@ Reducer::Reducer(double voxel_size,
     , plane_normal_(plane_normal)
 {}
 
+Reducer::Reducer(const Parameters& resolved)
+    : Reducer(resolved.reduction.voxel_size,
+              resolved.reduction.source_voxel_size,
+              resolved.num_threads,
+              resolved.planar ? std::optional<Eigen::Vector3f>(resolved.guess.up.cast<float>())
+                              : std::nullopt)
+{}
+
 ReducedScan
 Reducer::reduce(const Cloud& deskewed) const
 {

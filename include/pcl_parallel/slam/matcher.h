@@ -21,6 +21,16 @@ class KdTree;
 
 namespace slam {
 
+/** What a pICP match says about the pose (the pose graph's information, ScanRecord::
+ *  information): its body-frame Hessian (rotation first) over the residual variance
+ *  error / weight, reordered translation first. Zero for a non-finite Hessian or a
+ *  `weight` (robust pairs) of at most `min_weight`. */
+Information
+matchInformation(const Eigen::Matrix<double, 6, 6>& hessian,
+                 double error,
+                 double weight,
+                 double min_weight = 6.0);
+
 /** The previous scan as the front end keeps it, in its own frame (its pose is the motion
  *  model's last pose). */
 struct PreviousScan {

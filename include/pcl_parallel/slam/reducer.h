@@ -4,6 +4,7 @@
  */
 #pragma once
 
+#include <pcl_parallel/slam/parameters.h>
 #include <pcl_parallel/slam/scan_record.h>
 #include <pcl_parallel/slam/types.h>
 
@@ -28,6 +29,10 @@ public:
           double source_voxel_size,
           unsigned num_threads,
           const std::optional<Eigen::Vector3f>& plane_normal = std::nullopt);
+
+  /** The reducer of resolved parameters: their voxels and threads, of 2D scans in the plane
+   *  normal to guess.up where they are planar. */
+  explicit Reducer(const Parameters& resolved);
 
   /** The deskewed scan reduced at voxel_size; no tree or normals yet (describe). */
   ReducedScan
