@@ -121,6 +121,13 @@ TEST(Parameters, ResolveSetsTheAutomaticLengthsFromTheMedianRange)
   EXPECT_DOUBLE_EQ(q.loops.icp_distance, 0.3);
   EXPECT_EQ(q.loops.icp_iterations, 80);
   EXPECT_DOUBLE_EQ(q.loops.lum_distance, 1.0);
+
+  // 2D scans: the registered sample at 1.5 voxels, loops within 4 r.
+  slam::Parameters planar;
+  planar.planar = true;
+  const slam::Parameters two_d = slam::resolve(planar, 8.0);
+  EXPECT_DOUBLE_EQ(two_d.reduction.source_voxel_size, 0.6);
+  EXPECT_DOUBLE_EQ(two_d.loops.distance, 32.0);
 }
 
 TEST(Parameters, BadScaleOrSweepPeriodAndUnresolvedStagesAreRefused)
@@ -133,6 +140,12 @@ TEST(Parameters, BadScaleOrSweepPeriodAndUnresolvedStagesAreRefused)
   EXPECT_THROW(slam::resolve(p, 8.0), std::invalid_argument);
   p.deskew.sweep_period = std::numeric_limits<double>::infinity();
   EXPECT_THROW(slam::resolve(p, 8.0), std::invalid_argument);
+  slam::Parameters planar; // the planar modes move in the x-y plane
+  planar.planar = true;
+  planar.guess.up = Eigen::Vector3d::UnitY();
+  EXPECT_THROW(slam::resolve(planar, 8.0), std::invalid_argument);
+  planar.guess.up = -Eigen::Vector3d::UnitZ();
+  EXPECT_NO_THROW(slam::resolve(planar, 8.0));
   EXPECT_THROW(slam::Matcher{slam::Parameters()}, std::invalid_argument);
   EXPECT_THROW(slam::LoopCloser{slam::Parameters()}, std::invalid_argument);
 }

@@ -36,6 +36,9 @@ resolve(const Parameters& p, double median_range)
 {
   if (!(p.deskew.sweep_period >= 0.0 && std::isfinite(p.deskew.sweep_period)))
     throw std::invalid_argument("DeskewParameters::sweep_period must be zero or positive");
+  if (p.planar && !(p.guess.up.head<2>().isZero() && p.guess.up.z() != 0.0))
+    throw std::invalid_argument("Parameters::planar: pICP and pLUM move in the x-y plane, so "
+                                "guess.up must be z");
   Parameters q = p;
   const double r = orAuto(p.median_range, median_range);
   if (!(r > 0.0 && std::isfinite(r)))

@@ -39,8 +39,7 @@ namespace sim {
  * min_range is dropped.
  */
 struct ScannerModel {
-  /** The scan patterns: a spinning head (columns of beams), or Kurt3D's tilting line scanner.
-   */
+  /** The scan patterns: a spinning head (columns of beams), or Kurt3D's tilting line. */
   enum class Pattern { Spherical, TiltingLine };
   /** Which pattern. */
   Pattern pattern = Pattern::Spherical;

@@ -160,8 +160,8 @@ struct Parameters {
 };
 
 /** `p` with every automatic length set from median range `r` (p.median_range where it is
- *  set). Throws std::invalid_argument for r <= 0 or a negative or non-finite sweep
- *  period. */
+ *  set). Throws std::invalid_argument for r <= 0, a negative or non-finite sweep period,
+ *  or `planar` with an up axis other than z. */
 Parameters
 resolve(const Parameters& p, double median_range);
 
