@@ -229,6 +229,23 @@ TEST(FreeSpace, PointsInFrontOfWhatTheScanSawContradictIt)
   EXPECT_EQ(seen.conflicts(Cloud(), Pose::Identity(), 0.1), 0.0);
 }
 
+// A wall along the scanner's view (y = 1, x from 1 to 20 m), its points 0.5 m apart as a
+// reduced scan keeps them: a bin at a grazing angle holds one point from its far end, yet
+// the beams did not pass the wall there. The same wall sampled between those points does
+// not contradict it; the wall doubled 0.3 m nearer does, where the first one was seen.
+TEST(FreeSpace, AWallSeenAtAGrazingAngleIsNotFreeSpaceInFrontOfItsPoints)
+{
+  const auto wallAt = [](double y, double first) {
+    Cloud wall;
+    for (double x = first; x <= 20.0; x += 0.5)
+      wall.push_back(pcl::PointXYZ(static_cast<float>(x), static_cast<float>(y), 0.0f));
+    return wall;
+  };
+  const slam::FreeSpace seen(wallAt(1.0, 1.0), Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(seen.conflicts(wallAt(1.0, 1.25), Pose::Identity(), 0.1), 0.0);
+  EXPECT_GT(seen.conflicts(wallAt(0.7, 1.25), Pose::Identity(), 0.1), 0.5);
+}
+
 // A scan of the courtyard against itself: none at the true pose, and a station's scan
 // put 4 m off (walls into the open yard) contradicts it far more than at its own pose.
 // Bad settings throw.

@@ -212,6 +212,40 @@ TEST(Pipeline, PlanarScansOfATwoDScannerMapInThePlane)
   EXPECT_LT(ate(run.final), ate(set.odometry) / 3);
 }
 
+// Revisits of the office2d loop: at the true poses the scans agree (no scan's walls in the
+// space another saw through), at the drifting odometry's the walls double; the same
+// figures for 1 and 2 threads.
+TEST(RevisitConsistency, TheTrueMapAgreesWhereTheOdometryDoublesWalls)
+{
+  const sim::SimulatedScanSet set =
+      presetScans("office2d", test::kSanitized ? 50 : 150, test::kSanitized ? 3 : 1);
+  const std::vector<slam::Cloud::ConstPtr> scans(set.scans.begin(), set.scans.end());
+  slam::Parameters p;
+  p.planar = true;
+  p.num_threads = 2;
+  slam::Parameters r = slam::resolve(p, slam::medianRange(*set.scans.front()));
+  const slam::RevisitConsistency truth = slam::revisitConsistency(scans, set.truth, r),
+                                 odometry = slam::revisitConsistency(scans, set.odometry, r);
+  std::printf(
+      "revisits: truth %zu pairs, %.4f mean, %zu conflicting; odometry %zu, %.4f, %zu\n",
+      truth.pairs,
+      truth.mean_conflicts,
+      truth.conflicting,
+      odometry.pairs,
+      odometry.mean_conflicts,
+      odometry.conflicting);
+  ASSERT_GT(truth.pairs, 10u);
+  EXPECT_LT(truth.mean_conflicts, 0.01);
+  EXPECT_LE(truth.conflicting, truth.pairs / 20);
+  EXPECT_GT(odometry.mean_conflicts, 5.0 * truth.mean_conflicts + 0.02);
+  EXPECT_GT(odometry.conflicting, odometry.pairs / 4);
+  r.num_threads = 1;
+  const slam::RevisitConsistency one = slam::revisitConsistency(scans, set.odometry, r);
+  EXPECT_EQ(one.pairs, odometry.pairs);
+  EXPECT_EQ(one.conflicting, odometry.conflicting);
+  EXPECT_EQ(one.mean_conflicts, odometry.mean_conflicts);
+}
+
 TEST(Segments, SplitSequenceCoversItWithOverlap)
 {
   const auto s = slam::splitSequence(10, 4, 3);

@@ -78,6 +78,19 @@ findings(const MappingResult& r, const std::vector<int>& numbers)
                   kOdometryDisagreementSteps);
     found.push_back({text, true});
   }
+  // Where the scanner came back: scans whose walls lie in the space another saw through.
+  if (r.consistency.pairs > 0) {
+    std::snprintf(text,
+                  sizeof text,
+                  "revisits: %zu of %zu revisiting scans put over %.0f %% of their points into "
+                  "the free space of the scan they came back to (front end: %zu); "
+                  "report.json: consistency",
+                  r.consistency.conflicting,
+                  r.consistency.pairs,
+                  100.0 * kMaxLoopConflicts,
+                  r.consistency_icp.conflicting);
+    found.push_back({text, false});
+  }
   const std::vector<std::size_t> notable = notableSequenceSteps(r);
   if (!notable.empty()) {
     std::string worst;

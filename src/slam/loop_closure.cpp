@@ -4,6 +4,7 @@
  */
 #include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/lum.h>
@@ -18,13 +19,6 @@
 
 namespace pcl_parallel {
 namespace slam {
-
-namespace {
-/** 2D loop matches: the largest share of either scan's points that may lie in the space
- *  the other saw through (people walking by, doors); a match shifted along a corridor or
- *  into the next room of one size puts walls there. */
-constexpr double kMaxLoopConflicts = 0.05;
-} // namespace
 
 struct LoopCloser::Impl {
   ParallelLUM<PointT> lum;
@@ -244,11 +238,8 @@ LoopCloser::matchPair(std::uint32_t i)
       Pose::Map(&result[1]) = measured;
       result[17] = overlap(*scans_[j], measured, *impl_->trees[i], params_.overlap_distance);
       if (planar_up_) // either scan's points in the space the other saw through
-        result[18] =
-            std::max(FreeSpace(*target, *planar_up_)
-                         .conflicts(*scans_[j], measured, params_.overlap_distance),
-                     FreeSpace(*scans_[j], *planar_up_)
-                         .conflicts(*target, measured.inverse(), params_.overlap_distance));
+        result[18] = mutualConflicts(
+            *target, *scans_[j], measured, *planar_up_, params_.overlap_distance);
     }
   }
   if (exchange_)
@@ -395,6 +386,40 @@ loopCandidates(
   for (const auto& n : near)
     out.push_back(n.second);
   return out;
+}
+
+RevisitConsistency
+revisitConsistency(const std::vector<Cloud::ConstPtr>& scans,
+                   const Poses& poses,
+                   const Parameters& resolved)
+{
+  const LoopClosureParameters& l = resolved.loops;
+  const std::size_t n = std::min(scans.size(), poses.size());
+  std::vector<double> conflicts(n, -1.0); // per newer scan; -1: no pair
+  parallelFor(n, resolved.num_threads, 8, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t j = begin; j < end; ++j) {
+      const auto near =
+          loopCandidates(poses, j, l.distance, l.min_separation, resolved.median_range);
+      if (near.empty() || !scans[j] || !scans[near.front()])
+        continue;
+      const std::uint32_t i = near.front();
+      conflicts[j] = mutualConflicts(*scans[i],
+                                     *scans[j],
+                                     Pose(poses[i].inverse() * poses[j]),
+                                     resolved.guess.up,
+                                     l.overlap_distance);
+    }
+  });
+  RevisitConsistency c;
+  for (const double share : conflicts) // in scan order: the same sum for any thread count
+    if (share >= 0.0) {
+      ++c.pairs;
+      c.mean_conflicts += share;
+      c.conflicting += share > kMaxLoopConflicts ? 1 : 0;
+    }
+  if (c.pairs > 0)
+    c.mean_conflicts /= static_cast<double>(c.pairs);
+  return c;
 }
 
 void

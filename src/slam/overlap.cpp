@@ -47,6 +47,27 @@ FreeSpace::FreeSpace(const Cloud& scan, const Eigen::Vector3d& up, double bin)
     if (const long b = binOf(point.getVector3fMap().cast<double>(), range); b >= 0)
       nearest_[b] = std::min(nearest_[b], static_cast<float>(range));
   }
+  seenAround();
+}
+
+void
+FreeSpace::seenAround()
+{
+  // A wall seen at a grazing angle spans far more range within one bin than the reduced
+  // points in it show; the nearest of the neighbouring bins bounds what was seen through.
+  std::vector<float> seen = nearest_;
+  for (int a = 0; a < azimuths_; ++a)
+    for (int e = 0; e < elevations_; ++e) {
+      float& s = seen[static_cast<std::size_t>(a) * elevations_ + e];
+      if (!std::isfinite(s)) // not seen: stays so
+        continue;
+      for (int da = -1; da <= 1; ++da)
+        for (int de = std::max(-e, -1); de <= 1 && e + de < elevations_; ++de) {
+          const int n = (a + da + azimuths_) % azimuths_; // azimuth wraps around
+          s = std::min(s, nearest_[static_cast<std::size_t>(n) * elevations_ + e + de]);
+        }
+    }
+  nearest_.swap(seen);
 }
 
 long
@@ -77,6 +98,17 @@ FreeSpace::conflicts(const Cloud& source, const Pose& pose, double margin) const
     in_front += b >= 0 && std::isfinite(nearest_[b]) && range < nearest_[b] - margin ? 1 : 0;
   }
   return source.empty() ? 0.0 : static_cast<double>(in_front) / source.size();
+}
+
+double
+mutualConflicts(const Cloud& a,
+                const Cloud& b,
+                const Pose& b_in_a,
+                const Eigen::Vector3d& up,
+                double margin)
+{
+  return std::max(FreeSpace(a, up).conflicts(b, b_in_a, margin),
+                  FreeSpace(b, up).conflicts(a, b_in_a.inverse(), margin));
 }
 
 } // namespace slam

@@ -21,6 +21,12 @@ namespace slam {
  *  its information (16.8119). */
 constexpr double kChi2Quantile99SixDof = 16.812;
 
+/** The largest share of either scan's points that may lie in the space the other saw
+ *  through (mutualConflicts) for two scans to agree: people walking by, doors. A match
+ *  shifted along a corridor or into the next room of one size, or a doubled wall, puts
+ *  walls there. 2D loop links are kept only below it. */
+constexpr double kMaxLoopConflicts = 0.05;
+
 /** A loop link that was tried, and what became of it. */
 struct LoopCandidate {
   /** The candidate link. */
@@ -224,6 +230,26 @@ private:
 std::vector<std::uint32_t>
 loopCandidates(
     const Poses& poses, std::size_t j, double distance, int min_separation, double range);
+
+/** How well a map agrees with itself where the scanner came back: each scan j paired with
+ *  its nearest loopCandidates scan i (as loop closing seeks them, at the poses given),
+ *  the pair's mutualConflicts. Single walls give a few percent (people, doors, what one
+ *  scan saw past the other's edge); a doubled wall puts one scan's wall into the other's
+ *  free space. */
+struct RevisitConsistency {
+  std::size_t pairs = 0;       ///< revisits measured
+  double mean_conflicts = 0.0; ///< mean share of conflicting points over the pairs
+  std::size_t conflicting = 0; ///< pairs above kMaxLoopConflicts
+};
+
+/** RevisitConsistency of `poses` with the scans' reduced points (scanner frame; pairs with
+ *  a null scan are left out) and resolved parameters' loop distance, min_separation,
+ *  median range, overlap_distance (the margin), up axis and threads. The same for any
+ *  thread count. */
+RevisitConsistency
+revisitConsistency(const std::vector<Cloud::ConstPtr>& scans,
+                   const Poses& poses,
+                   const Parameters& resolved);
 
 /** Closes a loop before relaxation: the poses of scans i+1..j move by growing shares of
  *  the correction that puts j where `measured` (j's pose in i's frame) says, by path

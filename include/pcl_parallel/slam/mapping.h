@@ -92,6 +92,9 @@ struct MappingResult {
   int relaxations = 0;             ///< pLUM runs
   /** With odometry: odometryDisagreement (none: too few steps, or too short). */
   std::optional<double> odometry_disagreement;
+  /** Where the scanner came back: revisitConsistency of the final poses, and of the front
+   *  end's (what loop closing started from). */
+  RevisitConsistency consistency, consistency_icp;
   std::size_t bytes_per_scan = 0; ///< kept by the pipeline
   Parameters parameters;          ///< as resolved (lengths in m)
   MappingOptions mapping;         ///< how the sequence was spread

@@ -38,8 +38,8 @@ public:
 
   /** Fraction of `source`'s points, moved by `pose` into the scan's frame, that lie more
    *  than `margin` nearer the scanner than the scan's nearest point in their direction
-   *  (directions without a point count as not seen). 0 for an empty source; throws
-   *  std::invalid_argument for a negative or NaN margin. */
+   *  and the eight around it (directions without a point count as not seen). 0 for an empty
+   * source; throws std::invalid_argument for a negative or NaN margin. */
   double
   conflicts(const Cloud& source, const Pose& pose, double margin) const;
 
@@ -49,6 +49,9 @@ public:
   static constexpr double kMinBin = 0.001;
 
 private:
+  /** Each seen bin's range becomes the nearest of it and its eight neighbours. */
+  void
+  seenAround();
   /** The bin of direction p, or -1 for p at the origin; `range` is p's norm. */
   long
   binOf(const Eigen::Vector3d& p, double& range) const;
@@ -57,6 +60,16 @@ private:
   int azimuths_ = 0, elevations_ = 0;
   std::vector<float> nearest_; ///< per bin; +inf where the scan has no point
 };
+
+/** The larger share of either scan's points in the space the other saw through (FreeSpace,
+ *  directions binned about `up`), with b moved into a's frame by `b_in_a`: how much a
+ *  relative pose of two scans contradicts what they saw. */
+double
+mutualConflicts(const Cloud& a,
+                const Cloud& b,
+                const Pose& b_in_a,
+                const Eigen::Vector3d& up,
+                double margin);
 
 } // namespace slam
 } // namespace pcl_parallel
