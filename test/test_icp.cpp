@@ -1443,7 +1443,8 @@ TEST(ParallelIcpPlanar, PointToPointFindsTheStepInThePlane)
 }
 
 // Point-to-plane on a 2D scan: normals in the plane leave z, roll and pitch unconstrained,
-// so the 6x6 system is singular (reported, no step); its planar 3x3 block is not.
+// so the 6x6 system is singular (reported, no step); its planar 3x3 block is not, with
+// the target's normal fields or with the normals planar pICP estimates (in the plane).
 TEST(ParallelIcpPlanar, PointToPlaneSolvesWhatTheFullSystemCannot)
 {
   const Eigen::Matrix4d truth = rigid(5.0 * M_PI / 180.0, {0, 0, 1}, {0.25, -0.15, 0.0});
@@ -1460,6 +1461,16 @@ TEST(ParallelIcpPlanar, PointToPlaneSolvesWhatTheFullSystemCannot)
   const auto [deg, m] = poseDifference(r, truth);
   EXPECT_LT(deg, 0.02);
   EXPECT_LT(m, 1e-3);
+  PNIcp estimated;
+  estimated.setUsePointToPlane(true);
+  estimated.setPlanar(true);
+  estimated.setUseTargetNormalFields(false);
+  const Eigen::Matrix4d e = alignPlanarOutlines(estimated, truth, 50);
+  EXPECT_TRUE(estimated.hasConverged());
+  EXPECT_TRUE(exactlyPlanar(e)) << e;
+  const auto [deg_e, m_e] = poseDifference(e, truth);
+  EXPECT_LT(deg_e, 0.02);
+  EXPECT_LT(m_e, 1e-3);
 }
 
 // Eq. 11-13 in 2D against a brute-force search: the yaw minimising Σ w |m - R_z d - t|²

@@ -634,7 +634,8 @@ TEST(LumMath, PlanarSolveIsTheDenseSystemsPlanarBlock)
 
 // pLUM on a horizontal 2D scanner's scans (z = 0, walls of a room with an inner wall) from
 // planar poses off by up to 2 degrees and 5 cm: in planar mode the poses end at the truth
-// and exactly in the plane, bit-identical for one and two threads.
+// and exactly in the plane, bit-identical for one and two threads; point-to-plane with
+// the normals it estimates (in the plane: point-to-line) as well.
 TEST_F(QuietPcl, PlanarPlumKeepsTwoDScansInThePlane)
 {
   const Poses truth = {makePose(0, 0, 0, 0, 0, 0),
@@ -673,9 +674,11 @@ TEST_F(QuietPcl, PlanarPlumKeepsTwoDScansInThePlane)
   Poses start = truth;
   for (std::size_t v = 1; v < start.size(); ++v)
     start[v] = makePose(0.05 * u(rng), 0.05 * u(rng), 0, 0, 0, 2.0 * kDeg * u(rng)) * truth[v];
-  const auto run = [&](unsigned threads) {
+  std::vector<Eigen::Vector3f> normals; // of scan 1, as point-to-plane estimated them
+  const auto run = [&](unsigned threads, bool point_to_plane) {
     ParallelLUM<pcl::PointXYZ> lum;
     lum.setPlanar(true);
+    lum.setPointToPlane(point_to_plane);
     lum.setNumberOfThreads(threads);
     for (std::size_t v = 0; v < scene.clouds.size(); ++v)
       lum.addPointCloud(scene.clouds[v], Eigen::Matrix4f(start[v].cast<float>()));
@@ -684,22 +687,33 @@ TEST_F(QuietPcl, PlanarPlumKeepsTwoDScansInThePlane)
     lum.setCorrespondenceDistanceSchedule(0.3, 0.03, 0.7);
     lum.setMaxIterations(40);
     lum.compute();
+    normals = lum.getPointNormals(1);
     return poseMatricesOf(lum);
   };
-  const Poses got = run(1);
-  for (std::size_t v = 0; v < got.size(); ++v) {
-    const Eigen::Matrix4d& p = got[v];
-    EXPECT_TRUE(p(2, 0) == 0.0 && p(2, 1) == 0.0 && p(0, 2) == 0.0 && p(1, 2) == 0.0 &&
-                p(2, 2) == 1.0 && p(2, 3) == 0.0)
-        << "vertex " << v << " leaves the plane:\n"
-        << p;
+  for (const bool point_to_plane : {false, true}) {
+    SCOPED_TRACE(point_to_plane ? "point-to-plane" : "point-to-point");
+    const Poses got = run(1, point_to_plane);
+    for (std::size_t v = 0; v < got.size(); ++v) {
+      const Eigen::Matrix4d& p = got[v];
+      EXPECT_TRUE(p(2, 0) == 0.0 && p(2, 1) == 0.0 && p(0, 2) == 0.0 && p(1, 2) == 0.0 &&
+                  p(2, 2) == 1.0 && p(2, 3) == 0.0)
+          << "vertex " << v << " leaves the plane:\n"
+          << p;
+    }
+    const Errors e = poseErrors(got, truth);
+    EXPECT_LT(e.max_rot, 0.02 * kDeg);
+    EXPECT_LT(e.max_trans, 2e-3);
+    const Poses two = run(2, point_to_plane);
+    for (std::size_t v = 0; v < got.size(); ++v)
+      EXPECT_EQ(two[v], got[v]) << "vertex " << v;
   }
-  const Errors e = poseErrors(got, truth);
-  EXPECT_LT(e.max_rot, 0.02 * kDeg);
-  EXPECT_LT(e.max_trans, 2e-3);
-  const Poses two = run(2);
-  for (std::size_t v = 0; v < got.size(); ++v)
-    EXPECT_EQ(two[v], got[v]) << "vertex " << v;
+  // Normal to the walls' lines: in the plane and of unit length (each neighbourhood spreads
+  // along its wall, or round a corner).
+  ASSERT_EQ(normals.size(), scene.clouds[1]->size());
+  std::size_t in_plane = 0;
+  for (const auto& n : normals)
+    in_plane += std::abs(n.z()) < 1e-6f && std::abs(n.norm() - 1.0f) < 1e-5f ? 1 : 0;
+  EXPECT_EQ(in_plane, normals.size());
 }
 
 // Links in both directions (a -> b and b -> a) and repeated links, as users add loops:

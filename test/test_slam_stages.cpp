@@ -122,12 +122,15 @@ TEST(Parameters, ResolveSetsTheAutomaticLengthsFromTheMedianRange)
   EXPECT_EQ(q.loops.icp_iterations, 80);
   EXPECT_DOUBLE_EQ(q.loops.lum_distance, 1.0);
 
-  // 2D scans: the registered sample at 1.5 voxels, loops within 4 r.
+  // 2D scans: the registered sample at 1.5 voxels, loops within 4 r, the front end's
+  // normals from the local map (3D: from each scan unless asked).
   slam::Parameters planar;
   planar.planar = true;
   const slam::Parameters two_d = slam::resolve(planar, 8.0);
   EXPECT_DOUBLE_EQ(two_d.reduction.source_voxel_size, 0.6);
   EXPECT_DOUBLE_EQ(two_d.loops.distance, 32.0);
+  EXPECT_TRUE(two_d.matcher.normals_from_map);
+  EXPECT_FALSE(slam::resolve(slam::Parameters(), 8.0).matcher.normals_from_map);
 }
 
 TEST(Parameters, BadScaleOrSweepPeriodAndUnresolvedStagesAreRefused)

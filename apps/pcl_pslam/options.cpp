@@ -144,7 +144,7 @@ struct Descriptions {
        "[default: clockwise from facing -x, as KITTI's Velodyne]")
       ("map-normals", po::bool_switch(&o.map_normals),
        "point-to-plane normals from the local map instead of each scan (sparse scanners, "
-       "e.g. Livox; slower on large maps)")
+       "e.g. Livox, and always for 2D scans; slower on large maps)")
       ("loop6DAlgo,L", po::value<int>(&o.elch)->value_name("NR"),
        "3DTK's loop closing before pLUM: 0 none, 1-4 ELCH (a loop's error spread along "
        "it by path length; 3DTK's 4, SLERP) [default 4]")

@@ -30,6 +30,7 @@ parametersJson(const Parameters& p)
           {"icp_final_distance_m", m.final_correspondence_distance},
           {"icp_adaptive_threshold", m.adaptive_threshold},
           {"icp_point_to_plane", m.point_to_plane},
+          {"icp_map_normals", m.normals_from_map},
           {"icp_iterations", m.max_iterations},
           {"icp_epsilon", m.transformation_epsilon},
           {"loop_distance_m", l.distance},

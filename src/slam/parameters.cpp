@@ -51,6 +51,7 @@ resolve(const Parameters& p, double median_range)
       orAuto(red.source_voxel_size, (p.planar ? kPlanarSourceVoxels : kSourceVoxels) * voxel);
 
   MatcherParameters& m = q.matcher;
+  m.normals_from_map = m.normals_from_map || p.planar;
   m.map_voxel_size = orAuto(m.map_voxel_size, 2.0 * voxel);
   // The map reaches as far as the scans (KISS-ICP: max_range): a crop inside it cuts the
   // far walls that pin rotations (docs/design.md, "Local map").

@@ -199,10 +199,12 @@ public:
    *  x-y plane, x, y and the yaw about z (Eq. 11-13 in 2D; point-to-plane: the planar
    *  block of its normal equations). For scans in that plane (a horizontal 2D scanner's,
    *  z = 0) and a planar guess, whose z, roll and pitch the result then keeps exactly.
-   *  Point-to-plane needs normals in the plane, e.g. from the target's normal fields. */
+   *  Point-to-plane normals it estimates lie in the plane (point-to-line); normal fields
+   *  used (setUseTargetNormalFields) must too. */
   void
   setPlanar(bool planar)
   {
+    normals_valid_ = normals_valid_ && planar == planar_;
     planar_ = planar;
   }
   /** True when the steps are planar (setPlanar). */

@@ -266,10 +266,14 @@ public:
   }
   /** The paper's 2D special case (Sec. VII): every pose update is a motion in the x-y
    *  plane (x, y and the yaw; G X = B reduced to those rows), for scans in that plane and
-   *  planar poses, whose z, roll and pitch then stay as they are. */
+   *  planar poses, whose z, roll and pitch then stay as they are. Point-to-plane normals
+   *  it estimates lie in the plane (normal to a wall's line). */
   void
   setPlanar(bool planar)
   {
+    if (planar != planar_) // estimated normals are of the other kind
+      for (std::size_t& k : normals_k_)
+        k = k == kGivenNormals ? k : 0;
     planar_ = planar;
   }
   /** True when the updates are planar (setPlanar). */

@@ -59,7 +59,8 @@ struct MatcherParameters {
   double transformation_epsilon = 1e-8; ///< [--epsICP] stop: squared change of the transform
   bool point_to_plane = true;           ///< else point-to-point
   /** Normals estimated on the local map after each refresh (for sparse, non-repetitive
-   *  patterns such as solid-state LiDARs'), not once per scan. */
+   *  patterns such as solid-state LiDARs', and 2D scans: resolve() sets it with
+   *  Parameters::planar), not once per scan. */
   bool normals_from_map = false;
   /** KISS-ICP's adaptive gate (Vizzo et al. 2023, Sec. III-C): 3 sigma of how far matches
    *  moved the scans from the motion prior, Geman-McClure kernel of scale sigma / 3. */
@@ -151,8 +152,9 @@ struct Parameters {
   /** The paper's 2D special case (Sec. VII): the scans are a 2D scanner's, in its plane
    *  normal to guess.up, and it moves in that plane. pICP and pLUM solve for the
    *  translation in the plane and the heading alone, normals lie in the plane (the walls'
-   *  lines), the motion prior holds the translation only, loop matches must agree with
-   *  the space both scans saw through, and resolve() sets a finer registered sample and a
+   *  lines) and the front end's come from the local map (a single line scan's are too
+   *  sparse and noisy), the motion prior holds the translation only, loop matches must agree
+   * with the space both scans saw through, and resolve() sets a finer registered sample and a
    *  wider loop distance (docs/design.md, "2D logs"). mapDirectory sets it for a
    *  directory's 2D scans (io::ScanDirectory::planar). */
   bool planar = false;

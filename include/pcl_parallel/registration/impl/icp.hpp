@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <typeinfo>
@@ -257,6 +258,15 @@ ParallelIterativeClosestPoint<PointSource, PointTarget, Scalar>::updateTargetNor
       });
       return;
     }
+  }
+  if (planar_) { // a 2D scan's points: normals in its plane, normal to the walls' lines
+    const std::vector<Eigen::Vector3f> unit =
+        estimateUnitNormals(target, normal_k_, num_threads_, Eigen::Vector3f::UnitZ());
+    target_normals_.assign(3 * unit.size(), std::numeric_limits<float>::quiet_NaN());
+    for (std::size_t pos = 0; pos < unit.size(); ++pos)
+      if (!unit[pos].isZero()) // zero: no line there
+        Eigen::Vector3f::Map(&target_normals_[3 * pos]) = unit[pos];
+    return;
   }
   estimateNormals(target, normal_k_, num_threads_, target_normals_);
 }

@@ -553,7 +553,10 @@ ParallelLUM<PointT>::buildTrees(const std::vector<char>* needed)
       std::vector<Eigen::Vector3f>().swap(given);
     }
     if (normals_k_[v] != kGivenNormals && normals_k_[v] != normal_neighbours_) {
-      normals_[v] = estimateUnitNormals(*trees_[v], normal_neighbours_, threads);
+      normals_[v] = planar_
+                        ? estimateUnitNormals(
+                              *trees_[v], normal_neighbours_, threads, Eigen::Vector3f::UnitZ())
+                        : estimateUnitNormals(*trees_[v], normal_neighbours_, threads);
       normals_k_[v] = normal_neighbours_;
     }
   }
