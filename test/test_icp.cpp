@@ -1452,25 +1452,19 @@ TEST(ParallelIcpPlanar, PointToPlaneSolvesWhatTheFullSystemCannot)
   full.setUsePointToPlane(true);
   alignPlanarOutlines(full, truth, 50);
   EXPECT_FALSE(full.hasConverged());
-  PNIcp planar;
-  planar.setUsePointToPlane(true);
-  planar.setPlanar(true);
-  const Eigen::Matrix4d r = alignPlanarOutlines(planar, truth, 50);
-  EXPECT_TRUE(planar.hasConverged());
-  EXPECT_TRUE(exactlyPlanar(r)) << r;
-  const auto [deg, m] = poseDifference(r, truth);
-  EXPECT_LT(deg, 0.02);
-  EXPECT_LT(m, 1e-3);
-  PNIcp estimated;
-  estimated.setUsePointToPlane(true);
-  estimated.setPlanar(true);
-  estimated.setUseTargetNormalFields(false);
-  const Eigen::Matrix4d e = alignPlanarOutlines(estimated, truth, 50);
-  EXPECT_TRUE(estimated.hasConverged());
-  EXPECT_TRUE(exactlyPlanar(e)) << e;
-  const auto [deg_e, m_e] = poseDifference(e, truth);
-  EXPECT_LT(deg_e, 0.02);
-  EXPECT_LT(m_e, 1e-3);
+  for (const bool fields : {true, false}) {
+    SCOPED_TRACE(fields ? "the target's normal fields" : "normals estimated");
+    PNIcp planar;
+    planar.setUsePointToPlane(true);
+    planar.setPlanar(true);
+    planar.setUseTargetNormalFields(fields);
+    const Eigen::Matrix4d r = alignPlanarOutlines(planar, truth, 50);
+    EXPECT_TRUE(planar.hasConverged());
+    EXPECT_TRUE(exactlyPlanar(r)) << r;
+    const auto [deg, m] = poseDifference(r, truth);
+    EXPECT_LT(deg, 0.02);
+    EXPECT_LT(m, 1e-3);
+  }
 }
 
 // Eq. 11-13 in 2D against a brute-force search: the yaw minimising Σ w |m - R_z d - t|²

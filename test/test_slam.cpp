@@ -184,7 +184,7 @@ TEST(Pipeline, FrontEndBeatsOdometry)
 
 // The paper's 2D special case (Sec. VII) on the office2d preset: a horizontal 2D scanner
 // on a robot with drifting wheel odometry. Planar, every pose keeps the odometry's
-// height, roll and pitch exactly; the map's poses lie within 3 cm of the truth, a third
+// height, roll and pitch exactly; the map's poses lie within 1 cm of the truth, a third
 // of the odometry's error or less.
 TEST(Pipeline, PlanarScansOfATwoDScannerMapInThePlane)
 {
@@ -208,7 +208,7 @@ TEST(Pipeline, PlanarScansOfATwoDScannerMapInThePlane)
               ate(set.odometry),
               ate(run.front_end),
               ate(run.final));
-  EXPECT_LT(ate(run.final), 0.03);
+  EXPECT_LT(ate(run.final), 0.01);
   EXPECT_LT(ate(run.final), ate(set.odometry) / 3);
 }
 
