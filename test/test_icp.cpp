@@ -1421,6 +1421,21 @@ exactlyPlanar(const Eigen::Matrix4d& t)
          t(2, 2) == 1.0 && t(2, 3) == 0.0;
 }
 
+/** `icp` made planar, on alignPlanarOutlines: converged, exactly in the plane, within
+ *  max_deg and max_m of `truth`; its result. */
+Eigen::Matrix4d
+expectPlanarStep(PNIcp& icp, const Eigen::Matrix4d& truth, double max_deg, double max_m)
+{
+  icp.setPlanar(true);
+  const Eigen::Matrix4d r = alignPlanarOutlines(icp, truth, 50);
+  EXPECT_TRUE(icp.hasConverged());
+  EXPECT_TRUE(exactlyPlanar(r)) << r;
+  const auto [deg, m] = poseDifference(r, truth);
+  EXPECT_LT(deg, max_deg);
+  EXPECT_LT(m, max_m);
+  return r;
+}
+
 // Point-to-point: the step found in the plane, and the same x, y and yaw as the
 // unrestricted 6-DOF pICP finds on the same flat data. The two samplings lie half a point
 // apart along the walls, which biases point-to-point's yaw by about 0.1 degrees.
@@ -1428,13 +1443,7 @@ TEST(ParallelIcpPlanar, PointToPointFindsTheStepInThePlane)
 {
   const Eigen::Matrix4d truth = rigid(5.0 * M_PI / 180.0, {0, 0, 1}, {0.25, -0.15, 0.0});
   PNIcp planar;
-  planar.setPlanar(true);
-  const Eigen::Matrix4d r = alignPlanarOutlines(planar, truth, 50);
-  EXPECT_TRUE(planar.hasConverged());
-  EXPECT_TRUE(exactlyPlanar(r)) << r;
-  const auto [deg, m] = poseDifference(r, truth);
-  EXPECT_LT(deg, 0.2);
-  EXPECT_LT(m, 2e-3);
+  const Eigen::Matrix4d r = expectPlanarStep(planar, truth, 0.2, 2e-3);
   PNIcp full;
   const Eigen::Matrix4d f = alignPlanarOutlines(full, truth, 50);
   const auto [deg_full, m_full] = poseDifference(r, f);
@@ -1456,14 +1465,8 @@ TEST(ParallelIcpPlanar, PointToPlaneSolvesWhatTheFullSystemCannot)
     SCOPED_TRACE(fields ? "the target's normal fields" : "normals estimated");
     PNIcp planar;
     planar.setUsePointToPlane(true);
-    planar.setPlanar(true);
     planar.setUseTargetNormalFields(fields);
-    const Eigen::Matrix4d r = alignPlanarOutlines(planar, truth, 50);
-    EXPECT_TRUE(planar.hasConverged());
-    EXPECT_TRUE(exactlyPlanar(r)) << r;
-    const auto [deg, m] = poseDifference(r, truth);
-    EXPECT_LT(deg, 0.02);
-    EXPECT_LT(m, 1e-3);
+    expectPlanarStep(planar, truth, 0.02, 1e-3);
   }
 }
 
