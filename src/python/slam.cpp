@@ -261,6 +261,20 @@ public:
     }));
   }
 
+  py::dict
+  consistency(bool front_end) const
+  {
+    const slam::RevisitConsistency c = withoutGil([&] {
+      std::lock_guard<std::mutex> lock(mutex_);
+      return pipeline_->consistency(front_end);
+    });
+    py::dict out;
+    out["revisits"] = c.pairs;
+    out["mean_conflicts"] = c.mean_conflicts;
+    out["conflicting"] = c.conflicting;
+    return out;
+  }
+
   const slam::Pipeline&
   get() const
   {
@@ -346,6 +360,14 @@ bindSlam(py::module_& m)
             return out;
           },
           "the pose graph's links: (target, source, loop) tuples")
+      .def(
+          "consistency",
+          &Pipeline::consistency,
+          py::arg("front_end") = false,
+          "Where the scanner came back, how far the map disagrees with itself: each scan with "
+          "its nearest earlier loop candidate, the larger share of either's points in space "
+          "the other saw through. A dict: revisits (pairs), mean_conflicts, conflicting (pairs "
+          "over 5 %: doubled walls). At the current poses, or the front end's.")
       .def_property_readonly("parameters",
                              [](const Pipeline& p) { return toDict(p.get().parameters()); })
       .def_property_readonly(

@@ -94,11 +94,8 @@ collectResult(const Pipeline& pipeline, bool odometry)
   result.relaxations = pipeline.relaxations();
   result.bytes_per_scan = pipeline.bytesPerScan();
   result.parameters = pipeline.resolvedParameters();
-  std::vector<Cloud::ConstPtr> scans(pipeline.size());
-  for (std::size_t i = 0; i < scans.size(); ++i)
-    scans[i] = pipeline.reducedScan(i);
-  result.consistency = revisitConsistency(scans, result.final, result.parameters);
-  result.consistency_icp = revisitConsistency(scans, result.icp, result.parameters);
+  result.consistency = pipeline.consistency();
+  result.consistency_icp = pipeline.consistency(true);
   if (odometry)
     result.odometry_disagreement =
         odometryDisagreement(result.reports, result.parameters.reduction.voxel_size);

@@ -441,6 +441,15 @@ Pipeline::reducedScan(std::size_t i) const
   return loops_->scan(i);
 }
 
+RevisitConsistency
+Pipeline::consistency(bool front_end) const
+{
+  std::vector<Cloud::ConstPtr> scans(size());
+  for (std::size_t i = 0; i < scans.size(); ++i)
+    scans[i] = reducedScan(i);
+  return revisitConsistency(scans, front_end ? frontEndPoses() : poses(), resolved_);
+}
+
 Cloud::Ptr
 Pipeline::map(double voxel_size) const
 {

@@ -39,6 +39,13 @@ def test_pipeline_matches_pslam_run(office):
     assert pipeline.resolved_parameters["reduction"]["voxel_size"] > 0
     cloud = pipeline.map(0.1)
     assert cloud.ndim == 2 and cloud.shape[1] == 3 and len(cloud) > 1000
+    # Where the scanner came back: the figures of pcl_pslam run's report, exactly.
+    import json
+    report = json.loads((office / "run" / "report.json").read_text())["consistency"]
+    keys = ("revisits", "mean_conflicts", "conflicting")
+    assert pipeline.consistency() == {k: report[k] for k in keys}
+    assert pipeline.consistency(front_end=True) == {k: report["front_end"][k] for k in keys}
+    assert report["revisits"] > 0
 
 
 def test_simulate_matches_pslam_simulate(office, pslam, tmp_path):
@@ -66,6 +73,7 @@ def test_parameters_named_as_in_cpp():
     assert p.parameters["matcher"]["max_iterations"] == 20
     assert p.parameters["loops"]["enabled"] is False and p.resolved_parameters is None
     assert len(p) == 0 and p.poses.shape == (0, 4, 4) and p.map().shape == (0, 3)
+    assert p.consistency() == {"revisits": 0, "mean_conflicts": 0.0, "conflicting": 0}
     assert d["planar"] is False and pp.Pipeline(planar=True).parameters["planar"] is True
 
 

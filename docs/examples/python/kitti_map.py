@@ -39,6 +39,8 @@ def main():
         print(f"\r[{k + 1}/{len(files)}] {rate:.1f} scans/s{where}   ", end="", flush=True)
     pipeline.finish()
     print(f"\n{len(pipeline)} scans, {sum(loop for *_, loop in pipeline.links)} loop links")
+    c = pipeline.consistency()  # where the car came back: doubled walls show here
+    print(f"{c['conflicting']} of {c['revisits']} revisits disagree")
     poses = pipeline.poses
     cloud = pipeline.map(0.5)
     fig, ax = plt.subplots(figsize=(8, 8))

@@ -227,6 +227,11 @@ public:
    *  where another process owns the scan (setExchange). */
   Cloud::ConstPtr
   reducedScan(std::size_t i) const;
+  /** How well the map agrees with itself where the scanner came back (revisitConsistency
+   *  of the kept scans), at the current poses or the front end's; pairs with a scan
+   *  another process owns are left out. */
+  RevisitConsistency
+  consistency(bool front_end = false) const;
   /** The map: the kept scans at the current poses, reduced with voxel_size (<= 0: none);
    *  with an exchange, of this process's own scans. Full resolution: a second pass over
    *  the scans through mapFrame, as pcl_pslam builds map.pcd. */
