@@ -38,8 +38,8 @@ public:
 
   /** Fraction of `source`'s points, moved by `pose` into the scan's frame, that lie more
    *  than `margin` nearer the scanner than the scan's nearest point in their direction
-   *  and the eight around it (directions without a point count as not seen). 0 for an empty
-   * source; throws std::invalid_argument for a negative or NaN margin. */
+   *  and the eight around it (directions without a point count as not seen). 0 for an
+   *  empty source; throws std::invalid_argument for a negative or NaN margin. */
   double
   conflicts(const Cloud& source, const Pose& pose, double margin) const;
 

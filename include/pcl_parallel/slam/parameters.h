@@ -153,9 +153,9 @@ struct Parameters {
    *  normal to guess.up, and it moves in that plane. pICP and pLUM solve for the
    *  translation in the plane and the heading alone, normals lie in the plane (the walls'
    *  lines) and the front end's come from the local map (a single line scan's are too
-   *  sparse and noisy), the motion prior holds the translation only, loop matches must agree
-   * with the space both scans saw through, and resolve() sets a finer registered sample and a
-   *  wider loop distance (docs/design.md, "2D logs"). mapDirectory sets it for a
+   *  sparse and noisy), the motion prior holds the translation only, loop matches must
+   *  agree with the space both scans saw through, and resolve() sets a finer registered
+   *  sample and a wider loop distance (docs/design.md, "2D logs"). mapDirectory sets it for a
    *  directory's 2D scans (io::ScanDirectory::planar). */
   bool planar = false;
   unsigned num_threads = 0; ///< 0: all cores
