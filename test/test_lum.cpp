@@ -703,6 +703,8 @@ TEST_F(QuietPcl, PlanarPlumKeepsTwoDScansInThePlane)
     const Errors e = poseErrors(got, truth);
     EXPECT_LT(e.max_rot, 0.02 * kDeg);
     EXPECT_LT(e.max_trans, 2e-3);
+    if (pcl_parallel::test::kSanitized && point_to_plane)
+      continue; // threads checked on point-to-point there (these runs take 20 s each)
     const Poses two = run(2, point_to_plane);
     for (std::size_t v = 0; v < got.size(); ++v)
       EXPECT_EQ(two[v], got[v]) << "vertex " << v;
