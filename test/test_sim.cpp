@@ -516,10 +516,32 @@ TEST(Presets, TwoDPresetsScanInTheScannersPlane)
   EXPECT_FALSE(isPlanar(simulatePreset("office", route_only).scanner));
 }
 
+// The hand-held lidar: 32 beams x 2000 columns a sweep indoors, every ray returning; each
+// point's sweep time from its azimuth, as for kitti.
+TEST(Presets, HandheldSweepsOfAThirtyTwoBeamLidar)
+{
+  PresetOptions o;
+  o.max_scans = 2;
+  o.num_threads = 2;
+  const SimulatedScanSet set = simulatePreset("handheld", o);
+  ASSERT_EQ(set.scans.size(), 2u);
+  ASSERT_EQ(set.point_times.size(), 2u);
+  EXPECT_DOUBLE_EQ(set.scanner.sweep_period, 0.5);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_GT(set.scans[i]->size(), 60000u);
+    EXPECT_LE(set.scans[i]->size(), 64000u);
+    ASSERT_EQ(set.point_times[i].size(), set.scans[i]->size());
+    for (std::size_t k = 0; k < set.scans[i]->size(); k += 97) {
+      const auto& p = (*set.scans[i])[k];
+      ASSERT_NEAR(set.point_times[i][k], sweepTime(p.x, p.y), 1e-3);
+    }
+  }
+}
+
 TEST(Presets, NamesAndUnknownName)
 {
   const std::vector<std::string> expected{
-      "office", "hannover", "riegl", "kitti", "office2d", "hannover2d"};
+      "office", "hannover", "riegl", "kitti", "office2d", "hannover2d", "handheld"};
   EXPECT_EQ(presetNames(), expected);
   for (const auto& n : expected)
     EXPECT_FALSE(presetDescription(n).empty());
@@ -619,6 +641,13 @@ TEST(Presets, SizesLikeThePapersExperiments)
   }
 }
 
+/** Angle of a rotation, radians. */
+double
+angleOf(const Eigen::Matrix4d& m)
+{
+  return Eigen::AngleAxisd(Eigen::Matrix3d(m.topLeftCorner<3, 3>())).angle();
+}
+
 /** Roll and pitch of a pose (z-y-x Euler), radians. */
 void
 rollPitch(const Eigen::Matrix4d& m, double& roll, double& pitch)
@@ -627,9 +656,39 @@ rollPitch(const Eigen::Matrix4d& m, double& roll, double& pitch)
   roll = std::atan2(m(2, 1), m(2, 2));
 }
 
+/** The handheld preset's route: 2 Hz sweeps 0.5 to 1.1 m apart (the stairs' slope
+ *  included), up to 60 degrees of turn, tilting up to 8 degrees, up one storey and back. */
+void
+expectCarriedByHand(const SimulatedScanSet& set)
+{
+  double max_tilt = 0, max_turn = 0, min_step = 1e9, max_step = 0, max_z = -1e9;
+  for (std::size_t i = 0; i < set.truth.size(); ++i) {
+    double roll, pitch;
+    rollPitch(set.truth[i], roll, pitch);
+    max_tilt = std::max({max_tilt, std::abs(roll), std::abs(pitch)});
+    max_z = std::max(max_z, set.truth[i](2, 3));
+    if (i == 0)
+      continue;
+    ASSERT_NEAR(set.timestamps[i] - set.timestamps[i - 1], 0.5, 1e-12);
+    const Eigen::Matrix4d step = set.truth[i - 1].inverse() * set.truth[i];
+    const double length = step.topRightCorner<3, 1>().norm();
+    min_step = std::min(min_step, length), max_step = std::max(max_step, length);
+    max_turn = std::max(max_turn, angleOf(step));
+  }
+  EXPECT_GT(max_tilt, 6.0 * kDeg);
+  EXPECT_LT(max_tilt, 10.0 * kDeg);
+  EXPECT_GT(max_turn, 25.0 * kDeg);
+  EXPECT_LT(max_turn, 60.0 * kDeg);
+  EXPECT_GT(min_step, 0.45);
+  EXPECT_LT(max_step, 1.1);
+  EXPECT_NEAR(max_z - set.truth.front()(2, 3), 3.2, 1e-9) << "up the stairs to the east wing";
+  EXPECT_NEAR(set.truth.back()(2, 3), set.truth.front()(2, 3), 1e-9) << "and down again";
+}
+
 // Every route closes its loop(s), hannover's several times; the outdoor presets drive
-// over uneven ground (pitch and roll of a few degrees, metres of climb); the odometry
-// starts at the truth and drifts; the kitti drive is at 9 m/s, 10 Hz.
+// over uneven ground (pitch and roll of a few degrees, metres of climb); the hand-held
+// scanner tilts, climbs a storey and turns up to 60 degrees a sweep; the odometry starts
+// at the truth and drifts; the kitti drive is at 9 m/s, 10 Hz.
 TEST(Presets, LoopsSixDofAndDrift)
 {
   for (const std::string& name : presetNames()) {
@@ -670,6 +729,8 @@ TEST(Presets, LoopsSixDofAndDrift)
         EXPECT_GT(max_z - min_z, 1.2) << "the drive climbs the ramp";
       }
     }
+    else if (name == "handheld")
+      expectCarriedByHand(set);
     else
       EXPECT_LT(max_tilt, 1e-9) << name << ": indoors, flat floor";
     if (name == "kitti") {

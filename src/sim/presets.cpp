@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 namespace pcl_parallel {
@@ -22,6 +23,8 @@ namespace sim {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
+constexpr double kUpperFloor = 3.2; ///< the split-level building's east wing, metres up
+constexpr int kStairs = 18;         ///< steps of each flight
 
 /** SplitMix64 (Steele et al. 2014): a portable sequence for laying out scenes; the
  *  standard distributions are implementation-defined. */
@@ -284,6 +287,91 @@ buildingWorld(std::uint32_t seed)
   return w;
 }
 
+/** `w`'s primitives mirrored about the plane x = mirror_x (none: kept) and raised by dz,
+ *  added to `out`. */
+void
+place(World& out, const World& w, std::optional<double> mirror_x, double dz)
+{
+  const double c = mirror_x.value_or(0.0), sx = mirror_x ? -1.0 : 1.0;
+  const auto point = [&](const Eigen::Vector3d& p) {
+    return Eigen::Vector3d(c + sx * (p.x() - c), p.y(), p.z() + dz);
+  };
+  for (const Box& b : w.boxes) {
+    const Eigen::Vector3d p = point(b.min), q = point(b.max);
+    box(out, p.x(), p.y(), p.z(), q.x(), q.y(), q.z()); // box() orders the corners
+  }
+  for (Cylinder cyl : w.cylinders) {
+    cyl.x = point({cyl.x, 0, 0}).x(), cyl.z_min += dz, cyl.z_max += dz;
+    out.cylinders.push_back(cyl);
+  }
+  const Eigen::Matrix3d m = Eigen::Vector3d(sx, 1.0, 1.0).asDiagonal();
+  for (OrientedBox b : w.oriented_boxes) { // M (c + R u) = M c + (M R M) (M u)
+    b.centre = point(b.centre), b.rotation = m * b.rotation * m;
+    out.oriented_boxes.push_back(b);
+  }
+  for (const Triangle& t : w.triangles)
+    out.triangles.push_back({point(t.a), point(t.b), point(t.c)});
+}
+
+/** One wing of the split-level building (16 x 16 m, 3 m high, open at x = 16 where the
+ *  stairs meet it): halls along its west, south and north walls round a block of two
+ *  rooms with doors, furniture, clutter and pillars. */
+World
+wing(Rng& rng)
+{
+  World w;
+  const double l = 16.0, h = 3.0;
+  box(w, -0.3, -0.3, -0.3, l, l + 0.3, 0.0); // floor and ceiling
+  box(w, -0.3, -0.3, h, l, l + 0.3, h + 0.3);
+  wall(w, {-0.1, -0.1}, {l, -0.1}, 0.2, h);
+  wall(w, {-0.1, l + 0.1}, {l, l + 0.1}, 0.2, h);
+  wall(w, {-0.1, -0.1}, {-0.1, l + 0.1}, 0.2, h);
+  const double x0 = 4.5, y0 = 4.5, y1 = 11.5, xm = x0 + rng.uniform(4.0, 7.0);
+  wall(w, {x0, y0}, {l, y0}, 0.15, h, {rng.uniform(1.0, 3.0), rng.uniform(7.0, 10.0)});
+  wall(w, {x0, y1}, {l, y1}, 0.15, h, {rng.uniform(2.0, 9.0)});
+  wall(w, {x0, y0}, {x0, y1}, 0.15, h, {rng.uniform(1.5, 5.5)});
+  wall(w, {xm, y0}, {xm, y1}, 0.15, h, {rng.uniform(1.5, 5.5)});
+  furnish(w, rng, x0 + 0.1, y0 + 0.1, xm - 0.1, y1 - 0.1);
+  furnish(w, rng, xm + 0.1, y0 + 0.1, l - 0.1, y1 - 0.1);
+  clutter(w, rng, {0.5, 0.0}, {1, 0}, {0, 1}, l - 1.0, 3.0, 0.6, h);
+  clutter(w, rng, {0.5, l}, {1, 0}, {0, -1}, l - 1.0, 3.0, 0.6, h);
+  clutter(w, rng, {0.0, 5.0}, {0, 1}, {1, 0}, 6.0, 2.5, 0.6, h);
+  for (const double y : {1.3, l - 1.3}) // beside the halls' walking lines (y = 3, 13)
+    w.cylinders.push_back({x0 + rng.uniform(2.0, 8.0), y, 0.25, 0.0, h});
+  return w;
+}
+
+/** The split-level building (37 x 16 m): a west wing on the ground floor, an east wing
+ *  3.2 m up, joined by two flights of 18 stairs (5 m, 32 degrees) in stairwells between
+ *  them, each wing a mirror of the other's plan with its own rooms and furniture. */
+World
+splitLevelWorld(std::uint32_t seed)
+{
+  Rng rng(seed * 0x100000001b3ull + 53);
+  World w;
+  place(w, wing(rng), std::nullopt, 0.0);
+  place(w, wing(rng), 18.5, kUpperFloor); // x' = 37 - x: its stair side at x = 21
+  const double x0 = 16.0, x1 = 21.0, top = kUpperFloor + 3.0;
+  box(w, x0, -0.3, top, x1, 16.3, top + 0.3); // the stairwells' ceiling
+  box(w, x0 - 0.2, -0.3, 3.0, x0, 16.3, top); // the west wing's wall above it
+  box(w, x0, 4.5, -0.3, x1, 11.5, top);       // solid between the stairwells
+  for (const double y : {-0.3, 14.5})         // the stairwells' outer walls
+    box(w, x0, y, -0.3, x1, y + 1.8, top);
+  for (int k = 0; k < kStairs; ++k) { // both flights, climbing east
+    const double run = (x1 - x0) / kStairs, rise = kUpperFloor / kStairs;
+    box(w, x0 + k * run, -0.3, -0.3, x0 + (k + 1) * run, 16.3, (k + 1) * rise);
+  }
+  return w;
+}
+
+/** The split-level building's floor height under (x, y): the stairs as the slope a
+ *  walker's head follows. */
+double
+splitLevelFloor(double x, double)
+{
+  return kUpperFloor * std::clamp((x - 16.0) / 5.0, 0.0, 1.0);
+}
+
 /** The street scene's ground: gentle undulations (slopes of 1-2 degrees) and a 1.5 m
  *  rise between x = 10 and x = 40 (up to 4.3 degrees). */
 double
@@ -423,19 +511,26 @@ streetWorld(std::uint32_t seed)
   return w;
 }
 
+/** A hand-held scanner's turn off the route's heading at arc length s: yaw (looking
+ *  around), pitch and roll (gait and hand), radians. */
+using Attitude = std::function<Eigen::Vector3d(double s)>;
+
 /**
  * A closed route: straight legs between waypoints (the last equal to the first),
  * corners rounded by two passes of a moving average `smoothing` metres wide; arc length
- * wraps round. Poses follow the ground: z along its normal, x along the heading.
+ * wraps round. Poses follow the ground: z along its normal, x along the heading; with an
+ * attitude, z is up and the scanner turned by it from the heading instead.
  */
 class Route {
 public:
   Route(const std::vector<Eigen::Vector2d>& waypoints,
         double smoothing,
         Height ground,
-        double sensor_height)
+        double sensor_height,
+        Attitude attitude = nullptr)
       : ground_(std::move(ground))
       , sensor_height_(sensor_height)
+      , attitude_(std::move(attitude))
   {
     const double ds = 0.05;
     std::vector<Eigen::Vector2d> p;
@@ -513,6 +608,8 @@ private:
     double dh = heading_[(i + 1) % n] - heading_[i];
     dh = std::atan2(std::sin(dh), std::cos(dh));
     const double yaw = heading_[i] + f * dh;
+    if (attitude_)
+      return carried(xy, yaw, attitude_(s));
     // The ground's normal from central differences; x: the heading in the tangent plane.
     const double e = 0.05, z = ground_(xy.x(), xy.y());
     const Eigen::Vector3d normal =
@@ -530,8 +627,20 @@ private:
     return m;
   }
 
+  /** Held upright at sensor_height over the ground, turned by `a` from the heading. */
+  Eigen::Matrix4d
+  carried(const Eigen::Vector2d& xy, double yaw, const Eigen::Vector3d& a) const
+  {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = eulerZYXToRotation(a[2], a[1], yaw + a[0]);
+    m.block<3, 1>(0, 3) =
+        Eigen::Vector3d(xy.x(), xy.y(), ground_(xy.x(), xy.y()) + sensor_height_);
+    return m;
+  }
+
   Height ground_;
   double sensor_height_;
+  Attitude attitude_;
   std::vector<Eigen::Vector2d> points_;
   std::vector<double> arc_, waypoint_arc_, heading_; ///< arcs: one more than points_
 };
@@ -559,6 +668,10 @@ struct Spec {
   double laps = 1.0;   ///< stop-and-go: scans spread over this many laps...
   double gap = 0.5;    ///< ...ending this many metres short of the start
   double period = 0.0; ///< seconds between scans
+  /** While moving: the pace swings by this fraction of the mean over `pace_period`
+   *  seconds (a walker's pace is not even); 0: a steady pace. */
+  double pace_variation = 0.0, pace_period = 1.0;
+  Attitude attitude; ///< a hand-held scanner's turns; none: it rides level on the route
   double translation_noise = 0.0, heading_noise = 0.0;
   std::string description;
 };
@@ -596,7 +709,7 @@ const std::vector<std::string>&
 names()
 {
   static const std::vector<std::string> n{
-      "office", "hannover", "riegl", "kitti", "office2d", "hannover2d"};
+      "office", "hannover", "riegl", "kitti", "office2d", "hannover2d", "handheld"};
   return n;
 }
 
@@ -681,6 +794,29 @@ makeSpec(const std::string& name, std::uint32_t seed)
     s.description = "420 scans x ~120k points, a 64-beam lidar at 10 Hz scanning while "
                     "driving 9 m/s round a block over a ramp, closing the loop (KITTI-like)";
   }
+  else if (name == "handheld") {
+    s.world = splitLevelWorld(seed);
+    // A 32-beam lidar (-30 to +30 degrees) spinning at 2 Hz, 2000 columns: 64k rays.
+    s.scanner = spherical(2000, 32, -30 * kDeg, 30 * kDeg, 0.4, 50.0, 0.015);
+    s.scanner.sweep_period = 0.5;
+    // Round both wings, up the north stairs and down the south ones (x = 16..21).
+    s.waypoints = {{3, 8}, {3, 13}, {34, 13}, {34, 3}, {3, 3}, {3, 8}};
+    s.smoothing = 2.5, s.ground = splitLevelFloor, s.sensor_height = 1.5;
+    s.scans = 130, s.step = 0.7, s.period = 0.5; // 1.4 m/s, 1.1 laps of 82 m
+    s.pace_variation = 0.3, s.pace_period = 5.0; // 0.5 to 0.9 m a sweep
+    Rng rng(seed * 0x100000001b3ull + 61);
+    const double a = rng.uniform(0, 2 * M_PI), b = rng.uniform(0, 2 * M_PI),
+                 c = rng.uniform(0, 2 * M_PI);
+    s.attitude = [=](double u) { // looking round +-30 degrees, tilting +-8 and +-5
+      return Eigen::Vector3d(30 * kDeg * std::sin(2 * M_PI * u / 8.0 + a),
+                             8 * kDeg * std::sin(2 * M_PI * u / 4.3 + b),
+                             5 * kDeg * std::sin(2 * M_PI * u / 2.9 + c));
+    };
+    s.translation_noise = 0.03, s.heading_noise = 0.02;
+    s.description = "120 scans x ~64k points, a 32-beam lidar at 2 Hz carried by hand "
+                    "through a split-level building, up and down its stairs, looking round "
+                    "and tilting, 0.5-1 m and up to 60 degrees a sweep, closing the loop";
+  }
   else if (name == "office2d") // a scan every 0.2 m
     s = planarSpec(makeSpec("office", seed), 150, "round the office floor's loop");
   else if (name == "hannover2d") // a scan every 0.4 m
@@ -764,7 +900,7 @@ castScans(SimulatedScanSet& set,
           const Spec& spec,
           const Route& route,
           const PresetOptions& o,
-          double speed)
+          const std::function<double(int, double)>& arc)
 {
   const int n = static_cast<int>(set.truth.size());
   const bool moving = spec.scanner.sweep_period > 0.0;
@@ -778,10 +914,8 @@ castScans(SimulatedScanSet& set,
         scanKey(o.seed, k * static_cast<std::size_t>(o.stride)); // keyed as without stride
     if (moving) {
       // Column c at sweep time t_c, i.e. (t_c - 0.5) * period after the reference pose.
-      const double s0 = spec.start + i * spec.step, cols = spec.scanner.azimuth_steps;
-      const auto pose = [&](int c) {
-        return route.pose(s0 + speed * ((c + 0.5) / cols - 0.5) * spec.scanner.sweep_period);
-      };
+      const double cols = spec.scanner.azimuth_steps;
+      const auto pose = [&](int c) { return route.pose(arc(i, (c + 0.5) / cols - 0.5)); };
       set.scans[k] = castScan(caster, spec.scanner, pose, key, threads, &set.point_times[k]);
     }
     else
@@ -814,7 +948,8 @@ simulatePreset(const std::string& name, const PresetOptions& o)
 {
   Spec spec = makeSpec(name, o.seed);
   applyOptions(spec, o);
-  const Route route(spec.waypoints, spec.smoothing, spec.ground, spec.sensor_height);
+  const Route route(
+      spec.waypoints, spec.smoothing, spec.ground, spec.sensor_height, spec.attitude);
   // Stop-and-go: scans spread over the laps of the waypoint polyline (so that a side
   // of k steps puts stops at its corners), the last one `gap` short of the start.
   const bool moving = spec.scanner.sweep_period > 0.0;
@@ -825,6 +960,14 @@ simulatePreset(const std::string& name, const PresetOptions& o)
                                 std::to_string(o.stride));
   const double speed = spec.step / spec.period; // metres per second along the route
   spec.step *= o.stride;                        // between kept scans
+  // While moving: the arc length `f` sweeps after kept scan i's time.
+  const auto arc = [&](int i, double f) {
+    const double sweep = spec.scanner.sweep_period, w = 2 * M_PI / spec.pace_period;
+    const double t = static_cast<double>(i) * o.stride * spec.period + f * sweep;
+    const double swing =
+        spec.pace_variation == 0.0 ? 0.0 : spec.pace_variation * speed / w * std::sin(w * t);
+    return spec.start + i * spec.step + speed * f * sweep + swing;
+  };
   const int kept = (spec.scans + o.stride - 1) / o.stride;
   const int n = o.max_scans >= 0 ? std::min(o.max_scans, kept) : kept;
 
@@ -833,7 +976,7 @@ simulatePreset(const std::string& name, const PresetOptions& o)
   set.scanner = spec.scanner;
   for (int i = 0; i < n; ++i) {
     const double s = spec.start + i * spec.step;
-    set.truth.push_back(moving ? route.pose(s) : route.poseAtWaypointArc(s));
+    set.truth.push_back(moving ? route.pose(arc(i, 0.0)) : route.poseAtWaypointArc(s));
     // 0.3, not 3 * 0.1 = 0.30000000000000004
     set.timestamps.push_back(static_cast<double>(i) * o.stride / (1.0 / spec.period));
   }
@@ -846,7 +989,7 @@ simulatePreset(const std::string& name, const PresetOptions& o)
       set.point_times.resize(static_cast<std::size_t>(n));
   }
   else
-    castScans(set, spec, route, o, speed);
+    castScans(set, spec, route, o, arc);
   set.world = std::move(spec.world);
   return set;
 }

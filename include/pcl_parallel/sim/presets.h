@@ -28,10 +28,16 @@ namespace sim {
  *             last ~40 m revisiting the start (see SimulatedScanSet for the sweep times);
  * - office2d, hannover2d: 150 and 800 scans x ~170 points, a horizontal 2D scanner (180
  *             beams, 1 degree, 80 m; the CARMEN logs' SICK) on a robot driving the office
- *             loop and the building's corridors, wheel odometry (paper Sec. VII).
+ *             loop and the building's corridors, wheel odometry (paper Sec. VII);
+ * - handheld: 130 sweeps x 64k points, a 32-beam lidar (-30 to +30 degrees, 2000
+ *             columns) spinning at 2 Hz, carried at 0.5-1.1 m a sweep through a
+ *             split-level building, up one flight of stairs and down another, looking
+ *             round (+-30 degrees off the heading) and tilting (+-8 pitch, +-5 roll):
+ *             up to 60 degrees of turn a sweep, skewed sweeps, the start revisited.
  * Every preset has drifting odometry: per step of length L, Gaussian errors of
  * translation_noise * L along and across the heading and heading_noise * L in yaw,
- * composed onto the true step (pitch and roll come from the truth, as from an IMU).
+ * composed onto the true step (pitch, roll and height come from the truth, as from an
+ * IMU).
  */
 struct PresetOptions {
   /** Random seed: the same seed, the same scans. */
