@@ -241,6 +241,32 @@ TEST(Deskewer, DeskewsAgainOnlyBeyondHalfAVoxel)
   EXPECT_TRUE(on.needsAgain(Pose::Identity(), makePose(0.0, 0.11, 0.0), scan));
 }
 
+// The halves: the scan deskewed as deskew() does it, its points split by sweep time (from
+// the azimuth, or the times given), in order.
+TEST(Deskewer, HalvesSplitTheDeskewedScanBySweepTime)
+{
+  const Cloud scan = room();
+  const Pose sweep = makePose(12 * kDeg, 0.4, 0.1);
+  const slam::Deskewer on(true, true, 0.05, 2);
+  std::vector<float> given(scan.size()); // every third point at the sweep's end
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    given[i] = i % 3 == 0 ? 0.9f : 0.1f;
+  for (const auto& times : {std::vector<float>(), given}) {
+    const Cloud::Ptr deskewed = slam::deskewSweep(scan, times, sweep, true, 2);
+    const auto [first, second] = on.halves(scan, times, sweep);
+    ASSERT_EQ(first->size() + second->size(), scan.size());
+    EXPECT_GT(first->size(), scan.size() / 4);
+    EXPECT_GT(second->size(), scan.size() / 4);
+    std::size_t a = 0, b = 0;
+    for (std::size_t i = 0; i < scan.size(); ++i) {
+      const double t = times.empty() ? slam::sweepTime(scan[i], true) : times[i];
+      const Eigen::Vector3f p = (t < 0.5 ? (*first)[a++] : (*second)[b++]).getVector3fMap();
+      ASSERT_TRUE(p.isApprox((*deskewed)[i].getVector3fMap(), 1e-5f)) << i;
+    }
+  }
+  EXPECT_EQ(on.halves(scan, given, sweep).second->size(), (scan.size() + 2) / 3);
+}
+
 TEST(Reducer, ReducesAsTheVoxelFilters)
 {
   const Cloud scan = room();

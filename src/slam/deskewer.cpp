@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/deskewer.h>
 #include <pcl_parallel/slam/preprocess.h>
 
@@ -46,6 +47,31 @@ Deskewer::deskew(const Cloud& scan,
 {
   return enabled_ ? deskewSweep(scan, sweep_times, sweep, clockwise_, num_threads_)
                   : Cloud::Ptr(new Cloud(scan));
+}
+
+std::pair<Cloud::Ptr, Cloud::Ptr>
+Deskewer::halves(const Cloud& scan,
+                 const std::vector<float>& sweep_times,
+                 const Pose& sweep) const
+{
+  std::vector<float> times = sweep_times;
+  if (times.empty()) { // from the azimuths, once for both the deskewing and the split
+    times.resize(scan.size());
+    parallelFor(scan.size(), num_threads_, 4096, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i)
+        times[i] = static_cast<float>(sweepTime(scan[i], clockwise_));
+    });
+  }
+  const Cloud::Ptr deskewed = deskew(scan, times, sweep);
+  const auto seconds = static_cast<std::size_t>(
+      std::count_if(times.begin(), times.end(), [](float t) { return t >= 0.5f; }));
+  std::pair<Cloud::Ptr, Cloud::Ptr> out(new Cloud, new Cloud);
+  out.first->resize(scan.size() - seconds);
+  out.second->resize(seconds);
+  std::size_t a = 0, b = 0;
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    (times[i] >= 0.5f ? (*out.second)[b++] : (*out.first)[a++]) = (*deskewed)[i];
+  return out;
 }
 
 void

@@ -303,6 +303,35 @@ Matcher::match(const Cloud::ConstPtr& source,
                priorSpread());
 }
 
+std::optional<Pose>
+Matcher::refine(const Cloud::ConstPtr& source,
+                const Pose& start,
+                const Pose& prior_mean,
+                const Pose& at)
+{
+  const double gate = params_.final_correspondence_distance > 0.0
+                          ? std::min(params_.final_correspondence_distance, this->gate())
+                          : this->gate();
+  if (params_.target != MatchTarget::kLocalMap) {
+    const Pose to_previous = at.inverse();
+    usePrevious(source);
+    const auto matched = align(icp_->to_previous,
+                               to_previous * start,
+                               gate,
+                               0.0,
+                               icp_->threshold != nullptr,
+                               Pose(to_previous * prior_mean),
+                               priorSpread());
+    return matched ? std::optional<Pose>(at * *matched) : std::nullopt;
+  }
+  Icp& icp = icp_->icp;
+  if (icp.getInputSource() != source)
+    icp.setInputSource(source);
+  if (map_.cloud() != target_)
+    icp.setInputTarget(target_ = map_.cloud());
+  return align(icp, start, gate, 0.0, icp_->threshold != nullptr, prior_mean, priorSpread());
+}
+
 void
 Matcher::measure(ScanRecord& r, const Cloud& source)
 {

@@ -27,6 +27,11 @@
 namespace pcl_parallel {
 namespace slam {
 
+namespace {
+/** Deskews after the prediction's: by the matched step, then by the halves' motion. */
+constexpr int kDeskewRounds = 3;
+} // namespace
+
 /** The front end's stages, in the order a scan passes them. */
 struct Pipeline::Stages {
   explicit Stages(const Parameters& p)
@@ -198,23 +203,8 @@ Pipeline::match(ScanRecord& r,
   const Pose start = s.guess.guess(source, r.scan, odometry, r);
   const Pose& prior_mean = PoseGuess::priorMean(r, start);
   std::optional<Pose> matched = s.matcher.match(source, start, prior_mean, at);
-  // Deskewed by the predicted step, a scan taken while the motion changed (a turn begun
-  // or ended) is skewed by the change: deskewed again by the matched step, matched again.
-  if (matched && s.deskewer.enabled() && !s.deskewer.holdsFirst()) {
-    const Pose sweep = s.motion.sweepOfMatch(*matched, m);
-    if (s.deskewer.needsAgain(m.sweep, sweep, *r.scan.reduced)) {
-      ReducedScan again = reduce(scan, sweep_times, sweep);
-      const Cloud::Ptr again_source = s.reducer.source(again);
-      if (const auto rematched = s.matcher.match(again_source, *matched, prior_mean, at)) {
-        matched = rematched;
-        r.scan = std::move(again);
-        source = again_source;
-        r.report.deskewed_again = true;
-      }
-      else // the first match again, from itself: its scan, pairs and Hessian are kept
-        matched = s.matcher.match(source, *matched, prior_mean, at);
-    }
-  }
+  if (matched && s.deskewer.enabled() && !s.deskewer.holdsFirst())
+    matched = deskewAgain(r, source, scan, sweep_times, m, *matched, prior_mean);
   r.report.converged = matched.has_value();
   if (!matched)
     return;
@@ -222,6 +212,64 @@ Pipeline::match(ScanRecord& r,
   // error: the pose is kept a rotation.
   r.pose = orthonormalized(*matched);
   s.matcher.measure(r, *source);
+}
+
+std::optional<Pose>
+Pipeline::deskewAgain(ScanRecord& r,
+                      Cloud::Ptr& source,
+                      const Cloud& scan,
+                      const std::vector<float>& sweep_times,
+                      const MotionPrediction& m,
+                      Pose matched,
+                      const Pose& prior_mean)
+{
+  Stages& s = *stages_;
+  const Pose& at = s.motion.lastPose();
+  Pose sweep = m.sweep;
+  std::optional<Pose> next = s.motion.sweepOfMatch(matched, m);
+  bool measured = true; // the matcher's last pICP is the kept scan's
+  for (int round = 0;
+       round < kDeskewRounds && next && s.deskewer.needsAgain(sweep, *next, *r.scan.reduced);
+       ++round) {
+    ReducedScan again = reduce(scan, sweep_times, *next);
+    const Cloud::Ptr again_source = s.reducer.source(again);
+    // The matched step's sweep may differ much from the prediction's; the halves' little.
+    const auto rematched = round == 0 ? s.matcher.match(again_source, matched, prior_mean, at)
+                                      : s.matcher.refine(again_source, matched, prior_mean, at);
+    measured = rematched.has_value();
+    if (!rematched)
+      break;
+    matched = *rematched, sweep = *next;
+    r.scan = std::move(again), source = again_source;
+    r.report.deskewed_again = true;
+    if (round + 1 == kDeskewRounds)
+      break;
+    next = sweepOfHalves(scan, sweep_times, sweep, matched, prior_mean);
+    measured = false;
+  }
+  if (measured)
+    return matched;
+  return s.matcher.refine(source, matched, prior_mean, at); // its pairs and Hessian kept
+}
+
+std::optional<Pose>
+Pipeline::sweepOfHalves(const Cloud& scan,
+                        const std::vector<float>& sweep_times,
+                        const Pose& sweep,
+                        const Pose& matched,
+                        const Pose& prior_mean)
+{
+  Stages& s = *stages_;
+  const auto [first, second] = s.deskewer.halves(scan, sweep_times, sweep);
+  const auto place = [&](const Cloud& half) {
+    const Cloud::Ptr source = s.reducer.source(s.reducer.reduce(half));
+    return s.matcher.refine(source, matched, prior_mean, s.motion.lastPose());
+  };
+  const std::optional<Pose> a = place(*first), b = place(*second);
+  if (!a || !b)
+    return std::nullopt;
+  const Pose half = a->inverse() * *b; // the motion left between their middles
+  return Pose(sweep * half * half);
 }
 
 void

@@ -6,6 +6,7 @@
 
 #include <pcl_parallel/slam/types.h>
 
+#include <utility>
 #include <vector>
 
 namespace pcl_parallel {
@@ -30,10 +31,15 @@ public:
     return enabled_;
   }
 
-  /** The scan in the scanner's frame at the sweep's end, its motion during the sweep
+  /** The scan in the scanner's frame at mid-sweep, its motion during the sweep
    *  undone; a copy when deskewing is off. */
   Cloud::Ptr
   deskew(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
+
+  /** The scan deskewed by `sweep`, split by sweep time into its first and second half
+   *  (docs/design.md, "A sweep's motion from its halves"). */
+  std::pair<Cloud::Ptr, Cloud::Ptr>
+  halves(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
 
   /** Keeps the sequence's first scan until the first step is known (when enabled). */
   void

@@ -81,6 +81,13 @@ public:
         const Pose& prior_mean,
         const Pose& at);
 
+  /** As match, within the final gate alone: `start` is a match already. */
+  std::optional<Pose>
+  refine(const Cloud::ConstPtr& source,
+         const Pose& start,
+         const Pose& prior_mean,
+         const Pose& at);
+
   /** pICP of `source` from `start` against the previous scan (at `at`), refined within the
    *  final gate when `refined`, its motion prior at `prior_mean` (null: the start). */
   std::optional<Pose>

@@ -267,8 +267,7 @@ private:
   /** The scan deskewed by `sweep` and reduced. */
   ReducedScan
   reduce(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
-  /** Guess and match (PoseGuess, Matcher); with deskewing, a scan whose matched step
-   *  deskews it differently is deskewed again and matched again. */
+  /** Guess and match (PoseGuess, Matcher); with deskewing, deskewAgain. */
   void
   match(ScanRecord& r,
         Cloud::Ptr& source,
@@ -276,6 +275,28 @@ private:
         const std::vector<float>& sweep_times,
         const MotionPrediction& m,
         bool odometry);
+  /** A scan deskewed by the predicted step and matched (`matched`), deskewed again by a
+   *  sweep's motion that moves it by more than half a voxel, and matched again: first the
+   *  matched step's, then the motion its halves show (sweepOfHalves), kDeskewRounds
+   *  times at most. The pose of the last match of r.scan (none: it did not converge). */
+  std::optional<Pose>
+  deskewAgain(ScanRecord& r,
+              Cloud::Ptr& source,
+              const Cloud& scan,
+              const std::vector<float>& sweep_times,
+              const MotionPrediction& m,
+              Pose matched,
+              const Pose& prior_mean);
+  /** The sweep's motion corrected by its halves: each, deskewed by `sweep` and matched
+   *  from `matched`, lies where its middle was taken; the motion left between them is
+   *  half a sweep's error (docs/design.md, "A sweep's motion from its halves"). None
+   *  where a half does not converge. */
+  std::optional<Pose>
+  sweepOfHalves(const Cloud& scan,
+                const std::vector<float>& sweep_times,
+                const Pose& sweep,
+                const Pose& matched,
+                const Pose& prior_mean);
   /** The held first scan deskewed by `sweep`: kept again as the map and previous scan. */
   void
   keepFirstAgain(const Pose& sweep);
