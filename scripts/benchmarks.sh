@@ -199,6 +199,11 @@ for log in intel fr079 mit-csail; do
       -o "$results/log-$log"
 done
 
+# A hand-held 2 Hz LiDAR (issue 42): the handheld preset with its odometry and without.
+job map-handheld "$pslam" demo --preset handheld --quiet -t "$max_threads" -o "$results/map-handheld"
+job map-handheld-no-poses "$pslam" demo --preset handheld --no-poses --quiet -t "$max_threads" \
+  -o "$results/map-handheld-no-poses"
+
 # MPI: pLUM on the bunny over ranks, and (full run) the pipeline on hannover over ranks.
 if ((mpi)) && [[ -x $mpi_bench ]] && command -v mpirun >/dev/null; then
   mpirun_=(mpirun --oversubscribe --bind-to none)

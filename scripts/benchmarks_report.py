@@ -56,6 +56,7 @@ PAPER_RIEGL_ICP_PARTS = {2: {1: 20750, 2: 10985, 4: 10938},
 PRESETS = ["office", "riegl", "hannover", "kitti", "kitti-cv"]
 PRESETS_2D = ["office2d", "hannover2d"]
 LOGS_2D = ["intel", "fr079", "mit-csail"]
+HANDHELD = ["handheld", "handheld-no-poses"]
 PRESET_TITLES = {"office": "office", "riegl": "riegl", "hannover": "hannover",
                  "kitti": "kitti (odometry)", "kitti-cv": "kitti (no odometry)"}
 
@@ -468,7 +469,7 @@ class Report:
     def copy_maps(self):
         """pcl_pslam's map.png per preset and 2D log (top view, trajectory in red)."""
         done = []
-        for preset in PRESETS + PRESETS_2D + LOGS_2D:
+        for preset in PRESETS + PRESETS_2D + LOGS_2D + HANDHELD:
             src = self.results / f"map-{preset}" / "map.png"
             if not src.exists():
                 src = self.results / f"log-{preset}" / "map.png"
@@ -791,6 +792,7 @@ class Report:
                  "other-processes) · [the pipeline](#pcl_pslam-the-mapping-pipeline-on-the-"
                  "presets) · [simulation](#simulation) · [memory](#memory) · [MPI](#mpi) · "
                  "[2D](#2d-the-presets-and-the-carmen-logs) · "
+                 "[hand-held](#hand-held-a-2-hz-lidar) · "
                  "[Python](#python-the-gil-released) · [accuracy studies](#accuracy-studies)")
 
         doc.add("## k-d tree", "")
@@ -877,6 +879,7 @@ class Report:
                 doc.para(f"![pcl_pslam demo --preset {p}](images/map_{p}.png)")
 
         self.write_2d(doc, maps)
+        self.write_handheld(doc, maps)
 
         doc.add("## Simulation", "")
         doc.para("Wall time to simulate each preset of `sim/presets.h` (ray casting, poses, "
@@ -1052,6 +1055,41 @@ class Report:
                  "through, or it into theirs (doubled walls, people), of all such pairs; in "
                  "brackets at the front end's poses.")
         for name in PRESETS_2D + LOGS_2D:
+            if name in maps:
+                doc.para(f"![{name}](images/map_{name}.png)")
+
+    def write_handheld(self, doc, maps):
+        """The handheld preset, with its odometry and without, against its truth."""
+        doc.add("## Hand-held: a 2 Hz LiDAR", "")
+        doc.para("`pcl_pslam demo --preset handheld`: a 32-beam LiDAR spinning at 2 Hz carried "
+                 "through a split-level building, up one flight of stairs and down another, "
+                 "looking round and tilting (0.5-1.1 m and up to 60° a sweep, each sweep skewed "
+                 "by it), deskewed; with the simulated odometry and without any (`--no-poses`). "
+                 "The worst step is the largest error of one consecutive step against the "
+                 "truth's.")
+        runs = [self.run(f"map-{h}") for h in HANDHELD]
+        if not any(r.ran for r in runs):
+            doc.para("Not measured in this run.")
+            return
+        doc.code("\n".join(self.display_command(r) for r in runs if r.ran))
+        doc.para(self.machine_line(runs))
+        rows = []
+        for name, r in zip(HANDHELD, runs):
+            path = self.results / f"map-{name}" / "report.json"
+            if not r.ok or not path.exists():
+                rows.append([name, f"failed (exit {r.meta.get('rc')})"] + [""] * 4)
+                continue
+            rep = json.loads(path.read_text())
+            err = rep.get("errors_against_truth", {})
+            ate = lambda k: (f"{err[k]['ate_m'] * 100:.1f} cm, {err[k]['ate_deg']:.2f}°"
+                             if k in err else "—")
+            worst = lambda k: (f"{err[k]['worst_step_m'] * 100:.1f} cm, "
+                               f"{err[k]['worst_step_deg']:.2f}°" if k in err else "—")
+            rows.append([name, ate("odometry"), ate("front_end"), ate("final"), worst("final"),
+                         f"{rep['total_seconds']:.1f}"])
+        doc.table(["run", "odometry ATE", "front end ATE", "final ATE", "worst step (final)",
+                   "run [s]"], rows)
+        for name in HANDHELD:
             if name in maps:
                 doc.para(f"![{name}](images/map_{name}.png)")
 

@@ -38,46 +38,6 @@ truthErrors(const Input& in, const Result& r)
   return ev::evaluateRun(in.odometry ? in.initial : Poses{}, r.icp, r.final, in.truth);
 }
 
-} // namespace
-
-std::unique_ptr<pcl_parallel::io::OutputDirectory>
-openOutputDirectory(const std::string& dir)
-{
-  try {
-    return std::make_unique<pcl_parallel::io::OutputDirectory>(
-        dir, pcl_parallel::io::isRunOutputName);
-  }
-  catch (const pcl_parallel::io::OutputDirectoryError& e) {
-    throw UsageError(std::string("--out ") + e.what());
-  }
-}
-
-pcl_parallel::slam::RunOutputOptions
-runOutputOptions(const Options& o, const Input& in, const Result& r)
-{
-  pcl_parallel::slam::RunOutputOptions options;
-  options.map_voxel = mapVoxel(o, in.scale);
-  options.ply = o.ply;
-  options.picture = o.picture;
-  options.style = o.style;
-  options.num_threads = o.threads;
-  if (!in.truth.empty()) {
-    std::string errors = "ATE against the truth (SE(3)-aligned):";
-    char line[128];
-    for (const auto& row : truthErrors(in, r)) {
-      std::snprintf(
-          line, sizeof line, " %s %.3f m,", row.name.c_str(), row.errors.ate.translation.rmse);
-      errors += line;
-    }
-    errors.pop_back();
-    options.caption.push_back(errors);
-  }
-  options.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
-  return options;
-}
-
-namespace {
-
 /** The odometry's, the front end's and the final poses' errors against the truth. */
 void
 printTruthErrors(std::ostream& out, const Input& in, const Result& r)
@@ -141,12 +101,51 @@ reportJson(const Options& o, const Input& in, const Result& r, const ProgressRep
                                         {"ate_deg", e.ate.rotation_deg.rmse},
                                         {"kitti_rpe_percent", e.kitti.translation_percent},
                                         {"kitti_rpe_deg_per_m", e.kitti.rotation_deg_per_m},
-                                        {"frame_rpe_m", e.rpe.translation.rmse}};
+                                        {"frame_rpe_m", e.rpe.translation.rmse},
+                                        {"frame_rpe_deg", e.rpe.rotation_deg.rmse},
+                                        {"worst_step_m", e.rpe.translation.max},
+                                        {"worst_step_deg", e.rpe.rotation_deg.max}};
     }
   return j;
 }
 
 } // namespace
+
+std::unique_ptr<pcl_parallel::io::OutputDirectory>
+openOutputDirectory(const std::string& dir)
+{
+  try {
+    return std::make_unique<pcl_parallel::io::OutputDirectory>(
+        dir, pcl_parallel::io::isRunOutputName);
+  }
+  catch (const pcl_parallel::io::OutputDirectoryError& e) {
+    throw UsageError(std::string("--out ") + e.what());
+  }
+}
+
+pcl_parallel::slam::RunOutputOptions
+runOutputOptions(const Options& o, const Input& in, const Result& r)
+{
+  pcl_parallel::slam::RunOutputOptions options;
+  options.map_voxel = mapVoxel(o, in.scale);
+  options.ply = o.ply;
+  options.picture = o.picture;
+  options.style = o.style;
+  options.num_threads = o.threads;
+  if (!in.truth.empty()) {
+    std::string errors = "ATE against the truth (SE(3)-aligned):";
+    char line[128];
+    for (const auto& row : truthErrors(in, r)) {
+      std::snprintf(
+          line, sizeof line, " %s %.3f m,", row.name.c_str(), row.errors.ate.translation.rmse);
+      errors += line;
+    }
+    errors.pop_back();
+    options.caption.push_back(errors);
+  }
+  options.caption.push_back(o.command == "demo" ? "pcl_pslam demo" : "pcl_pslam run " + o.dir);
+  return options;
+}
 
 std::vector<std::string>
 writeOutputs(const Options& o,
