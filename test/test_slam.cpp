@@ -397,6 +397,33 @@ TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
   EXPECT_GT(whole.rpe, none.rpe);
 }
 
+/** The front end's poses and reports on a moving preset's sweeps. */
+struct SweepRun {
+  Poses front_end;
+  std::vector<slam::ScanReport> reports;
+};
+
+/** The front end on `set`'s sweeps (with its odometry where `odometry`), deskewing them
+ *  itself, or (`by_truth`) given them deskewed by the truth's velocity at their middle
+ *  (sweepMotionAt on the true poses) and not deskewing. */
+SweepRun
+frontEndOnSweeps(const sim::SimulatedScanSet& set, bool by_truth, bool odometry)
+{
+  const double period = set.scanner.sweep_period;
+  slam::Parameters p = frontEndOnly();
+  p.deskew.enabled = !by_truth;
+  p.deskew.sweep_period = period;
+  slam::Pipeline pipeline(p);
+  for (std::size_t i = 0; i < set.scans.size(); ++i) {
+    const Pose sweep = slam::sweepMotionAt(set.truth, set.timestamps, i, period);
+    pipeline.addScan(by_truth ? *slam::deskewSweep(*set.scans[i], {}, sweep, true, 2)
+                              : *set.scans[i],
+                     odometry ? std::optional<Pose>(set.odometry[i]) : std::nullopt,
+                     set.timestamps[i]);
+  }
+  return {pipeline.frontEndPoses(), pipeline.reports()};
+}
+
 /** Keyframes three sweeps apart through kitti's first corner, without odometry: the yaw
  *  rate goes 5 -> 12 -> 28 degrees a keyframe, so constant velocity deskews a sweep in the
  *  turn by less than half its turn. Deskewed again by its matched step and then by the
@@ -409,31 +436,15 @@ TEST(Pipeline, KeyframesAreDeskewedByOneSweepsShare)
 TEST(Pipeline, ScansInTurnsAreDeskewedAgainByTheirMatchedStep)
 {
   const sim::SimulatedScanSet set = presetScans("kitti", test::kSanitized ? 20 : 30, 3);
-  const double period = set.scanner.sweep_period;
-  const auto frontEnd = [&](bool by_truth, std::vector<slam::ScanReport>* reports) {
-    slam::Parameters p = frontEndOnly();
-    p.deskew.enabled = !by_truth;
-    p.deskew.sweep_period = period;
-    slam::Pipeline pipeline(p);
-    for (std::size_t i = 0; i < set.scans.size(); ++i) {
-      const Pose sweep = slam::sweepMotionAt(set.truth, set.timestamps, i, period);
-      pipeline.addScan(by_truth ? *slam::deskewSweep(*set.scans[i], {}, sweep, true, 2)
-                                : *set.scans[i],
-                       std::nullopt,
-                       set.timestamps[i]);
-    }
-    if (reports)
-      *reports = pipeline.reports();
-    return pipeline.frontEndPoses();
-  };
-  std::vector<slam::ScanReport> reports;
-  const Poses again = frontEnd(false, &reports);
+  const SweepRun run = frontEndOnSweeps(set, false, false);
+  const Poses& again = run.front_end;
+  const auto& reports = run.reports;
   const auto deskewed_again = std::count_if(
       reports.begin(), reports.end(), [](const auto& r) { return r.deskewed_again; });
   EXPECT_GT(deskewed_again, 0);
   if (test::kSanitized)
     return; // one run is what the sanitizers look at
-  const Poses truth = frontEnd(true, nullptr);
+  const Poses truth = frontEndOnSweeps(set, true, false).front_end;
   const auto steps = [&](const Poses& poses) {
     return evaluation::frameRelativeError(poses, set.truth);
   };
@@ -473,20 +484,9 @@ TEST(Pipeline, ScansInTurnsAreDeskewedAgainByTheirMatchedStep)
 TEST(Pipeline, SweepsOfAHandHeldLidarAreDeskewedByTheirHalves)
 {
   const sim::SimulatedScanSet set = presetScans("handheld", test::kSanitized ? 6 : 40);
-  const double period = set.scanner.sweep_period;
   const auto frontEnd = [&](bool by_truth) {
-    slam::Parameters p = frontEndOnly();
-    p.deskew.enabled = !by_truth;
-    p.deskew.sweep_period = period;
-    slam::Pipeline pipeline(p);
-    for (std::size_t i = 0; i < set.scans.size(); ++i) {
-      const Pose sweep = slam::sweepMotionAt(set.truth, set.timestamps, i, period);
-      pipeline.addScan(by_truth ? *slam::deskewSweep(*set.scans[i], {}, sweep, true, 2)
-                                : *set.scans[i],
-                       set.odometry[i],
-                       set.timestamps[i]);
-    }
-    return evaluation::frameRelativeError(pipeline.frontEndPoses(), set.truth);
+    return evaluation::frameRelativeError(frontEndOnSweeps(set, by_truth, true).front_end,
+                                          set.truth);
   };
   const auto halves = frontEnd(false);
   if (test::kSanitized)
