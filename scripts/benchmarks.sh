@@ -204,6 +204,12 @@ job map-handheld "$pslam" demo --preset handheld --quiet -t "$max_threads" -o "$
 job map-handheld-no-poses "$pslam" demo --preset handheld --no-poses --quiet -t "$max_threads" \
   -o "$results/map-handheld-no-poses"
 
+# Loop closing against the paper's own front end (pICP scan to scan, which drifts).
+for p in "${presets[@]}"; do
+  job "s2s-$p" "$pslam" demo --preset "$p" --scan-to-scan --quiet -t "$max_threads" \
+    -o "$results/s2s-$p"
+done
+
 # MPI: pLUM on the bunny over ranks, and (full run) the pipeline on hannover over ranks.
 if ((mpi)) && [[ -x $mpi_bench ]] && command -v mpirun >/dev/null; then
   mpirun_=(mpirun --oversubscribe --bind-to none)

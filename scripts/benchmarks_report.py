@@ -793,6 +793,7 @@ class Report:
                  "presets) · [simulation](#simulation) · [memory](#memory) · [MPI](#mpi) · "
                  "[2D](#2d-the-presets-and-the-carmen-logs) · "
                  "[hand-held](#hand-held-a-2-hz-lidar) · "
+                 "[loop closing](#loop-closing-against-the-papers-front-end) · "
                  "[Python](#python-the-gil-released) · [accuracy studies](#accuracy-studies)")
 
         doc.add("## k-d tree", "")
@@ -880,6 +881,7 @@ class Report:
 
         self.write_2d(doc, maps)
         self.write_handheld(doc, maps)
+        self.write_scan_to_scan(doc)
 
         doc.add("## Simulation", "")
         doc.para("Wall time to simulate each preset of `sim/presets.h` (ray casting, poses, "
@@ -1092,6 +1094,36 @@ class Report:
         for name in HANDHELD:
             if name in maps:
                 doc.para(f"![{name}](images/map_{name}.png)")
+
+    def write_scan_to_scan(self, doc):
+        """Loop closing measured against a front end that drifts: the paper's pICP."""
+        doc.add("## Loop closing against the paper's front end", "")
+        doc.para("`pcl_pslam demo --preset P --scan-to-scan`: the front end matches each scan "
+                 "against the one before (the paper's pICP, which drifts), loop closing "
+                 "(pLUM) relaxes the whole; the errors against the truth of the front end's "
+                 "poses and the final ones. \"Worst step\": the largest error of one "
+                 "consecutive step; loop closing should not make it worse.")
+        runs = [(p, self.run(f"s2s-{p}")) for p in PRESETS if p != "kitti-cv"]
+        runs = [(p, r) for p, r in runs if r.ran]
+        if not runs:
+            doc.para("Not measured in this run.")
+            return
+        doc.code("\n".join(self.display_command(r) for _, r in runs))
+        doc.para(self.machine_line([r for _, r in runs]))
+        rows = []
+        for preset, r in runs:
+            path = self.results / f"s2s-{preset}" / "report.json"
+            if not r.ok or not path.exists():
+                continue
+            err = json.loads(path.read_text()).get("errors_against_truth", {})
+            if "front_end" not in err or "final" not in err:
+                continue
+            f, e = err["front_end"], err["final"]
+            step = lambda x: f"{x['worst_step_m'] * 100:.2f} cm, {x['worst_step_deg']:.3f}°"
+            rows.append([preset, f"{f['ate_m'] * 100:.2f} cm", f"{e['ate_m'] * 100:.2f} cm",
+                         f"{f['ate_m'] / max(e['ate_m'], 1e-12):.1f}x", step(f), step(e)])
+        doc.table(["preset", "front end ATE", "final ATE", "front end / final",
+                   "worst step, front end", "worst step, final"], rows)
 
     def write(self):
         self.images.mkdir(parents=True, exist_ok=True)
