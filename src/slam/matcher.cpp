@@ -241,26 +241,52 @@ Matcher::usePrevious(const Cloud::ConstPtr& source)
 }
 
 std::optional<Pose>
+Matcher::alignTo(bool to_map,
+                 const Cloud::ConstPtr& source,
+                 const Pose& start,
+                 const Pose& prior_mean,
+                 const Pose& at,
+                 double gate,
+                 double final_gate)
+{
+  const bool adaptive = icp_->threshold != nullptr;
+  if (to_map) {
+    Icp& icp = icp_->icp;
+    if (icp.getInputSource() != source)
+      icp.setInputSource(source);
+    if (map_.cloud() != target_) // the tree is rebuilt only for a new map
+      icp.setInputTarget(target_ = map_.cloud());
+    return align(icp, start, gate, final_gate, adaptive, prior_mean, priorSpread());
+  }
+  // In the previous scan's frame.
+  const Pose to_previous = at.inverse();
+  usePrevious(source);
+  const auto matched = align(icp_->to_previous,
+                             to_previous * start,
+                             gate,
+                             final_gate,
+                             adaptive,
+                             Pose(to_previous * prior_mean),
+                             priorSpread());
+  if (!matched)
+    return std::nullopt;
+  return Pose(at * *matched);
+}
+
+std::optional<Pose>
 Matcher::alignToPrevious(const Cloud::ConstPtr& source,
                          const Pose& start,
                          bool refined,
                          const Pose* prior_mean,
                          const Pose& at)
 {
-  // In the previous scan's frame.
-  const Pose to_previous = at.inverse();
-  usePrevious(source);
-  const Pose guess = to_previous * start;
-  const auto matched = align(icp_->to_previous,
-                             guess,
-                             gate(),
-                             refined ? params_.final_correspondence_distance : 0.0,
-                             icp_->threshold != nullptr,
-                             prior_mean ? Pose(to_previous * *prior_mean) : guess,
-                             priorSpread());
-  if (!matched)
-    return std::nullopt;
-  return Pose(at * *matched);
+  return alignTo(false,
+                 source,
+                 start,
+                 prior_mean ? *prior_mean : start,
+                 at,
+                 gate(),
+                 refined ? params_.final_correspondence_distance : 0.0);
 }
 
 std::optional<Pose>
@@ -287,20 +313,13 @@ Matcher::match(const Cloud::ConstPtr& source,
                const Pose& prior_mean,
                const Pose& at)
 {
-  if (params_.target != MatchTarget::kLocalMap)
-    return alignToPrevious(source, start, true, &prior_mean, at);
-  Icp& icp = icp_->icp;
-  if (icp.getInputSource() != source)
-    icp.setInputSource(source);
-  if (map_.cloud() != target_) // the tree is rebuilt only for a new map
-    icp.setInputTarget(target_ = map_.cloud());
-  return align(icp,
-               start,
-               gate(),
-               params_.final_correspondence_distance,
-               icp_->threshold != nullptr,
-               prior_mean,
-               priorSpread());
+  return alignTo(params_.target == MatchTarget::kLocalMap,
+                 source,
+                 start,
+                 prior_mean,
+                 at,
+                 gate(),
+                 params_.final_correspondence_distance);
 }
 
 std::optional<Pose>
@@ -309,27 +328,14 @@ Matcher::refine(const Cloud::ConstPtr& source,
                 const Pose& prior_mean,
                 const Pose& at)
 {
-  const double gate = params_.final_correspondence_distance > 0.0
-                          ? std::min(params_.final_correspondence_distance, this->gate())
-                          : this->gate();
-  if (params_.target != MatchTarget::kLocalMap) {
-    const Pose to_previous = at.inverse();
-    usePrevious(source);
-    const auto matched = align(icp_->to_previous,
-                               to_previous * start,
-                               gate,
-                               0.0,
-                               icp_->threshold != nullptr,
-                               Pose(to_previous * prior_mean),
-                               priorSpread());
-    return matched ? std::optional<Pose>(at * *matched) : std::nullopt;
-  }
-  Icp& icp = icp_->icp;
-  if (icp.getInputSource() != source)
-    icp.setInputSource(source);
-  if (map_.cloud() != target_)
-    icp.setInputTarget(target_ = map_.cloud());
-  return align(icp, start, gate, 0.0, icp_->threshold != nullptr, prior_mean, priorSpread());
+  const double final_gate = params_.final_correspondence_distance;
+  return alignTo(params_.target == MatchTarget::kLocalMap,
+                 source,
+                 start,
+                 prior_mean,
+                 at,
+                 final_gate > 0.0 ? std::min(final_gate, gate()) : gate(),
+                 0.0);
 }
 
 void

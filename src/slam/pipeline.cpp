@@ -261,6 +261,8 @@ Pipeline::sweepOfHalves(const Cloud& scan,
 {
   Stages& s = *stages_;
   const auto [first, second] = s.deskewer.halves(scan, sweep_times, sweep);
+  if (first->empty() || second->empty()) // times not spread over the sweep
+    return std::nullopt;
   const auto place = [&](const Cloud& half) {
     const Cloud::Ptr source = s.reducer.source(s.reducer.reduce(half));
     return s.matcher.refine(source, matched, prior_mean, s.motion.lastPose());

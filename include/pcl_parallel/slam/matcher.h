@@ -140,6 +140,17 @@ private:
    *  logs"). */
   std::optional<std::pair<double, double>>
   priorSpread() const;
+  /** pICP of `source` from `start` against the local map (`to_map`) or the previous scan
+   *  (at `at`) within `gate`, then `final_gate` (0: none), its motion prior at
+   *  `prior_mean`. The world pose, or none if it did not converge. */
+  std::optional<Pose>
+  alignTo(bool to_map,
+          const Cloud::ConstPtr& source,
+          const Pose& start,
+          const Pose& prior_mean,
+          const Pose& at,
+          double gate,
+          double final_gate);
 
   MatcherParameters params_;
   bool keep_previous_; ///< for matches to the previous scan (the target, or the guess's)

@@ -290,7 +290,7 @@ private:
   /** The sweep's motion corrected by its halves: each, deskewed by `sweep` and matched
    *  from `matched`, lies where its middle was taken; the motion left between them is
    *  half a sweep's error (docs/design.md, "A sweep's motion from its halves"). None
-   *  where a half does not converge. */
+   *  where a half is empty or does not converge. */
   std::optional<Pose>
   sweepOfHalves(const Cloud& scan,
                 const std::vector<float>& sweep_times,
