@@ -25,6 +25,9 @@ namespace {
 constexpr double kDeg = M_PI / 180.0;
 constexpr double kUpperFloor = 3.2; ///< the split-level building's east wing, metres up
 constexpr int kStairs = 18;         ///< steps of each flight
+/** The stairwells between the split-level building's wings: from x = kStairsWest (the
+ *  west wing's open side) to kStairsEast (the east wing's). */
+constexpr double kStairsWest = 16.0, kStairsEast = 21.0;
 
 /** SplitMix64 (Steele et al. 2014): a portable sequence for laying out scenes; the
  *  standard distributions are implementation-defined. */
@@ -350,8 +353,9 @@ splitLevelWorld(std::uint32_t seed)
   Rng rng(seed * 0x100000001b3ull + 53);
   World w;
   place(w, wing(rng), std::nullopt, 0.0);
-  place(w, wing(rng), 18.5, kUpperFloor); // x' = 37 - x: its stair side at x = 21
-  const double x0 = 16.0, x1 = 21.0, top = kUpperFloor + 3.0;
+  // Mirrored about the stairwells' middle: its open side at kStairsEast.
+  place(w, wing(rng), 0.5 * (kStairsWest + kStairsEast), kUpperFloor);
+  const double x0 = kStairsWest, x1 = kStairsEast, top = kUpperFloor + 3.0;
   box(w, x0, -0.3, top, x1, 16.3, top + 0.3); // the stairwells' ceiling
   box(w, x0 - 0.2, -0.3, 3.0, x0, 16.3, top); // the west wing's wall above it
   box(w, x0, 4.5, -0.3, x1, 11.5, top);       // solid between the stairwells
@@ -369,7 +373,7 @@ splitLevelWorld(std::uint32_t seed)
 double
 splitLevelFloor(double x, double)
 {
-  return kUpperFloor * std::clamp((x - 16.0) / 5.0, 0.0, 1.0);
+  return kUpperFloor * std::clamp((x - kStairsWest) / (kStairsEast - kStairsWest), 0.0, 1.0);
 }
 
 /** The street scene's ground: gentle undulations (slopes of 1-2 degrees) and a 1.5 m
@@ -813,9 +817,9 @@ makeSpec(const std::string& name, std::uint32_t seed)
                              5 * kDeg * std::sin(2 * M_PI * u / 2.9 + c));
     };
     s.translation_noise = 0.03, s.heading_noise = 0.02;
-    s.description = "120 scans x ~64k points, a 32-beam lidar at 2 Hz carried by hand "
+    s.description = "130 scans x ~64k points, a 32-beam lidar at 2 Hz carried by hand "
                     "through a split-level building, up and down its stairs, looking round "
-                    "and tilting, 0.5-1 m and up to 60 degrees a sweep, closing the loop";
+                    "and tilting, 0.5-1.1 m and up to 60 degrees a sweep, closing the loop";
   }
   else if (name == "office2d") // a scan every 0.2 m
     s = planarSpec(makeSpec("office", seed), 150, "round the office floor's loop");
