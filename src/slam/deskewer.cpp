@@ -74,6 +74,13 @@ Deskewer::halves(const Cloud& scan,
   return out;
 }
 
+Cloud::Ptr
+Deskewer::again(const Cloud& deskewed, const Pose& from, const Pose& to) const
+{
+  return enabled_ ? redeskew(deskewed, from, to, clockwise_, num_threads_)
+                  : Cloud::Ptr(new Cloud(deskewed));
+}
+
 void
 Deskewer::holdFirst(const Cloud& scan, const std::vector<float>& sweep_times)
 {
@@ -93,9 +100,15 @@ Deskewer::releaseFirst(const Pose& sweep)
 }
 
 bool
+Deskewer::movesBeyond(const Pose& a, const Pose& b, const Cloud& reduced, double distance)
+{
+  return skewChange(a, b, reduced) > distance;
+}
+
+bool
 Deskewer::needsAgain(const Pose& predicted, const Pose& matched, const Cloud& reduced) const
 {
-  return skewChange(predicted, matched, reduced) > kRedeskewVoxels * voxel_size_;
+  return movesBeyond(predicted, matched, reduced, kRedeskewVoxels * voxel_size_);
 }
 
 } // namespace slam

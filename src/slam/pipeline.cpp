@@ -200,11 +200,13 @@ Pipeline::match(ScanRecord& r,
   Stages& s = *stages_;
   const Pose& at = s.motion.lastPose(); // the previous scan's
   r.report.gate = s.matcher.gate();
-  const Pose start = s.guess.guess(source, r.scan, odometry, r);
+  bool sample_of_scan = true; // source is r.scan's own registered sample
+  const Pose start = guessStart(r, source, sweep_times, m, odometry, sample_of_scan);
   const Pose& prior_mean = PoseGuess::priorMean(r, start);
   std::optional<Pose> matched = s.matcher.match(source, start, prior_mean, at);
   if (matched && s.deskewer.enabled() && !s.deskewer.holdsFirst())
-    matched = deskewAgain(r, source, scan, sweep_times, m, *matched, prior_mean);
+    matched =
+        deskewAgain(r, source, scan, sweep_times, m, *matched, prior_mean, sample_of_scan);
   r.report.converged = matched.has_value();
   if (!matched)
     return;
@@ -214,6 +216,39 @@ Pipeline::match(ScanRecord& r,
   s.matcher.measure(r, *source);
 }
 
+Pose
+Pipeline::guessStart(ScanRecord& r,
+                     Cloud::Ptr& source,
+                     const std::vector<float>& sweep_times,
+                     const MotionPrediction& m,
+                     bool odometry,
+                     bool& sample_of_scan)
+{
+  Stages& s = *stages_;
+  // Without odometry a start implies its own motion, and so its own deskewing (a turn the
+  // prediction missed bends the scan as much as it moves it). A registered sample is
+  // deskewed again by its points' azimuths; scans with per-point times keep the
+  // prediction's deskewing until deskewAgain.
+  if (odometry || !s.deskewer.enabled() || s.deskewer.holdsFirst() || !sweep_times.empty())
+    return s.guess.guess(source, r.scan, odometry, r);
+  const auto deskewed_for = [&](const Pose& start) -> Cloud::Ptr {
+    const Pose sweep = s.motion.sweepOfMatch(start, m);
+    if (!s.deskewer.needsAgain(m.sweep, sweep, *r.scan.reduced))
+      return nullptr;
+    return s.deskewer.again(*source, m.sweep, sweep);
+  };
+  const Pose start = s.guess.guess(source, r.scan, odometry, r, deskewed_for);
+  // The map match takes the start's deskewing where it moves the scan beyond the final
+  // gate; below, deskewAgain's exact deskewing by the match does better.
+  const Pose sweep = s.motion.sweepOfMatch(start, m);
+  if (Deskewer::movesBeyond(
+          m.sweep, sweep, *r.scan.reduced, resolved_.matcher.final_correspondence_distance)) {
+    source = s.deskewer.again(*source, m.sweep, sweep);
+    sample_of_scan = false;
+  }
+  return start;
+}
+
 std::optional<Pose>
 Pipeline::deskewAgain(ScanRecord& r,
                       Cloud::Ptr& source,
@@ -221,13 +256,14 @@ Pipeline::deskewAgain(ScanRecord& r,
                       const std::vector<float>& sweep_times,
                       const MotionPrediction& m,
                       Pose matched,
-                      const Pose& prior_mean)
+                      const Pose& prior_mean,
+                      bool sample_of_scan)
 {
   Stages& s = *stages_;
   const Pose& at = s.motion.lastPose();
   Pose sweep = m.sweep;
   std::optional<Pose> next = s.motion.sweepOfMatch(matched, m);
-  bool measured = true; // the matcher's last pICP is the kept scan's
+  bool measured = sample_of_scan; // the matcher's last pICP is the kept scan's
   for (int round = 0;
        round < kDeskewRounds && next && s.deskewer.needsAgain(sweep, *next, *r.scan.reduced);
        ++round) {
@@ -249,6 +285,8 @@ Pipeline::deskewAgain(ScanRecord& r,
   }
   if (measured)
     return matched;
+  if (!sample_of_scan && !r.report.deskewed_again) // the guess's deskewing, not the scan's
+    source = s.reducer.source(r.scan);
   return s.matcher.refine(source, matched, prior_mean, at); // its pairs and Hessian kept
 }
 

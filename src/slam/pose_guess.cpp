@@ -78,7 +78,11 @@ PoseGuess::PoseGuess(const Parameters& resolved,
 {}
 
 Pose
-PoseGuess::guess(const Cloud::ConstPtr& source, ReducedScan& scan, bool odometry, ScanRecord& r)
+PoseGuess::guess(const Cloud::ConstPtr& source,
+                 ReducedScan& scan,
+                 bool odometry,
+                 ScanRecord& r,
+                 const StartDeskew& deskew)
 {
   // To the local map: from the match to the previous scan (guess_from_previous_scan); to
   // the previous scan: the best start refined there. With odometry, its step.
@@ -90,7 +94,7 @@ PoseGuess::guess(const Cloud::ConstPtr& source, ReducedScan& scan, bool odometry
     return r.prediction;
   const std::optional<Pose> own =
       matcher_.alignToPrevious(source, r.prediction, false, nullptr, motion_.lastPose());
-  const std::optional<Pose> better = betterGuess(source, scan, own, r);
+  const std::optional<Pose> better = betterGuess(source, scan, own, r, deskew);
   return better ? *better : own.value_or(r.prediction);
 }
 
@@ -152,7 +156,8 @@ PoseGuess::bestHypothesis(const Cloud::ConstPtr& source,
                           const Pose& prediction,
                           const std::optional<Pose>& own,
                           const Hypotheses& h,
-                          ScanRecord& r)
+                          ScanRecord& r,
+                          const StartDeskew& deskew)
 {
   const double gate = matcher_.gate(), same = sameSolution();
   const Pose& at = motion_.lastPose(); // the previous scan's pose
@@ -173,9 +178,12 @@ PoseGuess::bestHypothesis(const Cloud::ConstPtr& source,
     return a - b > kConflictSignificance * std::sqrt((a + b) / source->size());
   };
   // The prior stays at the prediction: what the motion model believes, not the start.
+  // A start's match is judged on the sample deskewed by the motion it implies: one
+  // deskewed by the prediction's motion is bent against any other start.
   const auto tryStart = [&](const Pose& start, double offset, double turn) {
-    const std::optional<Pose> other =
-        matcher_.alignToPrevious(source, start, false, &prediction, at);
+    const Cloud::Ptr own_sample = deskew ? deskew(start) : nullptr;
+    const std::optional<Pose> other = matcher_.alignToPrevious(
+        own_sample ? Cloud::ConstPtr(own_sample) : source, start, false, &prediction, at);
     if (!other)
       return;
     const double fitness = matcher_.previousFitness(gate);
@@ -300,14 +308,15 @@ std::optional<Pose>
 PoseGuess::betterGuess(const Cloud::ConstPtr& source,
                        ReducedScan& scan,
                        const std::optional<Pose>& own,
-                       ScanRecord& r)
+                       ScanRecord& r,
+                       const StartDeskew& deskew)
 {
   // A hypothesis' match where one fits better, the search's where even that looks wrong:
   // the search is the last resort, the costliest and the least local.
   std::optional<Pose> better;
   const Hypotheses h = hypotheses(*source, r.prediction);
   if (h.any())
-    better = bestHypothesis(source, r.prediction, own, h, r);
+    better = bestHypothesis(source, r.prediction, own, h, r, deskew);
   if (auto found = searchPose(source, scan, better ? better : own, h.range, r))
     better = found;
   return better;

@@ -377,6 +377,19 @@ deskew(const Cloud& scan,
 }
 
 Cloud::Ptr
+redeskew(const Cloud& deskewed,
+         const Pose& from,
+         const Pose& to,
+         bool clockwise,
+         unsigned num_threads)
+{
+  return deskew(*deskew(deskewed, Pose(from.inverse()), num_threads, clockwise),
+                to,
+                num_threads,
+                clockwise);
+}
+
+Cloud::Ptr
 deskewSweep(const Cloud& scan,
             const std::vector<float>& sweep_times,
             const Pose& motion,

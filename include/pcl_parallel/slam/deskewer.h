@@ -41,6 +41,11 @@ public:
   std::pair<Cloud::Ptr, Cloud::Ptr>
   halves(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
 
+  /** Points deskewed by `from` by their azimuths (a registered sample, whose raw points
+   *  are gone), deskewed by `to` instead (redeskew); a copy where deskewing is off. */
+  Cloud::Ptr
+  again(const Cloud& deskewed, const Pose& from, const Pose& to) const;
+
   /** Keeps the sequence's first scan until the first step is known (when enabled). */
   void
   holdFirst(const Cloud& scan, const std::vector<float>& sweep_times);
@@ -59,6 +64,10 @@ public:
    *  turn begun or ended) is then deskewed again by its matched step. */
   bool
   needsAgain(const Pose& predicted, const Pose& matched, const Cloud& reduced) const;
+  /** Whether deskewing by `b` instead of `a` moves the reduced scan's farthest point by
+   *  more than `distance` (to first order). */
+  static bool
+  movesBeyond(const Pose& a, const Pose& b, const Cloud& reduced, double distance);
 
 private:
   bool enabled_;

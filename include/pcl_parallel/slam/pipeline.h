@@ -275,6 +275,17 @@ private:
         const std::vector<float>& sweep_times,
         const MotionPrediction& m,
         bool odometry);
+  /** PoseGuess's start for r (without odometry each start matched on the registered
+   *  sample deskewed by its own motion, deskewing by azimuth); `source` becomes the
+   *  start's own sample where that moves the scan beyond the final gate, and
+   *  `sample_of_scan` false. */
+  Pose
+  guessStart(ScanRecord& r,
+             Cloud::Ptr& source,
+             const std::vector<float>& sweep_times,
+             const MotionPrediction& m,
+             bool odometry,
+             bool& sample_of_scan);
   /** A scan deskewed by the predicted step and matched (`matched`), deskewed again by a
    *  sweep's motion that moves it by more than half a voxel, and matched again: first the
    *  matched step's, then the motion its halves show (sweepOfHalves), kDeskewRounds
@@ -286,7 +297,8 @@ private:
               const std::vector<float>& sweep_times,
               const MotionPrediction& m,
               Pose matched,
-              const Pose& prior_mean);
+              const Pose& prior_mean,
+              bool sample_of_scan);
   /** The sweep's motion corrected by its halves: each, deskewed by `sweep` and matched
    *  from `matched`, lies where its middle was taken; the motion left between them is
    *  half a sweep's error (docs/design.md, "A sweep's motion from its halves"). None

@@ -10,6 +10,7 @@
 
 #include <Eigen/Geometry>
 
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -30,6 +31,10 @@ class Reducer;
  */
 class PoseGuess {
 public:
+  /** The registered sample as deskewed by the motion a start implies (MotionModel::
+   *  sweepOfMatch), or null where the prediction's deskewing holds for it. */
+  using StartDeskew = std::function<Cloud::Ptr(const Pose& start)>;
+
   /** The stages it asks: the matcher's previous-scan pICP, the reducer's normals and the
    *  motion model's last pose and heading (all outlive it); resolved parameters
    *  (resolve). */
@@ -40,9 +45,14 @@ public:
 
   /** The start for scan `r` (r.prediction predicted; its report takes which start won:
    *  start_offset, start_turn, start_heading, pose_searched). `scan` is `source`'s
-   *  reduced scan; the pose search describes it. */
+   *  reduced scan; the pose search describes it. With `deskew`, each speed and turn-rate
+   *  hypothesis is matched on the sample deskewed by its own motion. */
   Pose
-  guess(const Cloud::ConstPtr& source, ReducedScan& scan, bool odometry, ScanRecord& r);
+  guess(const Cloud::ConstPtr& source,
+        ReducedScan& scan,
+        bool odometry,
+        ScanRecord& r,
+        const StartDeskew& deskew = {});
 
   /** The motion prior's mean for the match from `start`: the prediction, or the start
    *  where the pose search placed the scan, the prediction being what it found wrong
@@ -74,14 +84,17 @@ private:
   betterGuess(const Cloud::ConstPtr& source,
               ReducedScan& scan,
               const std::optional<Pose>& own,
-              ScanRecord& r);
-  /** The best of the hypotheses' matches if one fits better and ends elsewhere. */
+              ScanRecord& r,
+              const StartDeskew& deskew);
+  /** The best of the hypotheses' matches if one fits better and ends elsewhere, each on
+   *  the sample `deskew` gives for its start (where it gives one). */
   std::optional<Pose>
   bestHypothesis(const Cloud::ConstPtr& source,
                  const Pose& prediction,
                  const std::optional<Pose>& own,
                  const Hypotheses& h,
-                 ScanRecord& r);
+                 ScanRecord& r,
+                 const StartDeskew& deskew);
   /** Where `own` looks wrong: the best of correlativeSearch's candidates matched, if it
    *  overlaps the previous scan 1.25 times more, agrees with it more (overlap less
    *  free-space conflicts) and ends elsewhere. */

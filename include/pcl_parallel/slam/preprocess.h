@@ -142,6 +142,17 @@ deskew(const Cloud& scan,
        const std::vector<float>& sweep_times,
        const Pose& motion,
        unsigned num_threads = 0);
+/** Points deskewed by `from` by their azimuths, deskewed by `to` instead: each moved back
+ *  by from^-(t - 1/2), t from its azimuth as deskewed, then on by to^(t' - 1/2), t' from
+ *  its azimuth as measured again. The deskewed azimuth differs from the measured one by the
+ *  share of from's turn, so t by that over a full turn: for a sample of a scan, whose raw
+ *  points are gone, a re-deskewing within that share of the difference of the motions. */
+Cloud::Ptr
+redeskew(const Cloud& deskewed,
+         const Pose& from,
+         const Pose& to,
+         bool clockwise = true,
+         unsigned num_threads = 0);
 /** deskew by `sweep_times` where given, else (empty) by each point's azimuth, turning
  *  `clockwise` or not: how the pipeline deskews a scan, with its points' times where they
  *  span a sweep (spansSweep, sweepFractions). */
