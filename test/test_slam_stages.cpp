@@ -26,7 +26,9 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <gtest/gtest.h>
 #include <limits>
 #include <stdexcept>
@@ -265,6 +267,51 @@ TEST(Deskewer, HalvesSplitTheDeskewedScanBySweepTime)
     }
   }
   EXPECT_EQ(on.halves(scan, given, sweep).second->size(), (scan.size() + 2) / 3);
+}
+
+// A sample deskewed by one motion, deskewed again by another without its raw points: each
+// point's time from its deskewed azimuth, within that motion's turn of the measured one.
+// Against the raw scan deskewed by the other motion, it is off by a small share of how far
+// the change of motion moves the points; switched off, a copy.
+TEST(Deskewer, AgainMovesAPointAsDeskewingItsRawPointWould)
+{
+  const Cloud scan = room();
+  const Pose from = makePose(25 * kDeg, 0.6, 0.1), to = makePose(5 * kDeg, 0.2, 0.0);
+  const slam::Deskewer on(true, true, 0.05, 2);
+  const Cloud::Ptr deskewed = on.deskew(scan, {}, from);
+  const Cloud::Ptr again = on.again(*deskewed, from, to);
+  const Cloud::Ptr direct = on.deskew(scan, {}, to);
+  ASSERT_EQ(again->size(), scan.size());
+  // Where the deskewing moves a point by a fair share of its distance from the vertical,
+  // its azimuth, and so its time, is no longer its own: those are left out.
+  double change = 0.0, error = 0.0, sum = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    const Eigen::Vector3f p = (*direct)[i].getVector3fMap();
+    const double moved = ((*deskewed)[i].getVector3fMap() - p).norm();
+    const double e = ((*again)[i].getVector3fMap() - p).norm();
+    sum += e;
+    if (scan[i].getVector3fMap().head<2>().norm() < 4.0 * moved)
+      continue;
+    change = std::max(change, moved);
+    error = std::max(error, e);
+    ++n;
+  }
+  std::printf("deskewed again: worst %.4f m off (%zu of %zu points), mean %.4f m (all); the "
+              "motions' change %.3f m\n",
+              error,
+              n,
+              scan.size(),
+              sum / scan.size(),
+              change);
+  EXPECT_GT(n, scan.size() * 3 / 4);
+  EXPECT_GT(change, 0.3);
+  EXPECT_LT(error, 0.05 * change);
+  EXPECT_LT(sum / scan.size(), 0.01 * change);
+  const slam::Deskewer off(false, true, 0.05, 2);
+  const Cloud::Ptr copy = off.again(scan, from, to);
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    ASSERT_EQ((*copy)[i].getVector3fMap(), scan[i].getVector3fMap());
 }
 
 TEST(Reducer, ReducesAsTheVoxelFilters)

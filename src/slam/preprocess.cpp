@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -376,6 +377,11 @@ deskew(const Cloud& scan,
   });
 }
 
+namespace {
+/** A sweep time consistent to this (a thousandth of a sweep) is the point's own. */
+constexpr double kSeamTolerance = 1e-3;
+} // namespace
+
 Cloud::Ptr
 redeskew(const Cloud& deskewed,
          const Pose& from,
@@ -383,10 +389,39 @@ redeskew(const Cloud& deskewed,
          bool clockwise,
          unsigned num_threads)
 {
-  return deskew(*deskew(deskewed, Pose(from.inverse()), num_threads, clockwise),
-                to,
-                num_threads,
-                clockwise);
+  const ScrewMotion back(Pose(from.inverse())), on(to);
+  const auto time = [clockwise](const Eigen::Vector3d& p) {
+    const double a = std::atan2(p.y(), p.x()) / M_PI;
+    return 0.5 * (clockwise ? 1.0 - a : 1.0 + a);
+  };
+  // The measured time t of a deskewed point q solves t = time(from^-(t - 1/2) q): a fixed
+  // point, found from q's own azimuth; a point the deskewing moved across the sweep's seam
+  // (its azimuth behind the scanner) is found from the seam's side instead.
+  const auto measured = [&](const Eigen::Vector3d& q) {
+    double best = 0.0, residual = std::numeric_limits<double>::infinity();
+    for (const double start : {time(q), 0.0, 1.0}) {
+      double t = start;
+      for (int k = 0; k < 3; ++k)
+        t = time(back.apply(t - 0.5, q));
+      const double r = std::abs(time(back.apply(t - 0.5, q)) - t);
+      if (r < residual)
+        residual = r, best = t;
+      if (residual < kSeamTolerance)
+        break;
+    }
+    return best;
+  };
+  Cloud::Ptr out(new Cloud(deskewed));
+  const std::size_t n = deskewed.size();
+  const unsigned threads = threadsFor(n, num_threads);
+  parallelFor(n, threads, evenGrain(n, threads), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+      const Eigen::Vector3d q = deskewed[i].getVector3fMap().cast<double>();
+      const double s = measured(q) - 0.5;
+      (*out)[i].getVector3fMap() = on.apply(s, back.apply(s, q)).cast<float>();
+    }
+  });
+  return out;
 }
 
 Cloud::Ptr
