@@ -142,11 +142,12 @@ deskew(const Cloud& scan,
        const std::vector<float>& sweep_times,
        const Pose& motion,
        unsigned num_threads = 0);
-/** Points deskewed by `from` by their azimuths, deskewed by `to` instead: each moved back
- *  by from^-(t - 1/2), t from its azimuth as deskewed, then on by to^(t' - 1/2), t' from
- *  its azimuth as measured again. The deskewed azimuth differs from the measured one by the
- *  share of from's turn, so t by that over a full turn: for a sample of a scan, whose raw
- *  points are gone, a re-deskewing within that share of the difference of the motions. */
+/** Points deskewed by `from` by their azimuths, deskewed by `to` instead, for a sample of a
+ *  scan whose raw points are gone: each point q's measured time t is the fixed point of
+ *  t = sweepTime(from^-(t - 1/2) q), found from q's own azimuth, or from the sweep's seam
+ *  where the deskewing carried q across it, to a thousandth of a sweep; q moves by
+ *  from^-(t - 1/2), then by to^(t - 1/2). Exact to that tolerance but near the vertical
+ *  axis, where the deskewing's translation leaves a point no azimuth of its own. */
 Cloud::Ptr
 redeskew(const Cloud& deskewed,
          const Pose& from,
