@@ -390,10 +390,7 @@ redeskew(const Cloud& deskewed,
          unsigned num_threads)
 {
   const ScrewMotion back(Pose(from.inverse())), on(to);
-  const auto time = [clockwise](const Eigen::Vector3d& p) {
-    const double a = std::atan2(p.y(), p.x()) / M_PI;
-    return 0.5 * (clockwise ? 1.0 - a : 1.0 + a);
-  };
+  const auto time = [clockwise](const Eigen::Vector3d& p) { return sweepTime(p, clockwise); };
   // The measured time t of a deskewed point q solves t = time(from^-(t - 1/2) q): a fixed
   // point, found from q's own azimuth; a point the deskewing moved across the sweep's seam
   // (its azimuth behind the scanner) is found from the seam's side instead.

@@ -82,10 +82,16 @@ sweepTimes(const std::vector<double>& times);
  *  KITTI's timestamps the same way): t = (1 - atan2(y, x) / pi) / 2, 0.5 facing forwards;
  *  counter-clockwise: 1 - t. */
 inline double
+sweepTime(const Eigen::Vector3d& p, bool clockwise = true)
+{
+  const double a = std::atan2(p.y(), p.x()) / M_PI;
+  return 0.5 * (clockwise ? 1.0 - a : 1.0 + a);
+}
+/** sweepTime of a point of a cloud. */
+inline double
 sweepTime(const PointT& p, bool clockwise = true)
 {
-  const double a = std::atan2(static_cast<double>(p.y), static_cast<double>(p.x)) / M_PI;
-  return 0.5 * (clockwise ? 1.0 - a : 1.0 + a);
+  return sweepTime(p.getVector3fMap().cast<double>().eval(), clockwise);
 }
 
 /** Pose at fraction s of a relative motion at constant velocity: motion^s = exp(s log
