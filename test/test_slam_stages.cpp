@@ -379,7 +379,7 @@ expectMatch(slam::MatchTarget target)
   slam::ScanRecord record;
   record.pose = *matched;
   record.report.gate = matcher.gate();
-  matcher.measure(record, *source);
+  matcher.measure(record, source, Pose::Identity());
   EXPECT_GT(record.information_pairs, 0.5 * source->size());
   EXPECT_GT(record.information.ldlt().vectorD().minCoeff(), 0.0); // all six constrained
   // Two samplings of the same surfaces: pairs about a voxel apart, not a wall's width.
@@ -394,6 +394,40 @@ TEST(Matcher, RecoversAStepToThePreviousScan)
 TEST(Matcher, RecoversAStepToTheLocalMap)
 {
   expectMatch(slam::MatchTarget::kLocalMap);
+}
+
+// A scanner entering unseen space: the map's tree is rebuilt only once new points reach a
+// tenth of it, so a step whose scans the tree lacks has no map pairs. Its information
+// comes from the previous scan, so that no step enters the pose graph without one.
+TEST(Matcher, MeasuresAStepTheMapTreeLacksAgainstThePreviousScan)
+{
+  const slam::Parameters p = roomParameters(slam::MatchTarget::kLocalMap);
+  const slam::Reducer reducer(p.reduction.voxel_size, p.reduction.source_voxel_size, 0);
+  slam::Matcher matcher(p);
+  slam::ReducedScan seen = reducer.reduce(room(1));
+  reducer.describe(seen);
+  matcher.keep(seen, Pose::Identity(), 1);
+  // A corner of another room 6 m away (floor and two walls: all six degrees constrained),
+  // under a tenth of the map's points, so the tree keeps the first room alone.
+  Cloud corner;
+  for (const auto& q : room(2))
+    if (q.x < -1.4f && q.y < -0.7f)
+      corner.push_back(q);
+  const Pose at = makePose(0.0, 6.0, 0.0);
+  slam::ReducedScan previous = reducer.reduce(corner);
+  reducer.describe(previous);
+  ASSERT_LT(previous.reduced->size(), seen.reduced->size() / 10);
+  matcher.keep(previous, at, 2);
+  const Pose step = makePose(3 * kDeg, 0.05, 0.03, 0.01);
+  const Cloud::Ptr source = reducer.source(reducer.reduce(seenFrom(corner, step)));
+  EXPECT_FALSE(matcher.match(source, at * step, at * step, at)); // no map pairs there
+  slam::ScanRecord record;
+  record.pose = at * step;
+  record.report.gate = matcher.gate();
+  matcher.measure(record, source, at);
+  EXPECT_EQ(record.pose, Pose(at * step)); // the pose stays the map match's
+  EXPECT_GT(record.information_pairs, 0.5 * source->size());
+  EXPECT_GT(record.information.ldlt().vectorD().minCoeff(), 0.0); // all six constrained
 }
 
 /** The second view of the room turned by `yaw` and moved, guessed without odometry from

@@ -266,9 +266,10 @@ openDirectory(const py::handle& directory,
   o.no_poses = no_poses;
   return ScanDirectory{withoutGil(
       [&] {
-        // openScanDirectory calls a missing directory a usage error; here it is a file's
-        if (std::error_code ec; !std::filesystem::is_directory(o.dir, ec))
-          throw std::runtime_error(o.dir + ": no such directory");
+        // openScanDirectory calls a missing directory or log a usage error; here it is a
+        // file's (OSError)
+        if (std::error_code ec; !std::filesystem::exists(o.dir, ec))
+          throw std::runtime_error(o.dir + ": no such directory or log");
         return io::openScanDirectory(o);
       },
       true)};
@@ -279,7 +280,7 @@ bindScanDirectory(py::module_& m)
 {
   py::class_<ScanDirectory>(m,
                             "ScanDirectory",
-                            "A directory of scans as pcl_pslam run reads it "
+                            "A directory of scans, or a 2D laser log (.clf, .clf.bz2), as pcl_pslam run reads it "
                             "(io::openScanDirectory): files, odometry, time stamps; read(k) "
                             "gives scan k in metres within the range limits.")
       .def(py::init(&openDirectory),

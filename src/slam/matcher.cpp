@@ -339,7 +339,7 @@ Matcher::refine(const Cloud::ConstPtr& source,
 }
 
 void
-Matcher::measure(ScanRecord& r, const Cloud& source)
+Matcher::measure(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at)
 {
   const bool to_map = params_.target == MatchTarget::kLocalMap;
   Icp& icp = to_map ? icp_->icp : icp_->to_previous;
@@ -348,11 +348,13 @@ Matcher::measure(ScanRecord& r, const Cloud& source)
   r.information =
       matchInformation(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
   r.information_pairs = icp.getFinalWeight();
+  if (to_map && r.information.isZero() && !previous_.empty())
+    measureByPrevious(r, source, at);
   // The map's tree, built over map_.cloud(), whose points' scans map_.scans() holds.
   const auto* tree =
       dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
   if (to_map && tree && icp.getInputTarget() == map_.cloud())
-    report.map_scans = effectiveScans(source,
+    report.map_scans = effectiveScans(*source,
                                       r.pose,
                                       tree->index(),
                                       map_.scans(),
@@ -362,6 +364,24 @@ Matcher::measure(ScanRecord& r, const Cloud& source)
                                       num_threads_);
   if (icp_->threshold) // how far the match moved the scan from the prior
     icp_->threshold->updateModelDeviation(r.prediction.inverse() * r.pose);
+}
+
+void
+Matcher::measureByPrevious(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at)
+{
+  // From the map match's pose, within the final gate, without a motion prior: the
+  // information is the scans', and the pose stays the map match's.
+  const Pose to_previous = at.inverse() * r.pose;
+  usePrevious(source);
+  Icp& icp = icp_->to_previous;
+  const double gate = params_.final_correspondence_distance > 0.0
+                          ? std::min(params_.final_correspondence_distance, this->gate())
+                          : this->gate();
+  if (!align(icp, to_previous, gate, 0.0, false, to_previous, std::nullopt))
+    return;
+  r.information =
+      matchInformation(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
+  r.information_pairs = icp.getFinalWeight();
 }
 
 void

@@ -33,6 +33,22 @@ def test_scan_directory_reads_as_pslam(dtk_dir):
         d.read(3)
 
 
+def test_scan_directory_reads_a_2d_log(tmp_path):
+    # Three 180-beam FLASER scans of a wall 2 m ahead, the robot 0.5 m further each time
+    # (the log's motion filter keeps a scan per 0.2 m); beam i at -90 + i degrees.
+    lines = []
+    for k in range(3):
+        x = 0.5 * k
+        ranges = " ".join("2.0" if i == 90 else "81.91" for i in range(180))
+        lines.append(f"FLASER 180 {ranges} {x} 0 0 {x} 0 0 {10.0 + k} host {k}")
+    (tmp_path / "wall.clf").write_text("\n".join(lines) + "\n")
+    d = pp.ScanDirectory(tmp_path / "wall.clf")
+    assert len(d) == 3 and d.format == "clf" and d.up == (0.0, 0.0, 1.0)
+    assert np.array_equal(d.stamps, [10.0, 11.0, 12.0])
+    assert np.allclose(d.odometry[:, 0, 3], [0.0, 0.5, 1.0])
+    assert np.allclose(d.read(1), [[2.0, 0.0, 0.0]])  # the one return; "no return" dropped
+
+
 def test_poses_round_trip(tmp_path):
     rng = np.random.default_rng(2)
     poses = np.stack([np.eye(4)] * 5)

@@ -110,9 +110,13 @@ public:
   previousFitness(double max_range) const;
 
   /** The last match's figures into `r` (fitness, information, the scans behind a map
-   *  match) and how far it moved the scan from the prediction into the threshold. */
+   *  match) and how far it moved the scan from the prediction into the threshold; `at`:
+   *  the previous scan's pose. Where a map match has too few pairs for an information
+   *  (space the map's tree does not hold yet), the information is the previous scan's
+   *  match's from r.pose (measureByPrevious), so that no step enters the pose graph
+   *  without one. */
   void
-  measure(ScanRecord& r, const Cloud& source);
+  measure(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at);
 
   /** Puts a described scan into the local map at `pose` as scan `id` (1 for the first),
    *  and keeps it as the previous scan where that is matched. */
@@ -134,6 +138,10 @@ public:
 
 private:
   struct Registration;
+  /** r's information from the previous scan (at `at`) matched to `source` from r.pose
+   *  within the final gate (measure). */
+  void
+  measureByPrevious(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at);
   /** The motion prior's standard deviations where pICP takes one (adaptive threshold and
    *  motion_prior): translation and rotation (rad; infinite for 2D scans, whose walls fix
    *  the heading while wheel odometry's heading error is biased: docs/design.md, "2D
