@@ -278,11 +278,12 @@ openDirectory(const py::handle& directory,
 void
 bindScanDirectory(py::module_& m)
 {
-  py::class_<ScanDirectory>(m,
-                            "ScanDirectory",
-                            "A directory of scans, or a 2D laser log (.clf, .clf.bz2), as pcl_pslam run reads it "
-                            "(io::openScanDirectory): files, odometry, time stamps; read(k) "
-                            "gives scan k in metres within the range limits.")
+  py::class_<ScanDirectory>(
+      m,
+      "ScanDirectory",
+      "A directory of scans, or a 2D laser log (.clf, .clf.bz2), as pcl_pslam run reads it "
+      "(io::openScanDirectory): files, odometry, time stamps; read(k) "
+      "gives scan k in metres within the range limits.")
       .def(py::init(&openDirectory),
            py::arg("directory"),
            py::kw_only(),
