@@ -320,7 +320,12 @@ bindScanDirectory(py::module_& m)
             u[d.dir.up] = 1.0;
             return py::make_tuple(u.x(), u.y(), u.z());
           },
-          "the vertical axis as a vector (Pipeline's guess={\"up\": ...})");
+          "the vertical axis as a vector (Pipeline's guess={\"up\": ...})")
+      .def_property_readonly(
+          "planar",
+          [](const ScanDirectory& d) { return d.dir.planar; },
+          "True for a 2D scanner's scans (a log, or scans in their x-y plane): Pipeline's "
+          "planar=..., as pcl_pslam run maps them");
 }
 
 } // namespace

@@ -1,4 +1,5 @@
 # Pipeline: the office preset mapped scan by scan gives pcl_pslam run's poses bit for bit.
+import os
 import subprocess
 
 import numpy as np
@@ -18,9 +19,9 @@ def office(tmp_path_factory, pslam):
     return base
 
 
-def _map(directory, **parameters):
-    d = pp.ScanDirectory(directory)
-    pipeline = pp.Pipeline(guess={"up": d.up}, **parameters)
+def _map(directory, opening=None, **parameters):
+    d = pp.ScanDirectory(directory, **(opening or {}))
+    pipeline = pp.Pipeline(guess={"up": d.up}, planar=d.planar, **parameters)
     for k in range(len(d)):
         stamp = d.stamps[k] if d.stamps is not None else None
         pose = pipeline.add_scan(d.read(k), d.odometry[k], stamp)
@@ -46,6 +47,33 @@ def test_pipeline_matches_pslam_run(office):
     assert pipeline.consistency() == {k: report[k] for k in keys}
     assert pipeline.consistency(front_end=True) == {k: report["front_end"][k] for k in keys}
     assert report["revisits"] > 0
+
+
+def test_2d_scans_match_pslam_run(pslam, tmp_path):
+    # A directory of 2D scans (a horizontal scanner's, in their x-y plane) is mapped in the
+    # plane by both.
+    pp.simulate("office2d", tmp_path / "scans")
+    assert pp.ScanDirectory(tmp_path / "scans").planar
+    subprocess.run([pslam, "run", str(tmp_path / "scans"), "--out", str(tmp_path / "run"),
+                    "-q", "--no-picture"], check=True)
+    # pcl_pslam run takes odometry.txt in the directory by default.
+    pipeline = _map(tmp_path / "scans", {"poses_file": tmp_path / "scans" / "odometry.txt"})
+    assert np.array_equal(pipeline.poses, pp.read_poses(tmp_path / "run" / "poses.txt"))
+    # In the plane: the scanner's height and its upright axis stay the odometry's.
+    assert np.allclose(pipeline.poses[:, 2, 3], pipeline.poses[0, 2, 3], rtol=0, atol=1e-12)
+    assert np.all(pipeline.poses[:, 2, 2] == 1.0)
+
+
+def test_2d_log_matches_pslam_run(data_dir, pslam, tmp_path):
+    # A CARMEN log: its odometry and time stamps, the scans its motion filter keeps.
+    log = os.path.join(data_dir, "radish_2d", "intel.clf.bz2")
+    if not os.path.isfile(log):
+        pytest.skip(f"{log} absent")
+    subprocess.run([pslam, "run", log, "-e", "299", "--out", str(tmp_path / "run"), "-q",
+                    "--no-picture"], check=True)
+    pipeline = _map(log, {"last": 299})  # -e: the log's scans, of which the filter keeps some
+    assert len(pipeline) > 20
+    assert np.array_equal(pipeline.poses, pp.read_poses(tmp_path / "run" / "poses.txt"))
 
 
 def test_simulate_matches_pslam_simulate(office, pslam, tmp_path):
