@@ -467,6 +467,31 @@ TEST_F(TempFiles, ScanDirectoryRefusesTimesAndPosesThatDoNotFit)
   EXPECT_TRUE(mentions(msg, "loop: ")) << msg;
 }
 
+// odometry.txt in the directory (as `pcl_pslam simulate` writes it) is its odometry unless
+// a poses file is named or no_poses; it goes before the .pose files beside .3d scans.
+TEST_F(TempFiles, ScanDirectoryTakesOdometryTxtBesideTheScans)
+{
+  for (const char* name : {"scan000.3d", "scan001.3d"})
+    write(name, "3 x 1\n100 0 0\n0 100 0\n0 0 100\n");
+  write("scan000.pose", "0 0 0\n0 0 0\n");
+  write("scan001.pose", "500 0 0\n0 0 0\n");
+  ScanDirectoryOptions o;
+  o.dir = dir_.string();
+  EXPECT_DOUBLE_EQ(openScanDirectory(o).initial[1](0, 3), 5.0); // .pose, cm
+  EXPECT_EQ(openScanDirectory(o).poses_file, "");
+  const auto odometry =
+      write("odometry.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 300 0 1 0 0 0 0 1 0\n");
+  const ScanDirectory in = openScanDirectory(o);
+  EXPECT_EQ(in.poses_file, odometry);
+  EXPECT_DOUBLE_EQ(in.initial[1](0, 3), 3.0);
+  const auto other = write("other.txt", "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 700 0 1 0 0 0 0 1 0\n");
+  o.poses_file = other;
+  EXPECT_DOUBLE_EQ(openScanDirectory(o).initial[1](0, 3), 7.0);
+  o.poses_file.clear();
+  o.no_poses = true;
+  EXPECT_FALSE(openScanDirectory(o).odometry);
+}
+
 TEST_F(TempFiles, UosScanSkipsHeaderAndFiltersRange)
 {
   const auto path = write("s.3d", "360 x 225\n1 0 0\n\n0 20 0 7\n3276.7 0 0\n0 0 0.05\n");

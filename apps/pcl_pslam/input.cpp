@@ -60,10 +60,7 @@ simulateDemo(const Options& o)
 void
 useDemoScans(Options& o, const DemoScans& scans)
 {
-  o.dir = scans.dir;
-  // A KITTI-like set (sweeps taken while moving, 2D scans) has odometry.txt beside.
-  if (std::error_code ec; !o.no_poses && fs::exists(fs::path(scans.dir) / "odometry.txt", ec))
-    o.poses_file = (fs::path(scans.dir) / "odometry.txt").string();
+  o.dir = scans.dir; // a KITTI-like set's odometry.txt beside: openScanDirectory's default
   o.deskew = o.deskew || scans.moving; // raw sweeps
 }
 

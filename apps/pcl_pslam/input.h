@@ -42,8 +42,7 @@ struct DemoScans {
 DemoScans
 simulateDemo(const Options& o);
 
-/** Points o.dir at the demo's scans, o.poses_file at their odometry.txt where they have one
- *  (KITTI-like sets), and sets o.deskew for sweeps taken while moving. */
+/** Points o.dir at the demo's scans and sets o.deskew for sweeps taken while moving. */
 void
 useDemoScans(Options& o, const DemoScans& scans);
 

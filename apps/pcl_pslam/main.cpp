@@ -77,13 +77,13 @@ openInput(Options& o, const Session& ranks, ProgressReporter& progress, DemoScan
     progress.update("simulate", 1, 1);
     truth = pcl_parallel::io::loadKittiPoses(demo.dir + "/ground_truth.txt");
   }
-  else if (std::error_code ec; o.poses_file.empty() && !o.no_poses &&
-                               fs::exists(fs::path(o.dir) / "odometry.txt", ec)) {
-    o.poses_file = (fs::path(o.dir) / "odometry.txt").string(); // as `simulate` writes it
-    progress.note("odometry from " + o.poses_file);
-  }
   Input in;
   ranks.agree([&] { in = openDirectory(o); });
+  if (o.poses_file.empty() && !in.poses_file.empty()) { // odometry.txt, as `simulate` writes it
+    o.poses_file = in.poses_file;
+    if (o.command != "demo")
+      progress.note("odometry from " + o.poses_file);
+  }
   in.truth = truth;
   progress.note(std::to_string(in.size()) + " scans" +
                 (in.log_scans ? " of the log's " + std::to_string(in.log_scans) : "") +

@@ -378,11 +378,15 @@ isCarmenLogName(const std::string& path)
 }
 
 ScanDirectory
-openScanDirectory(const ScanDirectoryOptions& o)
+openScanDirectory(const ScanDirectoryOptions& request)
 {
-  if (std::error_code ec; isCarmenLogName(o.dir) && fs::is_regular_file(o.dir, ec))
-    return openCarmenLog(o);
-  checkRequest(o);
+  if (std::error_code ec; isCarmenLogName(request.dir) && fs::is_regular_file(request.dir, ec))
+    return openCarmenLog(request);
+  checkRequest(request);
+  ScanDirectoryOptions o = request;
+  if (std::error_code ec; o.poses_file.empty() && !o.no_poses &&
+                          fs::is_regular_file(fs::path(o.dir) / "odometry.txt", ec))
+    o.poses_file = (fs::path(o.dir) / "odometry.txt").string(); // as `simulate` writes it
   const auto [format, files] = listScanFiles(o);
   ScanDirectory in;
   in.format = format;
@@ -422,6 +426,7 @@ openScanDirectory(const ScanDirectoryOptions& o)
     }
   }
   in.has_stamps = !all_times.empty();
+  in.poses_file = o.poses_file;
   if (in.initial.empty()) { // no odometry: constant-velocity guesses
     in.initial.assign(in.files.size(), Eigen::Matrix4d::Identity());
     in.odometry = false;

@@ -56,8 +56,7 @@ def test_2d_scans_match_pslam_run(pslam, tmp_path):
     assert pp.ScanDirectory(tmp_path / "scans").planar
     subprocess.run([pslam, "run", str(tmp_path / "scans"), "--out", str(tmp_path / "run"),
                     "-q", "--no-picture"], check=True)
-    # pcl_pslam run takes odometry.txt in the directory by default.
-    pipeline = _map(tmp_path / "scans", {"poses_file": tmp_path / "scans" / "odometry.txt"})
+    pipeline = _map(tmp_path / "scans")  # with the odometry.txt `simulate` wrote
     assert np.array_equal(pipeline.poses, pp.read_poses(tmp_path / "run" / "poses.txt"))
     # In the plane: the scanner's height and its upright axis stay the odometry's.
     assert np.allclose(pipeline.poses[:, 2, 3], pipeline.poses[0, 2, 3], rtol=0, atol=1e-12)

@@ -43,7 +43,9 @@ struct ScanDirectoryOptions {
   /** The directory of scans. */
   std::string dir;
   /** KITTI or TUM odometry (detectPoseFileFormat), one pose per scan file of the
-   *  directory (before -s/-e); "": none, or the .pose files beside 3DTK .3d scans. */
+   *  directory (before -s/-e); "": odometry.txt in dir where there is one (as `pcl_pslam
+   *  simulate` writes it; not with no_poses), else the .pose files beside 3DTK .3d scans,
+   *  else none. */
   std::string poses_file;
   /** One time stamp (s) per scan file; "": times.txt in dir or its parent (KITTI's
    *  sequences/NN/ beside velodyne/), which is then the scans' and must have as many. */
@@ -55,7 +57,7 @@ struct ScanDirectoryOptions {
   double max_range = std::numeric_limits<double>::infinity(); ///< -m
   std::optional<double> scale; ///< coordinates times this are metres (default: .3d 0.01)
   int up = -1;                 ///< vertical axis (-1: .3d y, else z)
-  bool no_poses = false;       ///< ignore the .pose files beside .3d scans
+  bool no_poses = false;       ///< ignore odometry.txt and the .pose files beside .3d scans
   /** A CARMEN log (`dir` names a .clf or .clf.bz2 file): a laser scan is kept where the
    *  odometry moved at least min_travel (m) or turned at least min_turn (rad) since the
    *  last scan kept, the first scan always. 0 and 0: every scan. */
@@ -67,9 +69,10 @@ struct ScanDirectoryOptions {
 struct ScanDirectory {
   std::vector<Eigen::Matrix4d> initial; ///< odometry (metres), or identities
   bool odometry = true;                 ///< false: `initial` holds identities
-  std::vector<std::string> files;       ///< per scan: its file
-  std::vector<int> numbers;             ///< per scan: its number (-s/-e count in these)
-  std::vector<double> stamps;           ///< per scan: time (s), or the number when none given
+  std::string poses_file;         ///< the odometry's file (the options' or odometry.txt), or ""
+  std::vector<std::string> files; ///< per scan: its file
+  std::vector<int> numbers;       ///< per scan: its number (-s/-e count in these)
+  std::vector<double> stamps;     ///< per scan: time (s), or the number when none given
   /** True when the time stamps came from a file (times.txt, --times, a TUM file). */
   bool has_stamps = false;
   std::string format;       ///< "3d", "bin", ...
