@@ -8,10 +8,7 @@
 #include <pcl_parallel/sim/scan_set_writer.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <memory>
-
-namespace fs = std::filesystem;
 
 namespace pcl_pslam {
 

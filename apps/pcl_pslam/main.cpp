@@ -24,7 +24,6 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <unistd.h>
@@ -35,7 +34,6 @@
 namespace pcl_pslam {
 namespace {
 
-namespace fs = std::filesystem;
 using Session = pcl_parallel::mpi::Session;
 namespace slam = pcl_parallel::slam;
 
