@@ -206,6 +206,13 @@ Matcher::gate() const
                          : params_.max_correspondence_distance;
 }
 
+double
+Matcher::finalGate() const
+{
+  const double final_gate = params_.final_correspondence_distance;
+  return final_gate > 0.0 ? std::min(final_gate, gate()) : gate();
+}
+
 std::optional<std::pair<double, double>>
 Matcher::priorSpread() const
 {
@@ -328,13 +335,12 @@ Matcher::refine(const Cloud::ConstPtr& source,
                 const Pose& prior_mean,
                 const Pose& at)
 {
-  const double final_gate = params_.final_correspondence_distance;
   return alignTo(params_.target == MatchTarget::kLocalMap,
                  source,
                  start,
                  prior_mean,
                  at,
-                 final_gate > 0.0 ? std::min(final_gate, gate()) : gate(),
+                 finalGate(),
                  0.0);
 }
 
@@ -374,10 +380,7 @@ Matcher::measureByPrevious(ScanRecord& r, const Cloud::ConstPtr& source, const P
   const Pose to_previous = at.inverse() * r.pose;
   usePrevious(source);
   Icp& icp = icp_->to_previous;
-  const double gate = params_.final_correspondence_distance > 0.0
-                          ? std::min(params_.final_correspondence_distance, this->gate())
-                          : this->gate();
-  if (!align(icp, to_previous, gate, 0.0, false, to_previous, std::nullopt))
+  if (!align(icp, to_previous, finalGate(), 0.0, false, to_previous, std::nullopt))
     return;
   r.information =
       matchInformation(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());

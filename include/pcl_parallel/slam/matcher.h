@@ -61,6 +61,10 @@ public:
   /** The correspondence distance now: the adaptive threshold's, at most the maximum. */
   double
   gate() const;
+  /** The refinement's: the final correspondence distance, at most gate() (none set:
+   *  gate()). */
+  double
+  finalGate() const;
 
   /** Whether there is something to match against. */
   bool
