@@ -179,9 +179,9 @@ TEST(VoxelCentroid, SameForAnyThreadCount)
   }
 }
 
-// Brute force: per voxel, in key order, the input point nearest the voxel's centroid
-// (summed in double in input order), the first of equally near ones; for the serial path
-// and the parallel blocks, with non-finite points and many points per voxel.
+// Brute force: per voxel, in key order, the input point (and its index) nearest the voxel's
+// centroid (summed in double in input order), the first of equally near ones; for the serial
+// path and the parallel blocks, with non-finite points and many points per voxel.
 TEST(VoxelNearestToCentroid, MatchesBruteForce)
 {
   for (const int size : {5000, 120000}) {
@@ -220,6 +220,11 @@ TEST(VoxelNearestToCentroid, MatchesBruteForce)
         EXPECT_EQ((*out)[v].y, cloud[expected[v]].y) << v;
         EXPECT_EQ((*out)[v].z, cloud[expected[v]].z) << v;
       }
+      const std::vector<std::uint32_t> kept =
+          pcl_parallel::filters::voxelNearestToCentroidIndices(cloud, voxel, threads);
+      ASSERT_EQ(kept.size(), expected.size()) << threads << " threads";
+      for (std::size_t v = 0; v < expected.size(); ++v)
+        EXPECT_EQ(kept[v], expected[v]) << v;
     }
   }
 }
@@ -263,6 +268,7 @@ TEST(VoxelNearestToCentroid, DropsNonFiniteAndKeepsAllWithoutAVoxel)
   Cloud cloud = randomCloud(100, 1.0f, 9);
   cloud.push_back(pcl::PointXYZ(std::numeric_limits<float>::quiet_NaN(), 0, 0));
   EXPECT_EQ(pcl_parallel::filters::voxelNearestToCentroid(cloud, 0.0)->size(), 100u);
+  EXPECT_EQ(pcl_parallel::filters::voxelNearestToCentroidIndices(cloud, 0.0).size(), 100u);
   const auto out = pcl_parallel::filters::voxelNearestToCentroid(cloud, 0.3);
   EXPECT_EQ(out->size(), pcl_parallel::filters::voxelCentroid(cloud, 0.3)->size());
   EXPECT_TRUE(out->is_dense);

@@ -21,6 +21,7 @@
 #include <pcl_parallel/slam/pose_guess.h>
 #include <pcl_parallel/slam/preprocess.h>
 #include <pcl_parallel/slam/reducer.h>
+#include <pcl_parallel/slam/sweep_path.h>
 
 #include <pcl/common/transforms.h>
 
@@ -243,30 +244,127 @@ TEST(Deskewer, DeskewsAgainOnlyBeyondHalfAVoxel)
   EXPECT_TRUE(on.needsAgain(Pose::Identity(), makePose(0.0, 0.11, 0.0), scan));
 }
 
-// The halves: the scan deskewed as deskew() does it, its points split by sweep time (from
-// the azimuth, or the times given), in order.
-TEST(Deskewer, HalvesSplitTheDeskewedScanBySweepTime)
+/** The room as a scanner moving along `path` measures it: each point at the sweep time of
+ *  its azimuth from the path's middle, in the scanner's frame then. */
+std::pair<Cloud, std::vector<float>>
+seenAlong(const Cloud& world, const slam::SweepPath& path)
 {
-  const Cloud scan = room();
-  const Pose sweep = makePose(12 * kDeg, 0.4, 0.1);
-  const slam::Deskewer on(true, true, 0.05, 2);
-  std::vector<float> given(scan.size()); // every third point at the sweep's end
-  for (std::size_t i = 0; i < scan.size(); ++i)
-    given[i] = i % 3 == 0 ? 0.9f : 0.1f;
-  for (const auto& times : {std::vector<float>(), given}) {
-    const Cloud::Ptr deskewed = slam::deskewSweep(scan, times, sweep, true, 2);
-    const auto [first, second] = on.halves(scan, times, sweep);
-    ASSERT_EQ(first->size() + second->size(), scan.size());
-    EXPECT_GT(first->size(), scan.size() / 4);
-    EXPECT_GT(second->size(), scan.size() / 4);
-    std::size_t a = 0, b = 0;
-    for (std::size_t i = 0; i < scan.size(); ++i) {
-      const double t = times.empty() ? slam::sweepTime(scan[i], true) : times[i];
-      const Eigen::Vector3f p = (t < 0.5 ? (*first)[a++] : (*second)[b++]).getVector3fMap();
-      ASSERT_TRUE(p.isApprox((*deskewed)[i].getVector3fMap(), 1e-5f)) << i;
-    }
+  std::pair<Cloud, std::vector<float>> out;
+  const Pose to_mid = path.mid().inverse();
+  for (const auto& w : world) {
+    const Eigen::Vector3d x = w.getVector3fMap().cast<double>();
+    const double t = slam::sweepTime(
+        Eigen::Vector3d(to_mid.topLeftCorner<3, 3>() * x + to_mid.topRightCorner<3, 1>()));
+    const Pose to_scanner = path.at(t).inverse();
+    pcl::PointXYZ p;
+    p.getVector3fMap() =
+        (to_scanner.topLeftCorner<3, 3>() * x + to_scanner.topRightCorner<3, 1>())
+            .cast<float>();
+    out.first.push_back(p);
+    out.second.push_back(static_cast<float>(t));
   }
-  EXPECT_EQ(on.halves(scan, given, sweep).second->size(), (scan.size() + 2) / 3);
+  return out;
+}
+
+// A path at one velocity is the deskewing's constant-velocity motion: its knots lie on
+// that screw motion, and deskewing along it is deskewing by the motion.
+TEST(SweepPath, AtOneVelocityIsTheDeskewingsMotion)
+{
+  const Pose mid = makePose(10 * kDeg, 1.0, 2.0), sweep = makePose(25 * kDeg, 0.6, 0.1);
+  const slam::SweepPath path(mid, sweep, 4);
+  ASSERT_EQ(path.knots().size(), 5u);
+  EXPECT_TRUE(path.mid().isApprox(mid, 1e-12));
+  EXPECT_TRUE(
+      Pose(path.knots().front().inverse() * path.knots().back()).isApprox(sweep, 1e-12));
+  const Cloud scan = room();
+  std::vector<float> times(scan.size());
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    times[i] = static_cast<float>(slam::sweepTime(scan[i]));
+  const Cloud::Ptr along = slam::deskewAlong(scan, times, path, 2);
+  const Cloud::Ptr deskewed = slam::deskew(scan, times, sweep, 2);
+  ASSERT_EQ(along->size(), scan.size());
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    ASSERT_LT(((*along)[i].getVector3fMap() - (*deskewed)[i].getVector3fMap()).norm(), 1e-5)
+        << i;
+  EXPECT_THROW(slam::SweepPath(mid, sweep, 0), std::invalid_argument);
+}
+
+/** A hand-held turn that speeds up within the sweep (2, 6, 12 and 20 degrees over its
+ *  quarters), pitching, 0.4 m forward, about the map's origin. */
+slam::SweepPath
+speedingTurn()
+{
+  slam::SweepPath path(Pose::Identity(), Pose::Identity(), 4);
+  slam::Poses& k = path.knots();
+  const double turns[4] = {2 * kDeg, 3 * kDeg, 5 * kDeg, 8 * kDeg};
+  k[0] = makePose(-15 * kDeg, -0.2, 0.1);
+  for (std::size_t j = 0; j < 4; ++j) {
+    Pose pitch = Pose::Identity();
+    pitch.topLeftCorner<3, 3>() =
+        Eigen::AngleAxisd((j < 2 ? 2.0 : -2.0) * kDeg, Eigen::Vector3d::UnitY()).matrix();
+    k[j + 1] = k[j] * makePose(turns[j], 0.1, 0.0) * pitch;
+  }
+  return path;
+}
+
+// The sweep's path fitted to the map: from the constant velocity of the sweep's whole
+// motion (what deskewing by the step assumes), the fit follows the turn speeding up. Its
+// worst knot ends within a quarter of the constant velocity's angle of the truth (5.7 ->
+// 1.1 degrees; the prior's stiffness holds the sparse ends back), the same for any thread
+// count.
+TEST(Matcher, FitsTheSweepPathOfATurnThatSpeedsUp)
+{
+  const slam::Parameters p = roomParameters(slam::MatchTarget::kLocalMap);
+  const slam::Reducer reducer(p.reduction.voxel_size, p.reduction.source_voxel_size, 0);
+  slam::Matcher matcher(p);
+  slam::ReducedScan map = reducer.reduce(room(1));
+  reducer.describe(map);
+  matcher.keep(map, Pose::Identity(), 1);
+  const slam::SweepPath truth = speedingTurn();
+  const auto [raw, times] = seenAlong(room(2), truth);
+  const slam::Deskewer deskewer(true, true, p.reduction.voxel_size, 0);
+  const auto [sample, sample_times] =
+      deskewer.timedSample(raw, times, p.reduction.source_voxel_size);
+  const Pose whole = truth.knots().front().inverse() * truth.knots().back();
+  const slam::SweepPath start(truth.mid(), whole, 4);
+  // The map's tree is built by a match.
+  ASSERT_TRUE(matcher.match(reducer.source(reducer.reduce(*deskewer.along(raw, times, start))),
+                            truth.mid(),
+                            truth.mid(),
+                            Pose::Identity()));
+  const auto worst = [&](const slam::SweepPath& path) {
+    PoseError w{0.0, 0.0};
+    for (std::size_t j = 0; j < truth.knots().size(); ++j) {
+      const PoseError e = poseError(path.knots()[j], truth.knots()[j]);
+      w.distance = std::max(w.distance, e.distance);
+      w.angle = std::max(w.angle, e.angle);
+    }
+    return w;
+  };
+  slam::SweepPath fitted = start;
+  ASSERT_TRUE(matcher.fitPath(fitted, *sample, sample_times, slam::SweepPathPrior{}));
+  const PoseError before = worst(start), after = worst(fitted);
+  std::printf("sweep path's worst knot: constant velocity %.4f m, %.3f deg; fitted %.4f m, "
+              "%.3f deg\n",
+              before.distance,
+              before.angle / kDeg,
+              after.distance,
+              after.angle / kDeg);
+  EXPECT_GT(before.angle, 4.0 * kDeg);
+  EXPECT_LT(after.angle, 0.25 * before.angle);
+  EXPECT_LT(after.distance, 0.6 * before.distance);
+  slam::Parameters one = p;
+  one.num_threads = 1;
+  slam::Matcher serial(one);
+  serial.keep(map, Pose::Identity(), 1);
+  ASSERT_TRUE(serial.match(reducer.source(reducer.reduce(*deskewer.along(raw, times, start))),
+                           truth.mid(),
+                           truth.mid(),
+                           Pose::Identity()));
+  slam::SweepPath again = start;
+  ASSERT_TRUE(serial.fitPath(again, *sample, sample_times, slam::SweepPathPrior{}));
+  for (std::size_t j = 0; j < truth.knots().size(); ++j)
+    EXPECT_EQ(again.knots()[j], fitted.knots()[j]) << j;
 }
 
 // A sample deskewed by one motion, deskewed again by another without its raw points: each

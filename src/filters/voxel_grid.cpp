@@ -346,9 +346,11 @@ centroidOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* 
   return pcl::PointXYZ(c.x(), c.y(), c.z());
 }
 
-/** The voxel's point nearest its centroid; ties: the first in input order. */
-pcl::PointXYZ
-nearestToCentroidOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* last)
+/** The index of the voxel's point nearest its centroid; ties: the first in input order. */
+std::uint32_t
+nearestToCentroidIndex(const Cloud& cloud,
+                       const std::uint32_t* first,
+                       const std::uint32_t* last)
 {
   const Eigen::Vector3d c = meanOf(cloud, first, last);
   const std::uint32_t* best = first;
@@ -358,7 +360,14 @@ nearestToCentroidOf(const Cloud& cloud, const std::uint32_t* first, const std::u
     if (d < best_d)
       best_d = d, best = i;
   }
-  return cloud[*best];
+  return *best;
+}
+
+/** The voxel's point nearest its centroid. */
+pcl::PointXYZ
+nearestToCentroidOf(const Cloud& cloud, const std::uint32_t* first, const std::uint32_t* last)
+{
+  return cloud[nearestToCentroidIndex(cloud, first, last)];
 }
 
 } // namespace
@@ -374,6 +383,30 @@ voxelNearestToCentroid(const Cloud& cloud, double voxel_size, unsigned num_threa
 {
   return reduceByVoxel(
       cloud, voxel_size, num_threads, "voxelNearestToCentroid", nearestToCentroidOf);
+}
+
+std::vector<std::uint32_t>
+voxelNearestToCentroidIndices(const Cloud& cloud, double voxel_size, unsigned num_threads)
+{
+  std::vector<std::uint32_t> out;
+  if (!(voxel_size > 0.0)) {
+    for (std::size_t i = 0; i < cloud.size(); ++i)
+      if (std::isfinite(cloud[i].x) && std::isfinite(cloud[i].y) && std::isfinite(cloud[i].z))
+        out.push_back(static_cast<std::uint32_t>(i));
+    return out;
+  }
+  const VoxelRuns g =
+      groupByVoxel(cloud, voxel_size, num_threads, "voxelNearestToCentroidIndices");
+  out.resize(g.runs.size() - 1);
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+  const unsigned used = out.size() > 5000 ? threads : 1;
+  parallelFor(
+      out.size(), used, evenGrain(out.size(), used), [&](std::size_t first, std::size_t last) {
+        for (std::size_t v = first; v < last; ++v)
+          out[v] = nearestToCentroidIndex(
+              cloud, g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
+      });
+  return out;
 }
 
 // ---------------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/filters/voxel_grid.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/deskewer.h>
 #include <pcl_parallel/slam/preprocess.h>
@@ -49,29 +50,44 @@ Deskewer::deskew(const Cloud& scan,
                   : Cloud::Ptr(new Cloud(scan));
 }
 
-std::pair<Cloud::Ptr, Cloud::Ptr>
-Deskewer::halves(const Cloud& scan,
-                 const std::vector<float>& sweep_times,
-                 const Pose& sweep) const
+std::vector<float>
+Deskewer::timesOf(const Cloud& scan, const std::vector<float>& sweep_times) const
 {
-  std::vector<float> times = sweep_times;
-  if (times.empty()) { // from the azimuths, once for both the deskewing and the split
-    times.resize(scan.size());
-    parallelFor(scan.size(), num_threads_, 4096, [&](std::size_t begin, std::size_t end) {
-      for (std::size_t i = begin; i < end; ++i)
-        times[i] = static_cast<float>(sweepTime(scan[i], clockwise_));
-    });
+  if (!sweep_times.empty())
+    return sweep_times;
+  std::vector<float> times(scan.size());
+  parallelFor(scan.size(), num_threads_, 4096, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i)
+      times[i] = static_cast<float>(sweepTime(scan[i], clockwise_));
+  });
+  return times;
+}
+
+std::pair<Cloud::Ptr, std::vector<float>>
+Deskewer::timedSample(const Cloud& scan,
+                      const std::vector<float>& sweep_times,
+                      double voxel_size) const
+{
+  const std::vector<std::uint32_t> kept =
+      filters::voxelNearestToCentroidIndices(scan, voxel_size, num_threads_);
+  std::pair<Cloud::Ptr, std::vector<float>> out(Cloud::Ptr(new Cloud), std::vector<float>());
+  out.first->resize(kept.size());
+  out.second.resize(kept.size());
+  for (std::size_t k = 0; k < kept.size(); ++k) {
+    (*out.first)[k] = scan[kept[k]];
+    out.second[k] = sweep_times.empty()
+                        ? static_cast<float>(sweepTime(scan[kept[k]], clockwise_))
+                        : sweep_times[kept[k]];
   }
-  const Cloud::Ptr deskewed = deskew(scan, times, sweep);
-  const auto seconds = static_cast<std::size_t>(
-      std::count_if(times.begin(), times.end(), [](float t) { return t >= 0.5f; }));
-  std::pair<Cloud::Ptr, Cloud::Ptr> out(new Cloud, new Cloud);
-  out.first->resize(scan.size() - seconds);
-  out.second->resize(seconds);
-  std::size_t a = 0, b = 0;
-  for (std::size_t i = 0; i < scan.size(); ++i)
-    (times[i] >= 0.5f ? (*out.second)[b++] : (*out.first)[a++]) = (*deskewed)[i];
   return out;
+}
+
+Cloud::Ptr
+Deskewer::along(const Cloud& scan,
+                const std::vector<float>& sweep_times,
+                const SweepPath& path) const
+{
+  return deskewAlong(scan, timesOf(scan, sweep_times), path, num_threads_);
 }
 
 Cloud::Ptr

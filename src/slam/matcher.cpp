@@ -344,6 +344,32 @@ Matcher::refine(const Cloud::ConstPtr& source,
                  0.0);
 }
 
+bool
+Matcher::fitPath(SweepPath& path,
+                 const Cloud& scan,
+                 const std::vector<float>& times,
+                 const SweepPathPrior& prior)
+{
+  Icp& icp = icp_->icp;
+  const auto* tree =
+      dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
+  if (!tree || !target_ || icp.getInputTarget() != target_)
+    return false;
+  SweepPath fitted = path;
+  if (!fitSweepPath(fitted,
+                    scan,
+                    times,
+                    *target_,
+                    tree->index(),
+                    finalGate(),
+                    prior,
+                    params_.max_iterations,
+                    num_threads_))
+    return false;
+  path = fitted;
+  return true;
+}
+
 void
 Matcher::measure(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at)
 {

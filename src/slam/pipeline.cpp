@@ -28,8 +28,9 @@ namespace pcl_parallel {
 namespace slam {
 
 namespace {
-/** Deskews after the prediction's: by the matched step, then by the halves' motion. */
-constexpr int kDeskewRounds = 3;
+/** A sweep's path in this many pieces of constant velocity: a hand-held scanner's turn
+ *  speeds up and slows within a sweep (docs/design.md, "A sweep's path"). */
+constexpr int kSweepPieces = 4;
 } // namespace
 
 /** The front end's stages, in the order a scan passes them. */
@@ -261,55 +262,57 @@ Pipeline::deskewAgain(ScanRecord& r,
 {
   Stages& s = *stages_;
   const Pose& at = s.motion.lastPose();
-  Pose sweep = m.sweep;
-  std::optional<Pose> next = s.motion.sweepOfMatch(matched, m);
-  bool measured = sample_of_scan; // the matcher's last pICP is the kept scan's
-  for (int round = 0;
-       round < kDeskewRounds && next && s.deskewer.needsAgain(sweep, *next, *r.scan.reduced);
-       ++round) {
-    ReducedScan again = reduce(scan, sweep_times, *next);
+  const Pose sweep = s.motion.sweepOfMatch(matched, m);
+  if (s.deskewer.needsAgain(m.sweep, sweep, *r.scan.reduced)) {
+    // The matched step's sweep may differ much from the prediction's (a wide match); the
+    // path's from the step's little (a refinement).
+    ReducedScan again = reduce(scan, sweep_times, sweep);
     const Cloud::Ptr again_source = s.reducer.source(again);
-    // The matched step's sweep may differ much from the prediction's; the halves' little.
-    const auto rematched = round == 0 ? s.matcher.match(again_source, matched, prior_mean, at)
-                                      : s.matcher.refine(again_source, matched, prior_mean, at);
-    measured = rematched.has_value();
-    if (!rematched)
-      break;
-    matched = *rematched, sweep = *next;
-    r.scan = std::move(again), source = again_source;
-    r.report.deskewed_again = true;
-    if (round + 1 == kDeskewRounds)
-      break;
-    next = sweepOfHalves(scan, sweep_times, sweep, matched, prior_mean);
-    measured = false;
+    if (const auto rematched = s.matcher.match(again_source, matched, prior_mean, at)) {
+      r.scan = std::move(again), source = again_source;
+      r.report.deskewed_again = true;
+      if (const auto along =
+              followPath(r, source, scan, sweep_times, sweep, *rematched, prior_mean, m.gap))
+        return along;
+      matched = *rematched;
+    }
   }
-  if (measured)
-    return matched;
+  else if (sample_of_scan)
+    return matched;                                // the matcher's last pICP is the kept scan's
   if (!sample_of_scan && !r.report.deskewed_again) // the guess's deskewing, not the scan's
     source = s.reducer.source(r.scan);
   return s.matcher.refine(source, matched, prior_mean, at); // its pairs and Hessian kept
 }
 
 std::optional<Pose>
-Pipeline::sweepOfHalves(const Cloud& scan,
-                        const std::vector<float>& sweep_times,
-                        const Pose& sweep,
-                        const Pose& matched,
-                        const Pose& prior_mean)
+Pipeline::followPath(ScanRecord& r,
+                     Cloud::Ptr& source,
+                     const Cloud& scan,
+                     const std::vector<float>& sweep_times,
+                     const Pose& sweep,
+                     const Pose& matched,
+                     const Pose& prior_mean,
+                     double gap)
 {
+  // The path's prior is in the sweep's time: unknown without stamps.
+  const double seconds =
+      resolved_.deskew.sweep_period > 0.0 ? resolved_.deskew.sweep_period : gap;
+  if (!(seconds > 0.0))
+    return std::nullopt;
   Stages& s = *stages_;
-  const auto [first, second] = s.deskewer.halves(scan, sweep_times, sweep);
-  if (first->empty() || second->empty()) // times not spread over the sweep
+  const auto [points, times] =
+      s.deskewer.timedSample(scan, sweep_times, resolved_.reduction.source_voxel_size);
+  SweepPath path(matched, sweep, kSweepPieces);
+  if (!s.matcher.fitPath(path, *points, times, SweepPathPrior::forSweep(seconds, kSweepPieces)))
     return std::nullopt;
-  const auto place = [&](const Cloud& half) {
-    const Cloud::Ptr source = s.reducer.source(s.reducer.reduce(half));
-    return s.matcher.refine(source, matched, prior_mean, s.motion.lastPose());
-  };
-  const std::optional<Pose> a = place(*first), b = place(*second);
-  if (!a || !b)
+  ReducedScan along = s.reducer.reduce(*s.deskewer.along(scan, sweep_times, path));
+  const Cloud::Ptr along_source = s.reducer.source(along);
+  const auto refined =
+      s.matcher.refine(along_source, path.mid(), prior_mean, s.motion.lastPose());
+  if (!refined)
     return std::nullopt;
-  const Pose half = a->inverse() * *b; // the motion left between their middles
-  return Pose(sweep * half * half);
+  r.scan = std::move(along), source = along_source;
+  return refined;
 }
 
 void

@@ -12,6 +12,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 namespace pcl_parallel {
 namespace filters {
@@ -51,6 +52,12 @@ pcl::PointCloud<pcl::PointXYZ>::Ptr
 voxelNearestToCentroid(const pcl::PointCloud<pcl::PointXYZ>& cloud,
                        double voxel_size,
                        unsigned num_threads = 0);
+/** voxelNearestToCentroid's points as their indices in `cloud`, in the same order: for
+ *  callers that keep something per point beside the cloud (a point's time). */
+std::vector<std::uint32_t>
+voxelNearestToCentroidIndices(const pcl::PointCloud<pcl::PointXYZ>& cloud,
+                              double voxel_size,
+                              unsigned num_threads = 0);
 
 /**
  * \brief voxelCentroid over a map that arrives scan by scan: memory grows with the

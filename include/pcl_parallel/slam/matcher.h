@@ -7,6 +7,7 @@
 #include <pcl_parallel/slam/local_map.h>
 #include <pcl_parallel/slam/parameters.h>
 #include <pcl_parallel/slam/scan_record.h>
+#include <pcl_parallel/slam/sweep_path.h>
 #include <pcl_parallel/slam/types.h>
 
 #include <memory>
@@ -112,6 +113,15 @@ public:
    *  distance, as PCL's getFitnessScore). */
   double
   previousFitness(double max_range) const;
+
+  /** Fits `path` to the local map within the final gate (fitSweepPath): `scan` the raw
+   *  points, `times` their sweep times. False where there is no map tree or the fit fails
+   *  (the path is then unchanged). */
+  bool
+  fitPath(SweepPath& path,
+          const Cloud& scan,
+          const std::vector<float>& times,
+          const SweepPathPrior& prior);
 
   /** The last match's figures into `r` (fitness, information, the scans behind a map
    *  match) and how far it moved the scan from the prediction into the threshold; `at`:

@@ -286,10 +286,10 @@ private:
              const MotionPrediction& m,
              bool odometry,
              bool& sample_of_scan);
-  /** A scan deskewed by the predicted step and matched (`matched`), deskewed again by a
-   *  sweep's motion that moves it by more than half a voxel, and matched again: first the
-   *  matched step's, then the motion its halves show (sweepOfHalves), kDeskewRounds
-   *  times at most. The pose of the last match of r.scan (none: it did not converge). */
+  /** A scan deskewed by the predicted step and matched (`matched`), deskewed again where
+   *  the matched step's sweep moves it by more than half a voxel: by that sweep and
+   *  matched again, then along the path its points show (followPath). The pose of the
+   *  last match of r.scan (none: it did not converge). */
   std::optional<Pose>
   deskewAgain(ScanRecord& r,
               Cloud::Ptr& source,
@@ -299,16 +299,21 @@ private:
               Pose matched,
               const Pose& prior_mean,
               bool sample_of_scan);
-  /** The sweep's motion corrected by its halves: each, deskewed by `sweep` and matched
-   *  from `matched`, lies where its middle was taken; the motion left between them is
-   *  half a sweep's error (docs/design.md, "A sweep's motion from its halves"). None
-   *  where a half is empty or does not converge. */
+  /** The sweep's path fitted to the map from `matched` at the constant velocity of
+   *  `sweep` (SweepPath, kSweepPieces pieces, its prior in the sweep's time: the sweep
+   *  period, else `gap`, the seconds since the previous scan), the scan deskewed along it
+   *  and refined into r.scan and `source` (docs/design.md, "A sweep's path"). The refined
+   *  pose; none without a sweep time or where the fit or the refinement fails (the
+   *  matcher then holds no match of r.scan). */
   std::optional<Pose>
-  sweepOfHalves(const Cloud& scan,
-                const std::vector<float>& sweep_times,
-                const Pose& sweep,
-                const Pose& matched,
-                const Pose& prior_mean);
+  followPath(ScanRecord& r,
+             Cloud::Ptr& source,
+             const Cloud& scan,
+             const std::vector<float>& sweep_times,
+             const Pose& sweep,
+             const Pose& matched,
+             const Pose& prior_mean,
+             double gap);
   /** The held first scan deskewed by `sweep`: kept again as the map and previous scan. */
   void
   keepFirstAgain(const Pose& sweep);
