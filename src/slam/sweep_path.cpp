@@ -134,7 +134,7 @@ SweepPath::at(double t) const
 }
 
 namespace {
-/** Each point's pose along the path: pieces' screw motions, evaluated per point. */
+/** The pieces' motions, knot_j⁻¹ knot_j+1, for poseAt. */
 std::vector<Pose>
 piecesOf(const SweepPath& path)
 {
@@ -143,6 +143,15 @@ piecesOf(const SweepPath& path)
   for (std::size_t j = 0; j + 1 < k.size(); ++j)
     out.push_back(k[j].inverse() * k[j + 1]);
   return out;
+}
+
+/** The path's pose at sweep time t, from its pieces' motions: knot_j piece_j^a. */
+Pose
+poseAt(const SweepPath& path, const std::vector<Pose>& pieces, double t)
+{
+  const auto [j, a] = pieceOf(t, static_cast<int>(pieces.size()));
+  const auto k = static_cast<std::size_t>(j);
+  return path.knots()[k] * interpolateMotion(pieces[k], a);
 }
 } // namespace
 
@@ -155,14 +164,11 @@ deskewAlong(const Cloud& scan,
   if (times.size() != scan.size())
     throw std::invalid_argument("deskewAlong: one time per point");
   const Pose to_mid = path.mid().inverse();
-  const int pieces = static_cast<int>(path.knots().size()) - 1;
-  const std::vector<Pose> steps = piecesOf(path);
+  const std::vector<Pose> pieces = piecesOf(path);
   Cloud::Ptr out(new Cloud(scan));
   parallelFor(scan.size(), num_threads, 1024, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
-      const auto [j, a] = pieceOf(times[i], pieces);
-      const Pose p = to_mid * path.knots()[static_cast<std::size_t>(j)] *
-                     interpolateMotion(steps[static_cast<std::size_t>(j)], a);
+      const Pose p = to_mid * poseAt(path, pieces, times[i]);
       const Eigen::Vector3d x = scan[i].getVector3fMap().cast<double>();
       (*out)[i].getVector3fMap() =
           (p.topLeftCorner<3, 3>() * x + p.topRightCorner<3, 1>()).cast<float>();
@@ -191,12 +197,10 @@ fitSweepPath(SweepPath& path,
   std::vector<std::uint32_t> pos(n);
   for (int iteration = 0; iteration < max_iterations; ++iteration) {
     const Eigen::Vector3d c = path.mid().topRightCorner<3, 1>();
-    const std::vector<Pose> steps = piecesOf(path);
+    const std::vector<Pose> moves = piecesOf(path);
     parallelFor(n, num_threads, 1024, [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) {
-        const auto [j, a] = pieceOf(times[i], pieces);
-        const Pose p =
-            path.knots()[static_cast<std::size_t>(j)] * interpolateMotion(steps[j], a);
+        const Pose p = poseAt(path, moves, times[i]);
         const Eigen::Vector3d x =
             p.topLeftCorner<3, 3>() * scan[i].getVector3fMap().cast<double>() +
             p.topRightCorner<3, 1>();
