@@ -350,10 +350,13 @@ Matcher::fitPath(SweepPath& path,
                  const std::vector<float>& times,
                  const SweepPathPrior& prior)
 {
+  // Against the local map's tree, built by the match before. One previous scan holds too
+  // few pairs for a path's 30 parameters: scan-to-scan matching keeps its deskewing.
   Icp& icp = icp_->icp;
   const auto* tree =
       dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
-  if (!tree || !target_ || icp.getInputTarget() != target_)
+  if (params_.target != MatchTarget::kLocalMap || !tree || !target_ ||
+      icp.getInputTarget() != target_)
     return false;
   SweepPath fitted = path;
   if (!fitSweepPath(fitted,

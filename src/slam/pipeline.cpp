@@ -31,6 +31,10 @@ namespace {
 /** A sweep's path in this many pieces of constant velocity: a hand-held scanner's turn
  *  speeds up and slows within a sweep (docs/design.md, "A sweep's path"). */
 constexpr int kSweepPieces = 4;
+/** The sweep's seconds the path's prior takes where the scans have no stamps and no
+ *  sweep period is set: the 10 Hz of most spinning LiDARs (KITTI's HDL-64E, Ouster's and
+ *  Hesai's defaults). */
+constexpr double kUnstampedSweepSeconds = 0.1;
 } // namespace
 
 /** The front end's stages, in the order a scan passes them. */
@@ -294,12 +298,13 @@ Pipeline::followPath(ScanRecord& r,
                      const Pose& prior_mean,
                      double gap)
 {
-  // The path's prior is in the sweep's time: unknown without stamps.
-  const double seconds =
-      resolved_.deskew.sweep_period > 0.0 ? resolved_.deskew.sweep_period : gap;
-  if (!(seconds > 0.0))
-    return std::nullopt;
+  // The path's prior is in the sweep's time: the sweep period, else the time since the
+  // previous scan, else a spinning LiDAR's common 10 Hz.
+  const double seconds = resolved_.deskew.sweep_period > 0.0 ? resolved_.deskew.sweep_period
+                         : gap > 0.0                         ? gap
+                                                             : kUnstampedSweepSeconds;
   Stages& s = *stages_;
+  const Pose& at = s.motion.lastPose();
   const auto [points, times] =
       s.deskewer.timedSample(scan, sweep_times, resolved_.reduction.source_voxel_size);
   SweepPath path(matched, sweep, kSweepPieces);
@@ -307,8 +312,7 @@ Pipeline::followPath(ScanRecord& r,
     return std::nullopt;
   ReducedScan along = s.reducer.reduce(*s.deskewer.along(scan, sweep_times, path));
   const Cloud::Ptr along_source = s.reducer.source(along);
-  const auto refined =
-      s.matcher.refine(along_source, path.mid(), prior_mean, s.motion.lastPose());
+  const auto refined = s.matcher.refine(along_source, path.mid(), prior_mean, at);
   if (!refined)
     return std::nullopt;
   r.scan = std::move(along), source = along_source;

@@ -114,9 +114,10 @@ public:
   double
   previousFitness(double max_range) const;
 
-  /** Fits `path` to the local map within the final gate (fitSweepPath): `scan` the raw
-   *  points, `times` their sweep times. False where there is no map tree or the fit fails
-   *  (the path is then unchanged). */
+  /** Fits `path` (world poses) to the local map within the final gate (fitSweepPath):
+   *  `scan` the raw points, `times` their sweep times. False where there is no map tree
+   *  (before a match; scan-to-scan matching) or the fit fails (the path is then
+   *  unchanged). */
   bool
   fitPath(SweepPath& path,
           const Cloud& scan,

@@ -301,10 +301,10 @@ private:
               bool sample_of_scan);
   /** The sweep's path fitted to the map from `matched` at the constant velocity of
    *  `sweep` (SweepPath, kSweepPieces pieces, its prior in the sweep's time: the sweep
-   *  period, else `gap`, the seconds since the previous scan), the scan deskewed along it
-   *  and refined into r.scan and `source` (docs/design.md, "A sweep's path"). The refined
-   *  pose; none without a sweep time or where the fit or the refinement fails (the
-   *  matcher then holds no match of r.scan). */
+   *  period, else `gap`, the seconds since the previous scan, else 0.1 s), the scan
+   *  deskewed along it and refined into r.scan and `source` (docs/design.md, "A sweep's
+   *  path"). The refined pose; none where the fit or the refinement fails (the matcher
+   *  then holds no match of r.scan). */
   std::optional<Pose>
   followPath(ScanRecord& r,
              Cloud::Ptr& source,
