@@ -351,7 +351,7 @@ Matcher::fitPath(SweepPath& path,
                  const SweepPathPrior& prior)
 {
   // Against the local map's tree, built by the match before. One previous scan holds too
-  // few pairs for a path's 30 parameters: scan-to-scan matching keeps its deskewing.
+  // few pairs to fit a path (docs/design.md): scan-to-scan matching keeps its deskewing.
   Icp& icp = icp_->icp;
   const auto* tree =
       dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
