@@ -281,8 +281,9 @@ Pipeline::deskewAgain(ScanRecord& r,
       matched = *rematched;
     }
   }
-  else if (sample_of_scan)
-    return matched;                                // the matcher's last pICP is the kept scan's
+  else if (sample_of_scan) { // the matcher's last pICP is the kept scan's
+    return matched;
+  }
   if (!sample_of_scan && !r.report.deskewed_again) // the guess's deskewing, not the scan's
     source = s.reducer.source(r.scan);
   return s.matcher.refine(source, matched, prior_mean, at); // its pairs and Hessian kept
