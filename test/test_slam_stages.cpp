@@ -32,6 +32,7 @@
 #include <cstdio>
 #include <gtest/gtest.h>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 namespace {
@@ -316,10 +317,8 @@ TEST(Matcher, FitsTheSweepPathOfATurnThatSpeedsUp)
 {
   const slam::Parameters p = roomParameters(slam::MatchTarget::kLocalMap);
   const slam::Reducer reducer(p.reduction.voxel_size, p.reduction.source_voxel_size, 0);
-  slam::Matcher matcher(p);
   slam::ReducedScan map = reducer.reduce(room(1));
   reducer.describe(map);
-  matcher.keep(map, Pose::Identity(), 1);
   const slam::SweepPath truth = speedingTurn();
   const auto [raw, times] = seenAlong(room(2), truth);
   const slam::Deskewer deskewer(true, true, p.reduction.voxel_size, 0);
@@ -327,11 +326,23 @@ TEST(Matcher, FitsTheSweepPathOfATurnThatSpeedsUp)
       deskewer.timedSample(raw, times, p.reduction.source_voxel_size);
   const Pose whole = truth.knots().front().inverse() * truth.knots().back();
   const slam::SweepPath start(truth.mid(), whole, 4);
-  // The map's tree is built by a match.
-  ASSERT_TRUE(matcher.match(reducer.source(reducer.reduce(*deskewer.along(raw, times, start))),
-                            truth.mid(),
-                            truth.mid(),
-                            Pose::Identity()));
+  // The path from `start` fitted by a matcher on `threads` threads, its map the room's
+  // first view (the map's tree is built by a match); none where the match or fit fails.
+  const auto fit = [&](unsigned threads) -> std::optional<slam::SweepPath> {
+    slam::Parameters q = p;
+    q.num_threads = threads;
+    slam::Matcher matcher(q);
+    matcher.keep(map, Pose::Identity(), 1);
+    if (!matcher.match(reducer.source(reducer.reduce(*slam::deskewAlong(raw, times, start, 0))),
+                       truth.mid(),
+                       truth.mid(),
+                       Pose::Identity()))
+      return std::nullopt;
+    slam::SweepPath path = start;
+    if (!matcher.fitPath(path, *sample, sample_times, slam::SweepPathPrior{}))
+      return std::nullopt;
+    return path;
+  };
   const auto worst = [&](const slam::SweepPath& path) {
     PoseError w{0.0, 0.0};
     for (std::size_t j = 0; j < truth.knots().size(); ++j) {
@@ -341,9 +352,9 @@ TEST(Matcher, FitsTheSweepPathOfATurnThatSpeedsUp)
     }
     return w;
   };
-  slam::SweepPath fitted = start;
-  ASSERT_TRUE(matcher.fitPath(fitted, *sample, sample_times, slam::SweepPathPrior{}));
-  const PoseError before = worst(start), after = worst(fitted);
+  const std::optional<slam::SweepPath> fitted = fit(p.num_threads);
+  ASSERT_TRUE(fitted);
+  const PoseError before = worst(start), after = worst(*fitted);
   std::printf("sweep path's worst knot: constant velocity %.4f m, %.3f deg; fitted %.4f m, "
               "%.3f deg\n",
               before.distance,
@@ -353,18 +364,10 @@ TEST(Matcher, FitsTheSweepPathOfATurnThatSpeedsUp)
   EXPECT_GT(before.angle, 4.0 * kDeg);
   EXPECT_LT(after.angle, 0.25 * before.angle);
   EXPECT_LT(after.distance, 0.6 * before.distance);
-  slam::Parameters one = p;
-  one.num_threads = 1;
-  slam::Matcher serial(one);
-  serial.keep(map, Pose::Identity(), 1);
-  ASSERT_TRUE(serial.match(reducer.source(reducer.reduce(*deskewer.along(raw, times, start))),
-                           truth.mid(),
-                           truth.mid(),
-                           Pose::Identity()));
-  slam::SweepPath again = start;
-  ASSERT_TRUE(serial.fitPath(again, *sample, sample_times, slam::SweepPathPrior{}));
+  const std::optional<slam::SweepPath> serial = fit(1);
+  ASSERT_TRUE(serial);
   for (std::size_t j = 0; j < truth.knots().size(); ++j)
-    EXPECT_EQ(again.knots()[j], fitted.knots()[j]) << j;
+    EXPECT_EQ(serial->knots()[j], fitted->knots()[j]) << j;
 }
 
 // A sample deskewed by one motion, deskewed again by another without its raw points: each
