@@ -291,14 +291,48 @@ groupByVoxel(const Cloud& cloud, double voxel_size, unsigned num_threads, const 
   return g;
 }
 
-/** A voxel's points: cloud[*first] .. cloud[*(last - 1)], in input order. */
+/** The indices of the cloud's finite points, in input order. */
+std::vector<std::uint32_t>
+finitePoints(const Cloud& cloud)
+{
+  std::vector<std::uint32_t> out;
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (std::isfinite(cloud[i].x) && std::isfinite(cloud[i].y) && std::isfinite(cloud[i].z))
+      out.push_back(static_cast<std::uint32_t>(i));
+  return out;
+}
+
+/** One value per voxel into `out` (a cloud, or indices), pick(cloud, first, last) of the
+ *  voxel's points (cloud[*first] .. cloud[*(last - 1)], in input order), for every voxel
+ *  in parallel: in key order and the same for any thread count. voxel_size > 0. */
+template <typename Out, typename Pick>
+void
+pickPerVoxel(const Cloud& cloud,
+             double voxel_size,
+             unsigned num_threads,
+             const char* who,
+             Out& out,
+             Pick pick)
+{
+  const VoxelRuns g = groupByVoxel(cloud, voxel_size, num_threads, who);
+  const std::int64_t voxels = static_cast<std::int64_t>(g.runs.size()) - 1;
+  out.resize(static_cast<std::size_t>(voxels));
+  const unsigned threads = resolveNumberOfThreads(num_threads);
+  const unsigned used = voxels > 5000 ? threads : 1;
+  parallelFor(
+      out.size(), used, evenGrain(out.size(), used), [&](std::size_t first, std::size_t last) {
+        for (std::size_t v = first; v < last; ++v)
+          out[v] = pick(cloud, g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
+      });
+}
+
+/** A voxel's point: pick(cloud, first, last) of its points. */
 using PickPoint = pcl::PointXYZ (*)(const Cloud& cloud,
                                     const std::uint32_t* first,
                                     const std::uint32_t* last);
 
-/** One point per voxel, pick(cloud, first, last) of the voxel's points, for every voxel
- *  in parallel: in key order and the same for any thread count. voxel_size <= 0 (or
- *  NaN): the finite points unchanged. */
+/** One point per voxel (pickPerVoxel); voxel_size <= 0 (or NaN): the finite points
+ *  unchanged. */
 Cloud::Ptr
 reduceByVoxel(const Cloud& cloud,
               double voxel_size,
@@ -308,24 +342,11 @@ reduceByVoxel(const Cloud& cloud,
 {
   Cloud::Ptr out(new Cloud);
   if (!(voxel_size > 0.0)) {
-    for (const auto& p : cloud)
-      if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z))
-        out->push_back(p);
+    for (const std::uint32_t i : finitePoints(cloud))
+      out->push_back(cloud[i]);
     return out;
   }
-  const VoxelRuns g = groupByVoxel(cloud, voxel_size, num_threads, who);
-  const std::int64_t voxels = static_cast<std::int64_t>(g.runs.size()) - 1;
-  out->resize(static_cast<std::size_t>(voxels));
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-  const unsigned used = voxels > 5000 ? threads : 1;
-  parallelFor(out->size(),
-              used,
-              evenGrain(out->size(), used),
-              [&](std::size_t first, std::size_t last) {
-                for (std::size_t v = first; v < last; ++v)
-                  (*out)[v] =
-                      pick(cloud, g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
-              });
+  pickPerVoxel(cloud, voxel_size, num_threads, who, *out, pick);
   return out;
 }
 
@@ -388,24 +409,15 @@ voxelNearestToCentroid(const Cloud& cloud, double voxel_size, unsigned num_threa
 std::vector<std::uint32_t>
 voxelNearestToCentroidIndices(const Cloud& cloud, double voxel_size, unsigned num_threads)
 {
+  if (!(voxel_size > 0.0))
+    return finitePoints(cloud);
   std::vector<std::uint32_t> out;
-  if (!(voxel_size > 0.0)) {
-    for (std::size_t i = 0; i < cloud.size(); ++i)
-      if (std::isfinite(cloud[i].x) && std::isfinite(cloud[i].y) && std::isfinite(cloud[i].z))
-        out.push_back(static_cast<std::uint32_t>(i));
-    return out;
-  }
-  const VoxelRuns g =
-      groupByVoxel(cloud, voxel_size, num_threads, "voxelNearestToCentroidIndices");
-  out.resize(g.runs.size() - 1);
-  const unsigned threads = resolveNumberOfThreads(num_threads);
-  const unsigned used = out.size() > 5000 ? threads : 1;
-  parallelFor(
-      out.size(), used, evenGrain(out.size(), used), [&](std::size_t first, std::size_t last) {
-        for (std::size_t v = first; v < last; ++v)
-          out[v] = nearestToCentroidIndex(
-              cloud, g.order.data() + g.runs[v], g.order.data() + g.runs[v + 1]);
-      });
+  pickPerVoxel(cloud,
+               voxel_size,
+               num_threads,
+               "voxelNearestToCentroidIndices",
+               out,
+               nearestToCentroidIndex);
   return out;
 }
 

@@ -139,6 +139,15 @@ effectiveScans(const Cloud& source,
   return count * count / sum_sqr;
 }
 
+/** r's information and its pairs from `icp`'s last match. */
+void
+takeInformation(ScanRecord& r, Icp& icp)
+{
+  r.information =
+      matchInformation(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
+  r.information_pairs = icp.getFinalWeight();
+}
+
 } // namespace
 
 Information
@@ -352,17 +361,15 @@ Matcher::fitPath(SweepPath& path,
 {
   // Against the local map's tree, built by the match before. One previous scan holds too
   // few pairs to fit a path (docs/design.md): scan-to-scan matching keeps its deskewing.
-  Icp& icp = icp_->icp;
-  const auto* tree =
-      dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
-  if (params_.target != MatchTarget::kLocalMap || !tree || !target_ ||
-      icp.getInputTarget() != target_)
+  const search::KdTree<MapPoint>* tree =
+      params_.target == MatchTarget::kLocalMap ? mapTree() : nullptr;
+  if (!tree)
     return false;
   SweepPath fitted = path;
   if (!fitSweepPath(fitted,
                     scan,
                     times,
-                    *target_,
+                    *map_.cloud(),
                     tree->index(),
                     finalGate(),
                     prior,
@@ -380,15 +387,11 @@ Matcher::measure(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at)
   Icp& icp = to_map ? icp_->icp : icp_->to_previous;
   ScanReport& report = r.report;
   report.fitness = icp.getFitnessScore(report.gate * report.gate); // squared, as PCL's
-  r.information =
-      matchInformation(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
-  r.information_pairs = icp.getFinalWeight();
+  takeInformation(r, icp);
   if (to_map && r.information.isZero() && !previous_.empty())
     measureByPrevious(r, source, at);
-  // The map's tree, built over map_.cloud(), whose points' scans map_.scans() holds.
-  const auto* tree =
-      dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
-  if (to_map && tree && icp.getInputTarget() == map_.cloud())
+  // map_.scans() holds the scans of the points of the map's tree.
+  if (const search::KdTree<MapPoint>* tree = to_map ? mapTree() : nullptr)
     report.map_scans = effectiveScans(*source,
                                       r.pose,
                                       tree->index(),
@@ -409,11 +412,17 @@ Matcher::measureByPrevious(ScanRecord& r, const Cloud::ConstPtr& source, const P
   const Pose to_previous = at.inverse() * r.pose;
   usePrevious(source);
   Icp& icp = icp_->to_previous;
-  if (!align(icp, to_previous, finalGate(), 0.0, false, to_previous, std::nullopt))
-    return;
-  r.information =
-      matchInformation(icp.getFinalHessian(), icp.getFinalError(), icp.getFinalWeight());
-  r.information_pairs = icp.getFinalWeight();
+  if (align(icp, to_previous, finalGate(), 0.0, false, to_previous, std::nullopt))
+    takeInformation(r, icp);
+}
+
+const search::KdTree<MapPoint>*
+Matcher::mapTree()
+{
+  Icp& icp = icp_->icp;
+  const auto* tree =
+      dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
+  return tree && icp.getInputTarget() == map_.cloud() ? tree : nullptr;
 }
 
 void

@@ -157,6 +157,10 @@ private:
    *  within the final gate (measure). */
   void
   measureByPrevious(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at);
+  /** The local map's tree where the last map match built it over the map as it is now;
+   *  null before one, or once keep() has changed the map. */
+  const search::KdTree<MapPoint>*
+  mapTree();
   /** The motion prior's standard deviations where pICP takes one (adaptive threshold and
    *  motion_prior): translation and rotation (rad; infinite for 2D scans, whose walls fix
    *  the heading while wheel odometry's heading error is biased: docs/design.md, "2D
