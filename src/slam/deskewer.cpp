@@ -51,7 +51,7 @@ Deskewer::deskew(const Cloud& scan,
 }
 
 std::vector<float>
-Deskewer::timesOf(const Cloud& scan, const std::vector<float>& sweep_times) const
+Deskewer::sweepTimesOf(const Cloud& scan, const std::vector<float>& sweep_times) const
 {
   if (!sweep_times.empty())
     return sweep_times;
@@ -65,9 +65,10 @@ Deskewer::timesOf(const Cloud& scan, const std::vector<float>& sweep_times) cons
 
 std::pair<Cloud::Ptr, std::vector<float>>
 Deskewer::timedSample(const Cloud& scan,
-                      const std::vector<float>& sweep_times,
+                      const std::vector<float>& times,
                       double voxel_size) const
 {
+  requireOnePerPoint(scan, times.size(), "Deskewer::timedSample");
   const std::vector<std::uint32_t> kept =
       filters::voxelNearestToCentroidIndices(scan, voxel_size, num_threads_);
   std::pair<Cloud::Ptr, std::vector<float>> out(Cloud::Ptr(new Cloud), std::vector<float>());
@@ -75,19 +76,9 @@ Deskewer::timedSample(const Cloud& scan,
   out.second.resize(kept.size());
   for (std::size_t k = 0; k < kept.size(); ++k) {
     (*out.first)[k] = scan[kept[k]];
-    out.second[k] = sweep_times.empty()
-                        ? static_cast<float>(sweepTime(scan[kept[k]], clockwise_))
-                        : sweep_times[kept[k]];
+    out.second[k] = times[kept[k]];
   }
   return out;
-}
-
-Cloud::Ptr
-Deskewer::along(const Cloud& scan,
-                const std::vector<float>& sweep_times,
-                const SweepPath& path) const
-{
-  return deskewAlong(scan, timesOf(scan, sweep_times), path, num_threads_);
 }
 
 Cloud::Ptr

@@ -13,6 +13,7 @@
 #include <pcl_parallel/slam/pose_guess.h>
 #include <pcl_parallel/slam/preprocess.h>
 #include <pcl_parallel/slam/reducer.h>
+#include <pcl_parallel/slam/sweep_path.h>
 
 #include <pcl/common/time.h>
 #include <pcl/common/transforms.h>
@@ -306,12 +307,14 @@ Pipeline::followPath(ScanRecord& r,
                                                              : kUnstampedSweepSeconds;
   Stages& s = *stages_;
   const Pose& at = s.motion.lastPose();
-  const auto [points, times] =
-      s.deskewer.timedSample(scan, sweep_times, resolved_.reduction.source_voxel_size);
+  const std::vector<float> times = s.deskewer.sweepTimesOf(scan, sweep_times);
+  const auto [sample, sample_times] =
+      s.deskewer.timedSample(scan, times, resolved_.reduction.source_voxel_size);
   SweepPath path(matched, sweep, kSweepPieces);
-  if (!s.matcher.fitPath(path, *points, times, SweepPathPrior::forSweep(seconds, kSweepPieces)))
+  if (!s.matcher.fitPath(
+          path, *sample, sample_times, SweepPathPrior::forSweep(seconds, kSweepPieces)))
     return std::nullopt;
-  ReducedScan along = s.reducer.reduce(*s.deskewer.along(scan, sweep_times, path));
+  ReducedScan along = s.reducer.reduce(*deskewAlong(scan, times, path, resolved_.num_threads));
   const Cloud::Ptr along_source = s.reducer.source(along);
   const auto refined = s.matcher.refine(along_source, path.mid(), prior_mean, at);
   if (!refined)

@@ -4,7 +4,6 @@
  */
 #pragma once
 
-#include <pcl_parallel/slam/sweep_path.h>
 #include <pcl_parallel/slam/types.h>
 
 #include <utility>
@@ -37,18 +36,16 @@ public:
   Cloud::Ptr
   deskew(const Cloud& scan, const std::vector<float>& sweep_times, const Pose& sweep) const;
 
-  /** The scan's raw points nearest their voxels' centroids (voxelNearestToCentroid at
-   *  `voxel_size`) with their sweep times (given, else from their azimuths): what a sweep
-   *  path is fitted to (SweepPath). */
-  std::pair<Cloud::Ptr, std::vector<float>>
-  timedSample(const Cloud& scan,
-              const std::vector<float>& sweep_times,
-              double voxel_size) const;
+  /** The scan's points' sweep times: `sweep_times` where given, else each point's from its
+   *  azimuth (sweepTime, turning `clockwise`). */
+  std::vector<float>
+  sweepTimesOf(const Cloud& scan, const std::vector<float>& sweep_times) const;
 
-  /** The scan in the frame of the path's mid-sweep pose, each point moved by the path's
-   *  pose at its sweep time (given, else from its azimuth; deskewAlong). */
-  Cloud::Ptr
-  along(const Cloud& scan, const std::vector<float>& sweep_times, const SweepPath& path) const;
+  /** The scan's raw points nearest their voxels' centroids (voxelNearestToCentroid at
+   *  `voxel_size`) with their sweep times (`times`, one per point of the scan): what a
+   *  sweep path is fitted to (SweepPath). */
+  std::pair<Cloud::Ptr, std::vector<float>>
+  timedSample(const Cloud& scan, const std::vector<float>& times, double voxel_size) const;
 
   /** Points deskewed by `from` by their azimuths (a registered sample, whose raw points
    *  are gone), deskewed by `to` instead (redeskew); a copy where deskewing is off. */
@@ -79,10 +76,6 @@ public:
   movesBeyond(const Pose& a, const Pose& b, const Cloud& reduced, double distance);
 
 private:
-  /** `sweep_times` where given, else each point's from its azimuth. */
-  std::vector<float>
-  timesOf(const Cloud& scan, const std::vector<float>& sweep_times) const;
-
   bool enabled_;
   bool clockwise_;
   double voxel_size_;
