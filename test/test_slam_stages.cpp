@@ -320,10 +320,15 @@ TEST(Matcher, FitsTheSweepPathOfATurnThatSpeedsUp)
   slam::ReducedScan map = reducer.reduce(room(1));
   reducer.describe(map);
   const slam::SweepPath truth = speedingTurn();
-  const auto [raw, times] = seenAlong(room(2), truth);
+  // Named, not structured bindings: C++17 lambdas cannot capture those (clang refuses).
+  const std::pair<Cloud, std::vector<float>> seen = seenAlong(room(2), truth);
+  const Cloud& raw = seen.first;
+  const std::vector<float>& times = seen.second;
   const slam::Deskewer deskewer(true, true, p.reduction.voxel_size, 0);
-  const auto [sample, sample_times] =
+  const std::pair<Cloud::Ptr, std::vector<float>> sampled =
       deskewer.timedSample(raw, times, p.reduction.source_voxel_size);
+  const Cloud& sample = *sampled.first;
+  const std::vector<float>& sample_times = sampled.second;
   const Pose whole = truth.knots().front().inverse() * truth.knots().back();
   const slam::SweepPath start(truth.mid(), whole, 4);
   // The path from `start` fitted by a matcher on `threads` threads, its map the room's
@@ -339,7 +344,7 @@ TEST(Matcher, FitsTheSweepPathOfATurnThatSpeedsUp)
                        Pose::Identity()))
       return std::nullopt;
     slam::SweepPath path = start;
-    if (!matcher.fitPath(path, *sample, sample_times, slam::SweepPathPrior{}))
+    if (!matcher.fitPath(path, sample, sample_times, slam::SweepPathPrior{}))
       return std::nullopt;
     return path;
   };
