@@ -537,9 +537,11 @@ TEST(Matcher, MeasuresAStepTheMapTreeLacksAgainstThePreviousScan)
 }
 
 /** The second view of the room turned by `yaw` and moved, guessed without odometry from
- *  a prediction of no motion. */
+ *  a prediction of no motion. `sweeping`: seen by a scanner that sweeps through the whole
+ *  step (a hand-held LiDAR's slow sweep), each start judged on the scan deskewed by its
+ *  own motion where `own_deskewing`, as the pipeline does. */
 std::pair<Pose, slam::ScanRecord>
-guessTurn(double yaw, bool odometry)
+guessTurn(double yaw, bool odometry, bool sweeping = false, bool own_deskewing = false)
 {
   const slam::Parameters p = roomParameters(slam::MatchTarget::kLocalMap);
   slam::MotionModel motion(0.0, p.reduction.voxel_size);
@@ -553,10 +555,24 @@ guessTurn(double yaw, bool odometry)
   motion.update(m0.pose, m0, std::nullopt);
 
   const Pose truth = makePose(yaw, 0.3, 0.2);
-  slam::ReducedScan second = reducer.reduce(seenFrom(room(2), truth));
+  slam::ReducedScan second =
+      reducer.reduce(sweeping ? seenAlong(room(2), slam::SweepPath(truth, truth, 4)).first
+                              : seenFrom(room(2), truth));
   slam::ScanRecord r;
-  r.prediction = motion.predict(std::nullopt, std::nullopt).pose;
-  const Pose start = guess.guess(reducer.source(second), second, odometry, r);
+  const slam::MotionPrediction m = motion.predict(std::nullopt, std::nullopt);
+  r.prediction = m.pose;
+  const slam::Deskewer deskewer(true, true, p.reduction.voxel_size, 0);
+  const slam::PoseGuess::StartDeskew own = [&](const Cloud& cloud, const Pose& start) {
+    const Pose sweep = motion.sweepOfMatch(start, m);
+    return deskewer.needsAgain(m.sweep, sweep, *second.reduced)
+               ? deskewer.again(cloud, m.sweep, sweep)
+               : Cloud::Ptr();
+  };
+  const Pose start = guess.guess(reducer.source(second),
+                                 second,
+                                 odometry,
+                                 r,
+                                 own_deskewing ? own : slam::PoseGuess::StartDeskew());
   return {start, r};
 }
 
@@ -577,6 +593,28 @@ TEST(PoseGuess, FindsATurnNothingPredicted)
   EXPECT_LT(e.distance, 0.03);
   EXPECT_LT(e.angle, 1.0 * kDeg);
   EXPECT_NEAR(r.report.start_heading, 60 * kDeg, 10 * kDeg);
+}
+
+// A turn nothing predicted, seen by a slow sweep: the scan is bent by up to half the turn
+// at the sweep's ends. The search's candidates are matched and judged on the scan deskewed
+// by the motion each implies, until the match settles: 0.5 degrees off the truth; on the
+// prediction's deskewing (no motion) the start ends 13 degrees off.
+TEST(PoseGuess, JudgesTheSearchsCandidatesOnTheirOwnDeskewing)
+{
+  const Pose truth = makePose(40 * kDeg, 0.3, 0.2);
+  const auto [bent, r_bent] = guessTurn(40 * kDeg, false, true, false);
+  const auto [own, r_own] = guessTurn(40 * kDeg, false, true, true);
+  EXPECT_TRUE(r_own.report.pose_searched);
+  const PoseError e_bent = poseError(bent, truth), e_own = poseError(own, truth);
+  std::printf("search start of a swept 40 degree turn: on the prediction's deskewing %.4f m, "
+              "%.3f deg; on its own %.4f m, %.3f deg\n",
+              e_bent.distance,
+              e_bent.angle / kDeg,
+              e_own.distance,
+              e_own.angle / kDeg);
+  EXPECT_GT(e_bent.angle, 5.0 * kDeg); // the sweep bends the scan that much
+  EXPECT_LT(e_own.angle, 1.0 * kDeg);
+  EXPECT_LT(e_own.distance, 0.02);
 }
 
 // Keyframes seconds apart deskewed as if consecutive sweeps are bent by their whole step:

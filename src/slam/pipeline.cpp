@@ -237,11 +237,11 @@ Pipeline::guessStart(ScanRecord& r,
   // prediction's deskewing until deskewAgain.
   if (odometry || !s.deskewer.enabled() || s.deskewer.holdsFirst() || !sweep_times.empty())
     return s.guess.guess(source, r.scan, odometry, r);
-  const auto deskewed_for = [&](const Pose& start) -> Cloud::Ptr {
+  const auto deskewed_for = [&](const Cloud& cloud, const Pose& start) -> Cloud::Ptr {
     const Pose sweep = s.motion.sweepOfMatch(start, m);
     if (!s.deskewer.needsAgain(m.sweep, sweep, *r.scan.reduced))
       return nullptr;
-    return s.deskewer.again(*source, m.sweep, sweep);
+    return s.deskewer.again(cloud, m.sweep, sweep);
   };
   const Pose start = s.guess.guess(source, r.scan, odometry, r, deskewed_for);
   // The map match takes the start's deskewing where it moves the scan beyond the final

@@ -30,6 +30,9 @@ constexpr std::size_t kSearchOverlapHistory = 20;
 /** The search's match replaces the prediction's only if it overlaps the previous scan by
  *  this factor more: along a street or a corridor, shifted matches overlap alike. */
 constexpr double kSearchMargin = 1.25;
+/** A search candidate is matched on the sample deskewed by its own motion at most this
+ *  many times (PoseGuess::searchPose). */
+constexpr int kOwnDeskewingRounds = 3;
 /** The pose search works on points whose normal lies more than 45 degrees from up
  *  (walls, poles, facades) where a scan has at least this many, else on all. */
 constexpr std::size_t kMinUprightPoints = 100;
@@ -181,7 +184,7 @@ PoseGuess::bestHypothesis(const Cloud::ConstPtr& source,
   // A start's match is judged on the sample deskewed by the motion it implies: one
   // deskewed by the prediction's motion is bent against any other start.
   const auto tryStart = [&](const Pose& start, double offset, double turn) {
-    const Cloud::Ptr own_sample = deskew ? deskew(start) : nullptr;
+    const Cloud::Ptr own_sample = deskew ? deskew(*source, start) : nullptr;
     const std::optional<Pose> other = matcher_.alignToPrevious(
         own_sample ? Cloud::ConstPtr(own_sample) : source, start, false, &prediction, at);
     if (!other)
@@ -223,7 +226,8 @@ PoseGuess::searchPose(const Cloud::ConstPtr& source,
                       ReducedScan& scan,
                       const std::optional<Pose>& own,
                       double range,
-                      ScanRecord& r)
+                      ScanRecord& r,
+                      const StartDeskew& deskew)
 {
   const PreviousScan& previous = matcher_.previous();
   if (!params_.guess.pose_search || previous.empty() || source->empty())
@@ -263,9 +267,33 @@ PoseGuess::searchPose(const Cloud::ConstPtr& source,
   const Cloud::ConstPtr judged =
       on_walls ? Cloud::ConstPtr(everyKth(*walls, source->size())) : source;
   const FreeSpace seen(*previous.points, params_.guess.up);
+  // A pose is judged on the scan deskewed by the motion it implies: a turn the prediction
+  // missed bends the prediction's deskewing against the pose that catches it.
   const auto judge = [&](const Pose& local) {
-    return std::make_pair(overlap(*judged, local, *previous.index, same),
-                          seen.conflicts(*judged, local, same));
+    const Cloud::Ptr own_judged = deskew ? deskew(*judged, at * local) : nullptr;
+    const Cloud& cloud = own_judged ? *own_judged : *judged;
+    return std::make_pair(overlap(cloud, local, *previous.index, same),
+                          seen.conflicts(cloud, local, same));
+  };
+  // A candidate's match on the sample deskewed by the motion it implies, until the match
+  // stays in its basin (a few rounds: each deskewing follows the last match).
+  const double gate = std::min(params_.matcher.max_correspondence_distance, 2.0 * search.cell);
+  const auto alignFrom = [&](const Pose& start) {
+    std::optional<Pose> m = matcher_.alignInPrevious(start, gate);
+    for (int round = 0; m && deskew && round < kOwnDeskewingRounds; ++round) {
+      const Cloud::Ptr own_sample = deskew(*source, at * *m);
+      if (!own_sample)
+        break;
+      matcher_.usePrevious(own_sample);
+      const std::optional<Pose> again = matcher_.alignInPrevious(*m, gate);
+      const bool settled =
+          again && registration::motionDisplacement(m->inverse() * *again, range) <= same;
+      m = again;
+      if (settled)
+        break;
+    }
+    matcher_.usePrevious(source);
+    return m;
   };
   const auto [own_agrees, own_conflicts] =
       own_local ? judge(*own_local) : std::make_pair(0.0, 0.0);
@@ -276,8 +304,7 @@ PoseGuess::searchPose(const Cloud::ConstPtr& source,
   for (const Pose& start : correlativeSearch(
            searched, on_walls ? *previous_walls : *previous.points, params_.guess.up, search)) {
     // From a candidate good to a cell: a gate of two cells, no prior (none predicted it).
-    const auto m = matcher_.alignInPrevious(
-        start, std::min(params_.matcher.max_correspondence_distance, 2.0 * search.cell));
+    const std::optional<Pose> m = alignFrom(start);
     if (!m || (own_local && !isRival(*own_local, *m, range)))
       continue;
     const auto [agrees, conflicts] = judge(*m);
@@ -317,7 +344,7 @@ PoseGuess::betterGuess(const Cloud::ConstPtr& source,
   const Hypotheses h = hypotheses(*source, r.prediction);
   if (h.any())
     better = bestHypothesis(source, r.prediction, own, h, r, deskew);
-  if (auto found = searchPose(source, scan, better ? better : own, h.range, r))
+  if (auto found = searchPose(source, scan, better ? better : own, h.range, r, deskew))
     better = found;
   return better;
 }

@@ -31,9 +31,10 @@ class Reducer;
  */
 class PoseGuess {
 public:
-  /** The registered sample as deskewed by the motion a start implies (MotionModel::
-   *  sweepOfMatch), or null where the prediction's deskewing holds for it. */
-  using StartDeskew = std::function<Cloud::Ptr(const Pose& start)>;
+  /** A cloud of the scan (scanner frame, deskewed by the prediction's motion) as deskewed
+   *  by the motion a start implies (MotionModel::sweepOfMatch), or null where the
+   *  prediction's deskewing holds for it. */
+  using StartDeskew = std::function<Cloud::Ptr(const Cloud& cloud, const Pose& start)>;
 
   /** The stages it asks: the matcher's previous-scan pICP, the reducer's normals and the
    *  motion model's last pose and heading (all outlive it); resolved parameters
@@ -46,7 +47,8 @@ public:
   /** The start for scan `r` (r.prediction predicted; its report takes which start won:
    *  start_offset, start_turn, start_heading, pose_searched). `scan` is `source`'s
    *  reduced scan; the pose search describes it. With `deskew`, each speed and turn-rate
-   *  hypothesis is matched on the sample deskewed by its own motion. */
+   *  hypothesis and each pose-search candidate is matched and judged on the scan deskewed
+   *  by its own motion. */
   Pose
   guess(const Cloud::ConstPtr& source,
         ReducedScan& scan,
@@ -97,13 +99,15 @@ private:
                  const StartDeskew& deskew);
   /** Where `own` looks wrong: the best of correlativeSearch's candidates matched, if it
    *  overlaps the previous scan 1.25 times more, agrees with it more (overlap less
-   *  free-space conflicts) and ends elsewhere. */
+   *  free-space conflicts) and ends elsewhere; each matched and judged on the scan
+   *  `deskew` gives for it (where it gives one). */
   std::optional<Pose>
   searchPose(const Cloud::ConstPtr& source,
              ReducedScan& scan,
              const std::optional<Pose>& own,
              double range,
-             ScanRecord& r);
+             ScanRecord& r,
+             const StartDeskew& deskew);
   /** Keeps the overlap of the latest match to the previous scan (the recent ones). */
   void
   keepOverlap(double overlap);
