@@ -600,6 +600,9 @@ private:
   pose(double s, const std::vector<double>& arc) const
   {
     const std::size_t n = points_.size();
+    // The carrier's attitude follows the distance walked, not its place on the loop:
+    // wrapped, it would jump where a lap begins, tearing that sweep in two.
+    const double walked = s;
     s = std::fmod(s, arc.back());
     if (s < 0)
       s += arc.back();
@@ -613,7 +616,7 @@ private:
     dh = std::atan2(std::sin(dh), std::cos(dh));
     const double yaw = heading_[i] + f * dh;
     if (attitude_)
-      return carried(xy, yaw, attitude_(s));
+      return carried(xy, yaw, attitude_(walked));
     // The ground's normal from central differences; x: the heading in the tangent plane.
     const double e = 0.05, z = ground_(xy.x(), xy.y());
     const Eigen::Vector3d normal =
