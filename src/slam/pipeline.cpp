@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <iterator>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -36,6 +37,9 @@ constexpr int kSweepPieces = 4;
  *  sweep period is set: the 10 Hz of most spinning LiDARs (KITTI's HDL-64E, Ouster's and
  *  Hesai's defaults). */
 constexpr double kUnstampedSweepSeconds = 0.1;
+/** Without odometry, the first two scans are placed again once this many are matched:
+ *  the map of the others then holds scans deskewed along their paths. */
+constexpr std::size_t kSettlingScans = 4;
 } // namespace
 
 /** The front end's stages, in the order a scan passes them. */
@@ -122,8 +126,11 @@ Pipeline::track(const Cloud& scan,
   const Pose before = s.motion.lastPose(); // after any loop correction
   const MotionPrediction m = s.motion.predict(odometry, stamp);
   r.prediction = r.pose = m.pose;
-  if (m.first)
+  if (m.first) {
     s.deskewer.holdFirst(*cropped, sweep_times);
+    if (!odometry && s.deskewer.enabled())
+      first_sweeps_.push_back({cropped, sweep_times});
+  }
   else if (s.deskewer.holdsFirst() && odometry) // the first step is known: deskew the first
     keepFirstAgain(m.sweep);
   r.scan = reduce(*cropped, sweep_times, m.sweep);
@@ -135,6 +142,10 @@ Pipeline::track(const Cloud& scan,
     const Pose sweep = s.motion.sweepOf(s.motion.stepTo(r.pose, m), m);
     keepFirstAgain(sweep);
     r.scan = reduce(*cropped, sweep_times, sweep);
+    if (!first_sweeps_.empty()) {
+      first_sweeps_.front().sweep = sweep, first_sweeps_.front().gap = m.gap;
+      first_sweeps_.push_back({cropped, sweep_times, sweep, m.gap});
+    }
   }
   s.motion.update(r.pose, m, stamp);
   s.reducer.describe(r.scan);
@@ -290,6 +301,39 @@ Pipeline::deskewAgain(ScanRecord& r,
   return s.matcher.refine(source, matched, prior_mean, at); // its pairs and Hessian kept
 }
 
+std::optional<Pipeline::AlongPath>
+Pipeline::alongPath(Matcher& matcher,
+                    const Cloud& scan,
+                    const std::vector<float>& sweep_times,
+                    const Pose& sweep,
+                    const Pose& matched,
+                    const Pose& prior_mean,
+                    const Pose& at,
+                    double gap) const
+{
+  // The path's prior is in the sweep's time: the sweep period, else the time since the
+  // previous scan, else a spinning LiDAR's common 10 Hz.
+  const double seconds = resolved_.deskew.sweep_period > 0.0 ? resolved_.deskew.sweep_period
+                         : gap > 0.0                         ? gap
+                                                             : kUnstampedSweepSeconds;
+  const Stages& s = *stages_;
+  const std::vector<float> times = s.deskewer.sweepTimesOf(scan, sweep_times);
+  const auto [sample, sample_times] =
+      s.deskewer.timedSample(scan, times, resolved_.reduction.source_voxel_size);
+  SweepPath path(matched, sweep, kSweepPieces);
+  if (!matcher.fitPath(
+          path, *sample, sample_times, SweepPathPrior::forSweep(seconds, kSweepPieces)))
+    return std::nullopt;
+  AlongPath along;
+  along.scan = s.reducer.reduce(*deskewAlong(scan, times, path, resolved_.num_threads));
+  along.source = s.reducer.source(along.scan);
+  const auto refined = matcher.refine(along.source, path.mid(), prior_mean, at);
+  if (!refined)
+    return std::nullopt;
+  along.pose = *refined;
+  return along;
+}
+
 std::optional<Pose>
 Pipeline::followPath(ScanRecord& r,
                      Cloud::Ptr& source,
@@ -300,27 +344,13 @@ Pipeline::followPath(ScanRecord& r,
                      const Pose& prior_mean,
                      double gap)
 {
-  // The path's prior is in the sweep's time: the sweep period, else the time since the
-  // previous scan, else a spinning LiDAR's common 10 Hz.
-  const double seconds = resolved_.deskew.sweep_period > 0.0 ? resolved_.deskew.sweep_period
-                         : gap > 0.0                         ? gap
-                                                             : kUnstampedSweepSeconds;
   Stages& s = *stages_;
-  const Pose& at = s.motion.lastPose();
-  const std::vector<float> times = s.deskewer.sweepTimesOf(scan, sweep_times);
-  const auto [sample, sample_times] =
-      s.deskewer.timedSample(scan, times, resolved_.reduction.source_voxel_size);
-  SweepPath path(matched, sweep, kSweepPieces);
-  if (!s.matcher.fitPath(
-          path, *sample, sample_times, SweepPathPrior::forSweep(seconds, kSweepPieces)))
+  std::optional<AlongPath> along = alongPath(
+      s.matcher, scan, sweep_times, sweep, matched, prior_mean, s.motion.lastPose(), gap);
+  if (!along)
     return std::nullopt;
-  ReducedScan along = s.reducer.reduce(*deskewAlong(scan, times, path, resolved_.num_threads));
-  const Cloud::Ptr along_source = s.reducer.source(along);
-  const auto refined = s.matcher.refine(along_source, path.mid(), prior_mean, at);
-  if (!refined)
-    return std::nullopt;
-  r.scan = std::move(along), source = along_source;
-  return refined;
+  r.scan = std::move(along->scan), source = along->source;
+  return along->pose;
 }
 
 void
@@ -355,21 +385,82 @@ std::vector<ScanRecord>
 Pipeline::release(ScanRecord r)
 {
   std::vector<ScanRecord> out;
-  if (held_ && !stages_->deskewer.holdsFirst()) {
+  if (stages_->deskewer.holdsFirst()) {
+    held_ = std::move(r);
+    return out;
+  }
+  if (held_) {
     out.push_back(std::move(*held_));
     held_.reset();
   }
-  if (stages_->deskewer.holdsFirst())
-    held_ = std::move(r);
-  else
-    out.push_back(std::move(r));
+  out.push_back(std::move(r));
+  if (first_sweeps_.empty())
+    return out;
+  std::move(out.begin(), out.end(), std::back_inserter(settling_));
+  out.clear();
+  if (settling_.size() < kSettlingScans)
+    return out;
+  placeFirstAgain();
+  first_sweeps_.clear();
+  out.swap(settling_);
   return out;
+}
+
+void
+Pipeline::placeFirstAgain()
+{
+  // The second scan was matched to the first sweep as recorded, and the first step's
+  // velocity deskewed both: a bent pair that agrees with itself. The scans after them
+  // followed their paths; against those, each of the two is placed along its own.
+  const Pose first = settling_[0].pose;
+  placeAgain(1);
+  placeAgain(0);
+  const Pose correction = first * settling_[0].pose.inverse();
+  for (ScanRecord& r : settling_)
+    r.pose = correction * r.pose;
+  settling_[0].pose = first;
+  for (std::size_t j = 1; j < settling_.size(); ++j)
+    settling_[j].step = settling_[j - 1].pose.inverse() * settling_[j].pose;
+  Stages& s = *stages_;
+  s.motion.applyCorrection(correction);
+  s.matcher.clearMap();
+  for (std::size_t j = 0; j < settling_.size(); ++j)
+    s.matcher.keep(settling_[j].scan, settling_[j].pose, static_cast<std::uint32_t>(j + 1));
+}
+
+void
+Pipeline::placeAgain(std::size_t j)
+{
+  Stages& s = *stages_;
+  Parameters q = resolved_;
+  q.matcher.motion_prior = false; // no motion predicted where the first scans lie
+  Matcher others(q);
+  for (std::size_t k = 0; k < settling_.size(); ++k)
+    if (k != j)
+      others.keep(settling_[k].scan, settling_[k].pose, static_cast<std::uint32_t>(k + 1));
+  const FirstSweep& f = first_sweeps_[j];
+  ScanRecord& r = settling_[j];
+  const Pose& near = settling_[j == 0 ? 1 : j - 1].pose;
+  const Cloud::Ptr source = s.reducer.source(reduce(*f.points, f.times, f.sweep));
+  const std::optional<Pose> matched = others.match(source, r.pose, r.pose, near);
+  if (!matched)
+    return;
+  std::optional<AlongPath> along =
+      alongPath(others, *f.points, f.times, f.sweep, *matched, *matched, near, f.gap);
+  if (!along)
+    return;
+  s.reducer.describe(along->scan);
+  r.scan = std::move(along->scan);
+  r.pose = orthonormalized(along->pose);
+  r.report.reduced_points = r.scan.reduced->size();
 }
 
 std::vector<ScanRecord>
 Pipeline::drain()
 {
-  std::vector<ScanRecord> out;
+  std::vector<ScanRecord> out; // a sequence too short to settle, as matched
+  out.swap(settling_);
+  first_sweeps_.clear();
   if (held_)
     out.push_back(std::move(*held_));
   held_.reset();

@@ -19,6 +19,8 @@
 namespace pcl_parallel {
 namespace slam {
 
+class Matcher;
+
 /** How far pICP moved the scans from their odometry's steps, over how long the steps are:
  *  the median ScanReport::correction over the median ScanReport::predicted_step, over the
  *  first kOdometryDisagreementSteps steps (later, a wrong odometry has bent the map the
@@ -130,7 +132,8 @@ public:
    *  deskews, reduces, guesses and matches it (the pose graph is not touched). Returns
    *  the scans this one made final, in order: itself, except that with deskewing the
    *  first scan waits for the second (its deskewing needs the first step) and comes
-   *  with it. A pipeline used for this alone matches a segment of a sequence
+   *  with it, and without odometry the first four come together, once the first two are
+   *  placed again along their paths (placeFirstAgain). A pipeline used for this alone matches a segment of a sequence
    *  (segments.h). Throws as addScan. */
   std::vector<ScanRecord>
   track(const Cloud& scan,
@@ -299,12 +302,29 @@ private:
               Pose matched,
               const Pose& prior_mean,
               bool sample_of_scan);
-  /** The sweep's path fitted to the map from `matched` at the constant velocity of
-   *  `sweep` (SweepPath, kSweepPieces pieces, its prior in the sweep's time: the sweep
-   *  period, else `gap`, the seconds since the previous scan, else 0.1 s), the scan
-   *  deskewed along it and refined into r.scan and `source` (docs/design.md, "A sweep's
-   *  path"). The refined pose; none where the fit or the refinement fails (the matcher
-   *  then holds no match of r.scan). */
+  /** A scan deskewed along its sweep's path: the reduced scan, its registered sample and
+   *  its refined pose. */
+  struct AlongPath {
+    ReducedScan scan;
+    Cloud::Ptr source;
+    Pose pose;
+  };
+  /** The sweep's path fitted to `matcher`'s map from `matched` at the constant velocity
+   *  of `sweep` (SweepPath, kSweepPieces pieces, its prior in the sweep's time: the sweep
+   *  period, else `gap`, the seconds since the previous scan, else 0.1 s), `scan`
+   *  deskewed along it and refined (docs/design.md, "A sweep's path"); none where the fit
+   *  or the refinement fails. */
+  std::optional<AlongPath>
+  alongPath(Matcher& matcher,
+            const Cloud& scan,
+            const std::vector<float>& sweep_times,
+            const Pose& sweep,
+            const Pose& matched,
+            const Pose& prior_mean,
+            const Pose& at,
+            double gap) const;
+  /** alongPath on the front end's map, into r.scan and `source`. The refined pose; none
+   *  where the fit or the refinement fails (the matcher then holds no match of r.scan). */
   std::optional<Pose>
   followPath(ScanRecord& r,
              Cloud::Ptr& source,
@@ -317,6 +337,14 @@ private:
   /** The held first scan deskewed by `sweep`: kept again as the map and previous scan. */
   void
   keepFirstAgain(const Pose& sweep);
+  /** Without odometry: the second scan, then the first, matched again to the map of the
+   *  other settling scans and deskewed along its path; the first keeps its pose, the
+   *  others and the front end move with it (docs/design.md, "The first sweeps"). */
+  void
+  placeFirstAgain();
+  /** Settling scan j placed again as placeFirstAgain says. */
+  void
+  placeAgain(std::size_t j);
   /** The match's figures in r.report: step, reduced points, correction, predicted step. */
   void
   reportMatch(ScanRecord& r, const Pose& before) const;
@@ -335,6 +363,17 @@ private:
   std::unique_ptr<Stages> stages_;
   std::unique_ptr<LoopCloser> loops_;
   std::optional<ScanRecord> held_; ///< the first scan, until the first step is known
+  /** A first scan as given, with what deskewing it takes. */
+  struct FirstSweep {
+    Cloud::Ptr points;
+    std::vector<float> times;      ///< its points' sweep times, if given
+    Pose sweep = Pose::Identity(); ///< the first step's sweep, which deskewed it
+    double gap = 0.0;              ///< the seconds of the first step (0: no stamps)
+  };
+  /** Without odometry and with deskewing: the first two scans as given, and the first
+   *  scans' records, until the first two are placed again (placeFirstAgain). */
+  std::vector<FirstSweep> first_sweeps_;
+  std::vector<ScanRecord> settling_; ///< see first_sweeps_
   Poses front_end_poses_;
   std::vector<ScanReport> reports_;
   StageTimes times_;
