@@ -431,10 +431,10 @@ Pipeline::placeFirstAgain()
 void
 Pipeline::placeAgain(std::size_t j)
 {
+  // The motion prior centred where the front end put the scan: along a road or a
+  // corridor the map fixes no position along it, and nothing else would hold it.
   Stages& s = *stages_;
-  Parameters q = resolved_;
-  q.matcher.motion_prior = false; // no motion predicted where the first scans lie
-  Matcher others(q);
+  Matcher others(resolved_);
   for (std::size_t k = 0; k < settling_.size(); ++k)
     if (k != j)
       others.keep(settling_[k].scan, settling_[k].pose, static_cast<std::uint32_t>(k + 1));
