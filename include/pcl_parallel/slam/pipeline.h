@@ -133,8 +133,8 @@ public:
    *  the scans this one made final, in order: itself, except that with deskewing the
    *  first scan waits for the second (its deskewing needs the first step) and comes
    *  with it, and without odometry the first four come together, once the first two are
-   *  placed again along their paths (placeFirstAgain). A pipeline used for this alone matches a segment of a sequence
-   *  (segments.h). Throws as addScan. */
+   *  placed again along their paths (placeFirstAgain). A pipeline used for this alone
+   *  matches a segment of a sequence (segments.h). Throws as addScan. */
   std::vector<ScanRecord>
   track(const Cloud& scan,
         const std::optional<Pose>& odometry = std::nullopt,
