@@ -259,8 +259,9 @@ Pipeline::guessStart(ScanRecord& r,
     return s.deskewer.again(cloud, m.sweep, sweep);
   };
   const Pose start = s.guess.guess(source, r.scan, odometry, r, deskewed_for);
-  // The map match takes the start's deskewing where it moves the scan beyond the final
-  // gate; below, deskewAgain's exact deskewing by the match does better.
+  // The map match takes the start's deskewing, carried as a match's (sweepOfMatch), where
+  // it moves the scan beyond the final gate; below, deskewAgain's exact deskewing by the
+  // match does better.
   const Pose sweep = s.motion.sweepOfMatch(start, m);
   if (Deskewer::movesBeyond(
           m.sweep, sweep, *r.scan.reduced, resolved_.matcher.final_correspondence_distance)) {
