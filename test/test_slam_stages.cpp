@@ -505,34 +505,70 @@ TEST(Matcher, RecoversAStepToTheLocalMap)
 // A scanner entering unseen space: the map's tree is rebuilt only once new points reach a
 // tenth of it, so a step whose scans the tree lacks has no map pairs. Its information
 // comes from the previous scan, so that no step enters the pose graph without one.
+/** A room kept, then a corner of another room 6 m away (floor and two walls: all six
+ *  degrees constrained) with under a tenth of the map's points; `source` sees the corner
+ *  alone after `step`. With normals from the map, the map's tree keeps the room alone. */
+struct CornerAfterRoom {
+  explicit CornerAfterRoom(bool normals_from_map)
+      : p(withMapNormals(roomParameters(slam::MatchTarget::kLocalMap), normals_from_map))
+      , reducer(p.reduction.voxel_size, p.reduction.source_voxel_size, 0)
+      , matcher(p)
+  {
+    slam::ReducedScan seen = reducer.reduce(room(1));
+    reducer.describe(seen);
+    matcher.keep(seen, Pose::Identity(), 1);
+    Cloud corner;
+    for (const auto& q : room(2))
+      if (q.x < -1.4f && q.y < -0.7f)
+        corner.push_back(q);
+    slam::ReducedScan previous = reducer.reduce(corner);
+    reducer.describe(previous);
+    corner_points = previous.reduced->size();
+    room_points = seen.reduced->size();
+    matcher.keep(previous, at, 2);
+    source = reducer.source(reducer.reduce(seenFrom(corner, step)));
+  }
+  static slam::Parameters
+  withMapNormals(slam::Parameters p, bool on)
+  {
+    p.matcher.normals_from_map = on;
+    return p;
+  }
+  slam::Parameters p;
+  slam::Reducer reducer;
+  slam::Matcher matcher;
+  const Pose at = makePose(0.0, 6.0, 0.0);
+  const Pose step = makePose(3 * kDeg, 0.05, 0.03, 0.01);
+  std::size_t room_points = 0, corner_points = 0;
+  Cloud::Ptr source;
+};
+
+// The map's tree holds the scan kept just before: a scan that sees only what the last one
+// saw is matched to it (the hand-held scanner turning into a new room).
+TEST(Matcher, MatchesAgainstTheScanKeptJustBefore)
+{
+  CornerAfterRoom s(false);
+  ASSERT_LT(s.corner_points, s.room_points / 10); // the old rule's 10 % did not rebuild
+  const std::optional<Pose> matched = s.matcher.match(s.source, s.at, s.at, s.at);
+  ASSERT_TRUE(matched);
+  const Pose error = (s.at * s.step).inverse() * *matched;
+  EXPECT_LT((error.topRightCorner<3, 1>().norm()), 0.01);
+  EXPECT_LT(Eigen::AngleAxisd(Eigen::Matrix3d(error.topLeftCorner<3, 3>())).angle(),
+            0.5 * kDeg);
+}
+
 TEST(Matcher, MeasuresAStepTheMapTreeLacksAgainstThePreviousScan)
 {
-  const slam::Parameters p = roomParameters(slam::MatchTarget::kLocalMap);
-  const slam::Reducer reducer(p.reduction.voxel_size, p.reduction.source_voxel_size, 0);
-  slam::Matcher matcher(p);
-  slam::ReducedScan seen = reducer.reduce(room(1));
-  reducer.describe(seen);
-  matcher.keep(seen, Pose::Identity(), 1);
-  // A corner of another room 6 m away (floor and two walls: all six degrees constrained),
-  // under a tenth of the map's points, so the tree keeps the first room alone.
-  Cloud corner;
-  for (const auto& q : room(2))
-    if (q.x < -1.4f && q.y < -0.7f)
-      corner.push_back(q);
-  const Pose at = makePose(0.0, 6.0, 0.0);
-  slam::ReducedScan previous = reducer.reduce(corner);
-  reducer.describe(previous);
-  ASSERT_LT(previous.reduced->size(), seen.reduced->size() / 10);
-  matcher.keep(previous, at, 2);
-  const Pose step = makePose(3 * kDeg, 0.05, 0.03, 0.01);
-  const Cloud::Ptr source = reducer.source(reducer.reduce(seenFrom(corner, step)));
-  EXPECT_FALSE(matcher.match(source, at * step, at * step, at)); // no map pairs there
+  CornerAfterRoom s(true);
+  ASSERT_LT(s.corner_points, s.room_points / 10);
+  const Pose truth = s.at * s.step;
+  EXPECT_FALSE(s.matcher.match(s.source, truth, truth, s.at)); // no map pairs there
   slam::ScanRecord record;
-  record.pose = at * step;
-  record.report.gate = matcher.gate();
-  matcher.measure(record, source, at);
-  EXPECT_EQ(record.pose, Pose(at * step)); // the pose stays the map match's
-  EXPECT_GT(record.information_pairs, 0.5 * source->size());
+  record.pose = truth;
+  record.report.gate = s.matcher.gate();
+  s.matcher.measure(record, s.source, s.at);
+  EXPECT_EQ(record.pose, truth); // the pose stays the map match's
+  EXPECT_GT(record.information_pairs, 0.5 * s.source->size());
   EXPECT_GT(record.information.ldlt().vectorD().minCoeff(), 0.0); // all six constrained
 }
 

@@ -182,7 +182,10 @@ Matcher::Matcher(const Parameters& resolved)
     , map_(params_.map_voxel_size,
            params_.map_distance,
            params_.map_points_per_voxel,
-           LocalMap::kRefreshFraction,
+           // The tree holds every scan kept: a scan turning into what only the last few
+           // saw has nothing else to match (docs/design.md, "Local map"). Normals from
+           // the map are estimated over all of it at each rebuild.
+           params_.normals_from_map ? LocalMap::kRefreshFraction : 0.0,
            num_threads_)
     , previous_tree_(new search::KdTree<MapPoint>)
 {

@@ -22,14 +22,15 @@ namespace slam {
  *
  * A voxel keeps the first points that reach it, so the map is a deterministic function
  * of the scans added, in order. cloud() is the map as one point cloud for the
- * registration's k-d tree. It is refreshed only when the points added since its last
- * refresh reach `refresh_fraction` of it: a tree build costs far more than a scan's
- * matching, and a scan overlaps the map it is matched against mostly in what earlier
- * scans already saw.
+ * registration's k-d tree. It is refreshed once the points added since its last refresh
+ * exceed `refresh_fraction` of it: 0 (default) after every update, so that the next scan
+ * is matched against every scan kept; more where each refresh costs more than the scans
+ * it lags behind (Matcher: normals estimated on the map).
  */
 class LocalMap {
 public:
-  /** Share of new points since the last build after which the map's tree is rebuilt. */
+  /** Share of new points since the last refresh after which cloud() is rebuilt, where a
+   *  rebuild costs more than a scan's match (the map's normals estimated with it). */
   static constexpr double kRefreshFraction = 0.1;
 
   /** num_threads: for the per-scan crop and the refresh (0 = all cores); the map is the
@@ -37,7 +38,7 @@ public:
   LocalMap(double voxel_size,
            double max_distance,
            int max_points_per_voxel,
-           double refresh_fraction = kRefreshFraction,
+           double refresh_fraction = 0.0,
            unsigned num_threads = 0);
   // Moves keep the voxels' nodes, and order_ points into them; a copy would not.
   /** Moves the map. */
