@@ -23,9 +23,9 @@ namespace slam {
  * A voxel keeps the first points that reach it, so the map is a deterministic function
  * of the scans added, in order. cloud() is the map as one point cloud for the
  * registration's k-d tree. It is refreshed once the points added since its last refresh
- * exceed `refresh_fraction` of it: 0 (default) after every update, so that the next scan
- * is matched against every scan kept; more where each refresh costs more than the scans
- * it lags behind (Matcher: normals estimated on the map).
+ * exceed `refresh_fraction` of it: with 0 (default) after every update, so that the next
+ * scan is matched against every scan kept; with more where a refresh costs more than a
+ * lag of a few scans (Matcher: normals estimated on the whole map at each).
  */
 class LocalMap {
 public:
