@@ -319,18 +319,17 @@ KdTreeIndex::build(const float* xyz,
   nodes_.clear();
   points_.clear();
   ids_.clear();
-  if (m == 0) {
-    std::fill(bbox_min_, bbox_min_ + 3, 0.0f);
-    std::fill(bbox_max_, bbox_max_ + 3, 0.0f);
+  roots_.clear();
+  if (m == 0)
     return;
-  }
-  std::copy_n(pts[0].p, 3, bbox_min_);
-  std::copy_n(pts[0].p, 3, bbox_max_);
+  Root root{
+      0, {pts[0].p[0], pts[0].p[1], pts[0].p[2]}, {pts[0].p[0], pts[0].p[1], pts[0].p[2]}};
   for (const BuildPoint& q : pts)
     for (int a = 0; a < 3; ++a) {
-      bbox_min_[a] = std::min(bbox_min_[a], q.p[a]);
-      bbox_max_[a] = std::max(bbox_max_[a], q.p[a]);
+      root.min[a] = std::min(root.min[a], q.p[a]);
+      root.max[a] = std::max(root.max[a], q.p[a]);
     }
+  roots_.push_back(root);
 
   checkCapacity(m, bucket_size_);
   nodes_.resize(slotsFor(m, bucket_size_));
@@ -372,14 +371,84 @@ KdTreeIndex::compactNodes(std::uint32_t node, std::vector<Node>& out) const
   return at;
 }
 
+KdTreeIndex
+KdTreeIndex::merge(const KdTreeIndex& base,
+                   const std::vector<std::uint32_t>& renamed,
+                   const KdTreeIndex& added)
+{
+  const std::size_t nodes = base.nodes_.size() + added.nodes_.size();
+  if (base.size() + added.size() >= kInvalid || nodes >= kInvalid)
+    throw std::invalid_argument(
+        "pcl_parallel::KdTreeIndex::merge: " + std::to_string(base.size() + added.size()) +
+        " points in " + std::to_string(nodes) + " nodes, more than uint32 indices hold");
+  KdTreeIndex out;
+  out.nodes_.reserve(nodes);
+  out.points_.reserve(base.points_.size() + added.points_.size());
+  out.ids_.reserve(base.size() + added.size());
+  // Nodes are in depth-first order and points in leaf order, so the leaves come in
+  // position order: each keeps its renamed points, moved up to close the gaps.
+  for (Node nd : base.nodes_) {
+    if (nd.kind >= kLeaf) {
+      const auto begin = static_cast<std::uint32_t>(out.ids_.size());
+      for (std::uint32_t p = nd.leaf.begin; p < nd.leaf.end; ++p) {
+        const std::uint32_t id = base.ids_[p];
+        if (id >= renamed.size())
+          throw std::invalid_argument("pcl_parallel::KdTreeIndex::merge: id " +
+                                      std::to_string(id) + " has no entry in renamed (" +
+                                      std::to_string(renamed.size()) + " entries)");
+        if (renamed[id] == kInvalid)
+          continue;
+        out.ids_.push_back(renamed[id]);
+        const float* q = base.point(p);
+        out.points_.insert(out.points_.end(), q, q + 3);
+      }
+      nd.leaf = {begin, static_cast<std::uint32_t>(out.ids_.size())};
+      if (nd.leaf.end - nd.leaf.begin < 2)
+        nd.kind = kLeaf; // a duplicate leaf is searched by its first point, if any
+    }
+    out.nodes_.push_back(nd);
+  }
+  out.roots_ = base.roots_;
+
+  const auto node_offset = static_cast<std::uint32_t>(out.nodes_.size());
+  const auto pos_offset = static_cast<std::uint32_t>(out.size());
+  for (Node nd : added.nodes_) {
+    if (nd.kind >= kLeaf)
+      nd.leaf = {nd.leaf.begin + pos_offset, nd.leaf.end + pos_offset};
+    else
+      nd.right += node_offset;
+    out.nodes_.push_back(nd);
+  }
+  out.points_.insert(out.points_.end(), added.points_.begin(), added.points_.end());
+  out.ids_.insert(out.ids_.end(), added.ids_.begin(), added.ids_.end());
+  for (Root root : added.roots_) {
+    root.node += node_offset;
+    out.roots_.push_back(root);
+  }
+  out.bucket_size_ = std::max(base.bucket_size_, added.bucket_size_);
+  return out;
+}
+
 float
-KdTreeIndex::rootDistance(const float* q, float* off) const
+KdTreeIndex::rootDistance(const Root& root, const float* q, float* off)
 {
   for (int a = 0; a < 3; ++a)
-    off[a] = q[a] < bbox_min_[a]   ? bbox_min_[a] - q[a]
-             : q[a] > bbox_max_[a] ? q[a] - bbox_max_[a]
-                                   : 0.0f;
+    off[a] = q[a] < root.min[a]   ? root.min[a] - q[a]
+             : q[a] > root.max[a] ? q[a] - root.max[a]
+                                  : 0.0f;
   return sqrNorm(off);
+}
+
+template <typename Result>
+void
+KdTreeIndex::searchRoots(const float* q, Result& result) const
+{
+  float off[3];
+  for (const Root& root : roots_) {
+    const float d2 = rootDistance(root, q, off);
+    if (result.canImprove(d2))
+      search(root.node, q, d2, off, result);
+  }
 }
 
 template <typename Result>
@@ -445,11 +514,8 @@ KdTreeIndex::nearestImpl(Slot& slot, float max_sqr_dist, std::uint32_t hint) con
       slot.pos = hint;
     }
   }
-  float off[3];
   NearestResult<Slot> result{slot};
-  const float root = rootDistance(q, off);
-  if (result.canImprove(root))
-    search(0, q, root, off, result);
+  searchRoots(q, result);
   if (slot.pos == kInvalid)
     slot.sqr_dist = std::numeric_limits<float>::infinity();
   return slot.pos;
@@ -533,9 +599,7 @@ KdTreeIndex::knn(const float* query,
   if (k == 0 || empty() || !isFinite3(query))
     return 0;
   KnnResult result{k, out_pos, out_sqr_dist};
-  float off[3];
-  const float root = rootDistance(query, off);
-  search(0, query, root, off, result);
+  searchRoots(query, result);
   return result.count;
 }
 
@@ -552,10 +616,7 @@ KdTreeIndex::radius(const float* query,
   if (empty() || !isFinite3(query) || !(sqr_radius >= 0.0f))
     return 0;
   RadiusResult result{sqr_radius, out_pos, out_sqr_dist};
-  float off[3];
-  const float root = rootDistance(query, off);
-  if (result.canImprove(root))
-    search(0, query, root, off, result);
+  searchRoots(query, result);
 
   const std::size_t found = out_pos.size();
   const std::size_t keep = max_nn > 0 ? std::min(max_nn, found) : found;

@@ -10,6 +10,7 @@
 #include <pcl_parallel/kdtree.h>
 
 #include <gtest/gtest.h>
+#include <numeric>
 #include <random>
 
 using pcl_parallel::KdTreeIndex;
@@ -121,6 +122,71 @@ TEST(KdTreeIndex, ClusteredCloudMatchesBruteForce)
   expectKnnMatchesBruteForce(tree, cloud, queries, 1);
   expectKnnMatchesBruteForce(tree, cloud, queries, 20);
   expectRadiusMatchesBruteForce(tree, cloud, queries, 0.05f);
+}
+
+// A tree merged from a built one (some points dropped, the rest renamed) and one over
+// points added later (the local map after a scan) answers as a tree over the points that
+// are there now: nearest (with their ids now), kNN and radius. Coincident points, some
+// dropped, test the duplicate leaves that lose their first points.
+TEST(KdTreeIndex, MergedTreeMatchesBruteForceOverThePointsNow)
+{
+  auto base = clusteredCloud(20000, 3);
+  const pcl::PointXYZ twin(0.3f, 0.3f, 0.3f), gone(0.6f, 0.6f, 0.6f);
+  for (int i = 0; i < 30; ++i) {
+    base.push_back(twin);
+    base.push_back(gone);
+  }
+  // Dropped: a slab (as a crop drops a region), every seventh point, every copy of
+  // `gone` and the first ten of `twin`. The rest are renamed into a new cloud, in
+  // reverse order, after the added points.
+  auto added = uniformCloud(1500, 6); // overlapping the base and beyond it
+  for (auto& p : added)
+    p.x *= 4.0f;
+  pcl::PointCloud<pcl::PointXYZ> now = added;
+  std::vector<std::uint32_t> renamed(base.size(), KdTreeIndex::kInvalid);
+  int twins_seen = 0;
+  for (std::size_t i = base.size(); i-- > 0;) {
+    const auto& p = base[i];
+    const bool is_twin = p.x == twin.x && p.y == twin.y && p.z == twin.z;
+    const bool is_gone = p.x == gone.x && p.y == gone.y && p.z == gone.z;
+    const bool drop =
+        is_gone || (is_twin && ++twins_seen > 20) || (!is_twin && (p.x < -0.2f || i % 7 == 0));
+    if (!drop) {
+      renamed[i] = static_cast<std::uint32_t>(now.size());
+      now.push_back(p);
+    }
+  }
+  std::vector<std::uint32_t> added_ids(added.size());
+  std::iota(added_ids.begin(), added_ids.end(), 0u);
+  KdTreeIndex added_tree;
+  added_tree.build(added.front().data, added.size(), 4, added_ids.data(), 2);
+
+  const KdTreeIndex merged = KdTreeIndex::merge(buildTree(base, 2), renamed, added_tree);
+  EXPECT_EQ(merged.size(), now.size());
+  EXPECT_EQ(merged.numParts(), 2u);
+  auto queries = clusteredCloud(300, 4);
+  queries += uniformCloud(300, 7);
+  for (auto& q : queries)
+    q.x *= 4.0f;
+  queries.push_back(twin);
+  queries.push_back(gone);
+  expectMatchesBruteForce(merged, now, queries, std::numeric_limits<float>::infinity());
+  expectMatchesBruteForce(merged, now, queries, 0.01f);
+  expectKnnMatchesBruteForce(merged, now, queries, 20);
+  expectRadiusMatchesBruteForce(merged, now, queries, 0.05f);
+  float d2 = -1.0f;
+  ASSERT_NE(merged.nearest(twin.data, 1.0f, d2), KdTreeIndex::kInvalid);
+  EXPECT_EQ(d2, 0.0f); // a kept copy of `twin`, though its duplicate leaf lost its first
+
+  // Merged with nothing dropped, renamed as it was, and nothing added, a tree answers as
+  // itself; a base id without an entry in renamed is an error.
+  std::vector<std::uint32_t> same(base.size());
+  std::iota(same.begin(), same.end(), 0u);
+  const KdTreeIndex alone = KdTreeIndex::merge(buildTree(base, 1), same, KdTreeIndex());
+  EXPECT_EQ(alone.numParts(), 1u);
+  expectMatchesBruteForce(alone, base, queries, std::numeric_limits<float>::infinity());
+  same.pop_back();
+  EXPECT_THROW(KdTreeIndex::merge(buildTree(base, 1), same, added_tree), std::invalid_argument);
 }
 
 TEST(KdTreeIndex, DegenerateClouds)

@@ -8,6 +8,7 @@
  * lingers; and the small pieces (local map, deskew, loop candidates, loop error spread).
  */
 #include "corridor_set.h"
+#include "random_clouds.h"
 #include "test_data.h"
 
 #include <pcl_parallel/evaluation/pose_error.h>
@@ -16,6 +17,7 @@
 #include <pcl_parallel/io/pose_files.h>
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
+#include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
@@ -52,6 +54,7 @@
 namespace {
 
 using namespace pcl_parallel;
+using pcl_parallel::test::bruteNearest;
 using slam::Cloud;
 using slam::Pose;
 using slam::Poses;
@@ -1529,6 +1532,65 @@ TEST(LocalMap, ParallelInsertCropAndRefreshSameAsSerial)
     ASSERT_EQ((*maps[0]->cloud())[j].getVector3fMap(), (*maps[1]->cloud())[j].getVector3fMap())
         << j;
   EXPECT_EQ(maps[0]->scans(), maps[1]->scans());
+}
+
+// The map's index after each update answers as a tree over cloud() built then: the same
+// nearest distances as brute force, with ids of points at them. The updates add a few
+// thousand points to a map that moves on and is cropped behind, so the index is merged
+// (KdTreeIndex::merge: two parts) between builds (one); the same on 1 and 3 threads, and
+// after a correction.
+TEST(LocalMap, IndexAnswersAsATreeOverTheMapNow)
+{
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> u(-12.0f, 12.0f);
+  std::vector<slam::LocalMap> maps;
+  for (const unsigned threads : {1u, 3u})
+    maps.emplace_back(0.5, 15.0, 2, 0.0, threads);
+  std::set<std::size_t> parts_seen;
+  const auto expectCurrent = [&](slam::LocalMap& map) {
+    const auto index = map.index();
+    const slam::MapCloud& cloud = *map.cloud();
+    ASSERT_EQ(index->size(), cloud.size());
+    EXPECT_EQ(map.index(), index); // the same object until the next refresh
+    parts_seen.insert(index->numParts());
+    std::mt19937 qrng(5);
+    std::uniform_int_distribution<std::size_t> pick(0, cloud.size() - 1);
+    for (int i = 0; i < 150; ++i) {
+      const slam::MapPoint& p = cloud[pick(qrng)];
+      const float q[3] = {p.x + 0.1f * u(qrng) / 12, p.y - 0.2f * u(qrng) / 12, p.z};
+      const auto [best, best_d2] = bruteNearest(pcl::PointXYZ(q[0], q[1], q[2]), cloud, 0.25f);
+      float d2 = -1.0f;
+      const std::uint32_t pos = index->nearest(q, 0.25f, d2);
+      ASSERT_EQ(pos == KdTreeIndex::kInvalid, best < 0) << i;
+      if (best < 0)
+        continue;
+      EXPECT_EQ(d2, best_d2) << i;
+      const slam::MapPoint& m = cloud[index->id(pos)];
+      const float dx = q[0] - m.x, dy = q[1] - m.y, dz = q[2] - m.z;
+      EXPECT_EQ(dx * dx + dy * dy + dz * dz, d2);
+    }
+  };
+  for (std::uint32_t k = 0; k < 16; ++k) {
+    slam::MapCloud scan;
+    for (int i = 0; i < 3000; ++i) {
+      slam::MapPoint p;
+      p.x = u(rng) + 1.5f * k, p.y = u(rng), p.z = 0.2f * u(rng);
+      p.normal_x = 0, p.normal_y = 0, p.normal_z = 1;
+      scan.push_back(p);
+    }
+    for (auto& map : maps) {
+      map.update(scan, Eigen::Vector3d(1.5 * k, 0, 0), k);
+      SCOPED_TRACE(k);
+      expectCurrent(map);
+    }
+    const auto one = maps[0].index(), three = maps[1].index();
+    ASSERT_EQ(one->size(), three->size());
+    for (std::uint32_t pos = 0; pos < one->size(); ++pos)
+      ASSERT_EQ(one->id(pos), three->id(pos)) << pos;
+  }
+  EXPECT_EQ(parts_seen, (std::set<std::size_t>{1, 2}));
+  maps[0].transform(makePose(30 * kDeg, 1.0, -2.0));
+  expectCurrent(maps[0]);
 }
 
 // A vehicle at constant speed and yaw rate, climbing steadily: a helix about z, in closed

@@ -87,6 +87,30 @@ public:
         unsigned num_threads = 0,
         unsigned bucket_size = kDefaultBucketSize);
 
+  /** A tree over some of \a base's points and all of \a added's, without a build: for a
+   *  point set that changes a little at a time (slam::LocalMap), current at the cost of a
+   *  tree over the new points and a copy. \a renamed maps each of base's ids to the id
+   *  the point has now, or to kInvalid where the point is gone; \a added's ids are kept.
+   *  base's nodes stay, with its dropped points left out of their leaves (its splits still
+   *  bound the points that stay), and added's follow as a second part; searches visit
+   *  base's part first (ties keep the first point found). A point coinciding with a
+   *  dropped one of the same tree may go unseen by nearest() unless it is dropped too
+   *  (a duplicate leaf stands for all its points by its first). Throws
+   *  std::invalid_argument unless \a renamed holds an entry for every id of base, or
+   *  when the result does not fit the uint32 positions and node indices. */
+  static KdTreeIndex
+  merge(const KdTreeIndex& base,
+        const std::vector<std::uint32_t>& renamed,
+        const KdTreeIndex& added);
+
+  /** Number of separately built parts: 1 for a built tree (0 when empty), more after
+   *  merge(). */
+  std::size_t
+  numParts() const
+  {
+    return roots_.size();
+  }
+
   /** Throws std::invalid_argument unless a tree of n points and this bucket size fits the
    *  uint32 indices: n <= 2^32-2 points and fewer than 2^32-1 node slots (~2n/bucket_size,
    *  so a bucket size of 1 caps n near 2^31). build() checks the finite points' count. */
@@ -218,8 +242,18 @@ private:
   std::uint32_t
   compactNodes(std::uint32_t node, std::vector<Node>& out) const;
 
-  float
-  rootDistance(const float* q, float* off) const;
+  /** A built part's root within nodes_ and the bounds of its points as built. */
+  struct Root {
+    std::uint32_t node;
+    float min[3];
+    float max[3];
+  };
+  static float
+  rootDistance(const Root& root, const float* q, float* off);
+  /** search() from each root whose bounds the result can still reach. */
+  template <typename Result>
+  void
+  searchRoots(const float* q, Result& result) const;
   template <typename Result>
   void
   scanLeaf(const Node& node, const float* q, Result& result) const;
@@ -243,8 +277,7 @@ private:
   std::vector<Node> nodes_;
   std::vector<float> points_;      ///< 3 floats per point, in leaf order
   std::vector<std::uint32_t> ids_; ///< caller's id per position
-  float bbox_min_[3] = {0, 0, 0};
-  float bbox_max_[3] = {0, 0, 0};
+  std::vector<Root> roots_;        ///< one per built part; none when empty
   unsigned bucket_size_ = kDefaultBucketSize;
 };
 

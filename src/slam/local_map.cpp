@@ -2,6 +2,7 @@
  * pcl_parallel: parallel scan matching (Nüchter, ECMR 2007) on top of PCL.
  * SPDX-License-Identifier: BSD-3-Clause
  */
+#include <pcl_parallel/kdtree.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/local_map.h>
 
@@ -176,6 +177,11 @@ LocalMap::clear()
   cloud_.reset();
   cloud_scans_.clear();
   added_ = 0;
+  base_index_.reset();
+  index_.reset();
+  renamed_.clear();
+  unindexed_.clear();
+  index_changes_ = 0;
 }
 
 bool
@@ -218,6 +224,70 @@ LocalMap::refresh()
         });
   }
   added_ = 0;
+  for (std::int64_t v = 0; v < voxels; ++v) {
+    Voxel& voxel = order_[v]->second;
+    voxel.in_cloud = static_cast<std::uint32_t>(voxel.points.size());
+    voxel.cloud_at = static_cast<std::uint32_t>(first[v]);
+  }
+  index_.reset();
+  if (base_index_)
+    trackIndex();
+}
+
+void
+LocalMap::trackIndex()
+{
+  renamed_.assign(base_index_->size(), KdTreeIndex::kInvalid);
+  unindexed_.clear();
+  std::size_t kept = 0;
+  for (const auto* v : order_) {
+    const Voxel& voxel = v->second;
+    for (std::uint32_t j = 0; j < voxel.in_cloud; ++j)
+      if (j < voxel.indexed)
+        renamed_[voxel.indexed_at + j] = voxel.cloud_at + j;
+      else
+        unindexed_.push_back(voxel.cloud_at + j);
+    kept += voxel.indexed;
+  }
+  index_changes_ = unindexed_.size() + (base_index_->size() - kept);
+}
+
+std::shared_ptr<const KdTreeIndex>
+LocalMap::index()
+{
+  if (index_)
+    return index_;
+  const MapCloud::ConstPtr cloud = this->cloud();
+  constexpr std::size_t kStride = sizeof(MapPoint) / sizeof(float);
+  if (!base_index_ ||
+      static_cast<double>(index_changes_) > kIndexRebuildFraction * base_index_->size()) {
+    auto built = std::make_shared<KdTreeIndex>();
+    built->build(cloud->empty() ? nullptr : cloud->front().data,
+                 cloud->size(),
+                 kStride,
+                 nullptr,
+                 num_threads_);
+    for (auto* v : order_) {
+      v->second.indexed = v->second.in_cloud;
+      v->second.indexed_at = v->second.cloud_at;
+    }
+    renamed_.clear();
+    unindexed_.clear();
+    index_changes_ = 0;
+    return index_ = base_index_ = std::move(built);
+  }
+  // The last tree built, less the points cropped since, plus a tree over those added.
+  std::vector<float> xyz(3 * unindexed_.size());
+  for (std::size_t i = 0; i < unindexed_.size(); ++i)
+    std::copy_n((*cloud)[unindexed_[i]].data, 3, &xyz[3 * i]);
+  KdTreeIndex added;
+  added.build(xyz.empty() ? nullptr : xyz.data(),
+              unindexed_.size(),
+              3,
+              unindexed_.data(),
+              num_threads_);
+  return index_ = std::make_shared<const KdTreeIndex>(
+             KdTreeIndex::merge(*base_index_, renamed_, added));
 }
 
 MapCloud::ConstPtr

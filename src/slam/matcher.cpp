@@ -188,6 +188,7 @@ Matcher::Matcher(const Parameters& resolved)
            params_.normals_from_map ? LocalMap::kRefreshFraction : 0.0,
            num_threads_)
     , previous_tree_(new search::KdTree<MapPoint>)
+    , map_tree_(new search::KdTree<MapPoint>)
 {
   if (!isResolved(resolved))
     throw std::invalid_argument("Matcher: the parameters' automatic lengths are not resolved");
@@ -273,8 +274,8 @@ Matcher::alignTo(bool to_map,
     Icp& icp = icp_->icp;
     if (icp.getInputSource() != source)
       icp.setInputSource(source);
-    if (map_.cloud() != target_) // the tree is rebuilt only for a new map
-      icp.setInputTarget(target_ = map_.cloud());
+    if (map_.cloud() != target_) // the tree changes only with the map
+      useMap();
     return align(icp, start, gate, final_gate, adaptive, prior_mean, priorSpread());
   }
   // In the previous scan's frame.
@@ -417,6 +418,18 @@ Matcher::measureByPrevious(ScanRecord& r, const Cloud::ConstPtr& source, const P
   Icp& icp = icp_->to_previous;
   if (align(icp, to_previous, finalGate(), 0.0, false, to_previous, std::nullopt))
     takeInformation(r, icp);
+}
+
+void
+Matcher::useMap()
+{
+  Icp& icp = icp_->icp;
+  target_ = map_.cloud();
+  if (!params_.normals_from_map) { // the map keeps its tree; ICP estimates no normals
+    map_tree_->setInputCloudAndIndex(target_, map_.index());
+    icp.setSearchMethodTarget(map_tree_, true);
+  }
+  icp.setInputTarget(target_);
 }
 
 const search::KdTree<MapPoint>*

@@ -8,8 +8,13 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <unordered_map>
 #include <vector>
+
+namespace pcl_parallel {
+class KdTreeIndex;
+} // namespace pcl_parallel
 
 namespace pcl_parallel {
 namespace slam {
@@ -26,12 +31,20 @@ namespace slam {
  * exceed `refresh_fraction` of it: with 0 (default) after every update, so that the next
  * scan is matched against every scan kept; with more where a refresh costs more than a
  * lag of a few scans (Matcher: normals estimated on the whole map at each).
+ *
+ * index() is a k-d tree over cloud(), kept current without a build over the whole map at
+ * each refresh: the last tree built is merged with one over the points added since,
+ * leaving out those cropped since (KdTreeIndex::merge), until the points added and
+ * cropped exceed `kIndexRebuildFraction` of it (docs/design.md, "Local map").
  */
 class LocalMap {
 public:
   /** Share of new points since the last refresh after which cloud() is rebuilt, where a
    *  rebuild costs more than a scan's match (the map's normals estimated with it). */
   static constexpr double kRefreshFraction = 0.1;
+  /** Share of the last built index's points added or cropped since, after which index()
+   *  is built over the whole map again rather than merged. */
+  static constexpr double kIndexRebuildFraction = 0.25;
 
   /** num_threads: for the per-scan crop and the refresh (0 = all cores); the map is the
    *  same for any. */
@@ -74,6 +87,11 @@ public:
   MapCloud::ConstPtr
   cloud() const;
 
+  /** A k-d tree over cloud() (ids: its indices), current with it; the same object until
+   *  the next refresh. Built or merged here, at the first call after a refresh. */
+  std::shared_ptr<const KdTreeIndex>
+  index();
+
   /** Per point of cloud(): the scan it came from (update's `scan`). */
   const std::vector<std::uint32_t>&
   scans() const
@@ -102,6 +120,9 @@ private:
   insert(const MapCloud& points, const ScanOf& scan_of);
   void
   refresh();
+  /** renamed_, unindexed_ and index_changes_ for cloud_ as refreshed. */
+  void
+  trackIndex();
   /** Whether a pass over this many voxels runs in parallel. */
   bool
   parallel(std::int64_t voxels) const;
@@ -115,6 +136,10 @@ private:
   struct Voxel {
     std::vector<MapPoint> points;
     std::vector<std::uint32_t> scans; ///< per point: the scan it came from
+    std::uint32_t in_cloud = 0;       ///< leading points in cloud_ ...
+    std::uint32_t cloud_at = 0;       ///< ... from this index of it on
+    std::uint32_t indexed = 0;        ///< leading points in base_index_ ...
+    std::uint32_t indexed_at = 0;     ///< ... where cloud_ had them at its build
   };
   using Voxels = std::unordered_map<Key, Voxel, KeyHash>;
   /** The voxels by key hash modulo their number, fixed: a scan's points go into all
@@ -126,6 +151,13 @@ private:
   std::vector<Voxels::value_type*> order_;
   MapCloud::Ptr cloud_;
   std::vector<std::uint32_t> cloud_scans_; ///< per point of cloud_
+  /** The last index built over a whole cloud_ (ids: that cloud's indices), and index()'s
+   *  answer for cloud_ (null until asked). */
+  std::shared_ptr<const KdTreeIndex> base_index_, index_;
+  /** Since base_index_, at the last refresh: each of its ids' index in cloud_ now
+   *  (kInvalid: cropped), and the indices of cloud_ it lacks. */
+  std::vector<std::uint32_t> renamed_, unindexed_;
+  std::size_t index_changes_ = 0; ///< unindexed_ and base_index_'s points cropped since
 };
 
 } // namespace slam

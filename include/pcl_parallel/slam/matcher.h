@@ -161,6 +161,10 @@ private:
    *  null before one, or once keep() has changed the map. */
   const search::KdTree<MapPoint>*
   mapTree();
+  /** The map pICP's target made the local map as it is now; its tree is the map's own
+   *  index (LocalMap::index) unless normals are estimated on the map. */
+  void
+  useMap();
   /** The motion prior's standard deviations where pICP takes one (adaptive threshold and
    *  motion_prior): translation and rotation (rad; infinite for 2D scans, whose walls fix
    *  the heading while wheel odometry's heading error is biased: docs/design.md, "2D
@@ -187,6 +191,7 @@ private:
   LocalMap map_;
   PreviousScan previous_;
   pcl::shared_ptr<search::KdTree<MapPoint>> previous_tree_; ///< over previous_.cloud
+  pcl::shared_ptr<search::KdTree<MapPoint>> map_tree_;      ///< over map_.cloud()
   MapCloud::ConstPtr target_; ///< what the map pICP's tree was built from
 };
 
