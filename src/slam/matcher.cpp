@@ -184,7 +184,7 @@ Matcher::Matcher(const Parameters& resolved)
            params_.map_points_per_voxel,
            // The tree holds every scan kept: a scan turning into what only the last few
            // saw has nothing else to match (docs/design.md, "Local map"). Normals from
-           // the map are estimated over all of it at each rebuild.
+           // the map are estimated over all of it at each rebuild, so those wait.
            params_.normals_from_map ? LocalMap::kRefreshFraction : 0.0,
            num_threads_)
     , previous_tree_(new search::KdTree<MapPoint>)
