@@ -44,7 +44,8 @@ enum class SlotLayout { kPadded, kPacked };
  * pcl_parallel::search::KdTree, the correspondence estimation, pICP and pLUM.
  *
  * - Layout: a flat node array in depth-first order (left child follows its parent);
- *   points are copied into leaf order, so a bucket is one contiguous run of floats.
+ *   points are copied into leaf order, so a bucket is one contiguous run of floats. A
+ *   merge() leaves several such trees (parts) in the arrays, searched root by root.
  * - Split rule: the median along the axis of largest extent (Friedman, Bentley and Finkel,
  *   paper ref. [8]). Median splits keep the tree balanced, so its shape and its node
  *   positions are a function of the point count alone, which lets the two halves be built
@@ -93,11 +94,9 @@ public:
    *  the point has now, or to kInvalid where the point is gone; \a added's ids are kept.
    *  base's nodes stay, with its dropped points left out of their leaves (its splits still
    *  bound the points that stay), and added's follow as a second part; searches visit
-   *  base's part first (ties keep the first point found). A point coinciding with a
-   *  dropped one of the same tree may go unseen by nearest() unless it is dropped too
-   *  (a duplicate leaf stands for all its points by its first). Throws
-   *  std::invalid_argument unless \a renamed holds an entry for every id of base, or
-   *  when the result does not fit the uint32 positions and node indices. */
+   *  base's part first (ties keep the first point found). Throws std::invalid_argument
+   *  unless \a renamed holds an entry for every id of base, or when the result does not
+   *  fit the uint32 positions and node indices. */
   static KdTreeIndex
   merge(const KdTreeIndex& base,
         const std::vector<std::uint32_t>& renamed,
