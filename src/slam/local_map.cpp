@@ -195,8 +195,12 @@ LocalMap::refresh()
 {
   const std::int64_t voxels = static_cast<std::int64_t>(order_.size());
   std::vector<std::size_t> first(order_.size() + 1, 0);
-  for (std::int64_t v = 0; v < voxels; ++v)
-    first[v + 1] = first[v] + order_[v]->second.points.size();
+  for (std::int64_t v = 0; v < voxels; ++v) {
+    Voxel& voxel = order_[v]->second;
+    voxel.in_cloud = static_cast<std::uint32_t>(voxel.points.size());
+    voxel.cloud_at = static_cast<std::uint32_t>(first[v]);
+    first[v + 1] = first[v] + voxel.points.size();
+  }
   cloud_.reset(new MapCloud);
   if (!parallel(voxels)) {
     cloud_->reserve(first.back());
@@ -224,11 +228,6 @@ LocalMap::refresh()
         });
   }
   added_ = 0;
-  for (std::int64_t v = 0; v < voxels; ++v) {
-    Voxel& voxel = order_[v]->second;
-    voxel.in_cloud = static_cast<std::uint32_t>(voxel.points.size());
-    voxel.cloud_at = static_cast<std::uint32_t>(first[v]);
-  }
   index_.reset();
   if (base_index_)
     trackIndex();
