@@ -74,41 +74,85 @@ neighbourhoodScatter(const KdTreeIndex& tree,
   return cov;
 }
 
-/** Every tree position's normal by `normal(position, neighbours, count)` over its k
- *  nearest neighbours (itself included); a scan's few thousand points over every thread. */
-template <typename NormalOf>
+/** The normal by `normal(query, neighbours, count)` over the k tree points nearest each of
+ *  `count` queries (`query(i)`: xyz); a scan's few thousand points over every thread. */
+template <typename QueryOf, typename NormalOf>
 std::vector<Eigen::Vector3f>
-unitNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads, NormalOf normal)
+unitNormals(const KdTreeIndex& tree,
+            std::size_t count,
+            const QueryOf& query,
+            std::size_t k,
+            unsigned num_threads,
+            const NormalOf& normal)
 {
-  std::vector<Eigen::Vector3f> normals(tree.size(), Eigen::Vector3f::Zero());
+  std::vector<Eigen::Vector3f> normals(count, Eigen::Vector3f::Zero());
   k = std::max<std::size_t>(k, 3);
-  parallelFor(tree.size(),
+  parallelFor(count,
               resolveNumberOfThreads(num_threads),
               256,
               [&](std::size_t first, std::size_t last) {
                 std::vector<std::uint32_t> pos(k);
                 std::vector<float> sqr(k);
                 for (std::size_t i = first; i < last; ++i) {
-                  const float* p = tree.point(static_cast<std::uint32_t>(i));
+                  const float* p = query(i);
                   normals[i] = normal(p, pos.data(), tree.knn(p, k, pos.data(), sqr.data()));
                 }
               });
   return normals;
 }
 
+/** A neighbourhood's plane normal; zero where it does not define a plane. */
+struct SpatialNormal {
+  const KdTreeIndex& tree;
+  Eigen::Vector3f
+  operator()(const float* p, const std::uint32_t* pos, std::size_t got) const
+  {
+    Eigen::Vector3d normal, ev;
+    // A plane needs two clearly non-zero spreads; the normal's must be the smallest.
+    if (!neighbourhoodNormal(tree, pos, got, p, normal, ev) || !(ev(1) > 1e-6 * ev(2)))
+      return Eigen::Vector3f::Zero();
+    return normal.normalized().cast<float>();
+  }
+};
+
+/** A neighbourhood's line normal within a plane; zero where the points do not spread. */
+struct InPlaneNormal {
+  InPlaneNormal(const KdTreeIndex& tree, const Eigen::Vector3f& plane_normal)
+      : tree(tree)
+  {
+    // An orthonormal basis (e0, e1) of the plane: the scatter within it is 2x2.
+    const Eigen::Vector3d u = plane_normal.cast<double>().normalized();
+    const Eigen::Vector3d e0 = u.unitOrthogonal(), e1 = u.cross(e0);
+    basis << e0, e1;
+  }
+  Eigen::Vector3f
+  operator()(const float* p, const std::uint32_t* pos, std::size_t got) const
+  {
+    if (got < 3)
+      return Eigen::Vector3f::Zero();
+    const Eigen::Matrix2d scatter =
+        basis.transpose() * neighbourhoodScatter(tree, pos, got, p) * basis;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig;
+    eig.computeDirect(scatter);
+    // The line needs a spread along it (1e-12 m²: points not all at one place).
+    if (!(eig.eigenvalues()(1) > 1e-12))
+      return Eigen::Vector3f::Zero();
+    const Eigen::Vector3d normal = basis * eig.eigenvectors().col(0);
+    if (!normal.allFinite())
+      return Eigen::Vector3f::Zero();
+    return normal.normalized().cast<float>();
+  }
+  const KdTreeIndex& tree;
+  Eigen::Matrix<double, 3, 2> basis;
+};
+
 } // namespace
 
 std::vector<Eigen::Vector3f>
 estimateUnitNormals(const KdTreeIndex& tree, std::size_t k, unsigned num_threads)
 {
-  return unitNormals(
-      tree, k, num_threads, [&](const float* p, const std::uint32_t* pos, std::size_t got) {
-        Eigen::Vector3d normal, ev;
-        // A plane needs two clearly non-zero spreads; the normal's must be the smallest.
-        if (!neighbourhoodNormal(tree, pos, got, p, normal, ev) || !(ev(1) > 1e-6 * ev(2)))
-          return Eigen::Vector3f::Zero().eval();
-        return normal.normalized().cast<float>().eval();
-      });
+  const auto own = [&](std::size_t i) { return tree.point(static_cast<std::uint32_t>(i)); };
+  return unitNormals(tree, tree.size(), own, k, num_threads, SpatialNormal{tree});
 }
 
 std::vector<Eigen::Vector3f>
@@ -117,26 +161,23 @@ estimateUnitNormals(const KdTreeIndex& tree,
                     unsigned num_threads,
                     const Eigen::Vector3f& plane_normal)
 {
-  // An orthonormal basis (e0, e1) of the plane: the scatter within it is 2x2.
-  const Eigen::Vector3d u = plane_normal.cast<double>().normalized();
-  const Eigen::Vector3d e0 = u.unitOrthogonal(), e1 = u.cross(e0);
-  Eigen::Matrix<double, 3, 2> basis;
-  basis << e0, e1;
-  return unitNormals(
-      tree, k, num_threads, [&](const float* p, const std::uint32_t* pos, std::size_t got) {
-        if (got < 3)
-          return Eigen::Vector3f::Zero().eval();
-        const Eigen::Matrix2d scatter =
-            basis.transpose() * neighbourhoodScatter(tree, pos, got, p) * basis;
-        Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig;
-        eig.computeDirect(scatter);
-        // The line needs a spread along it (1e-12 m²: points not all at one place).
-        if (!(eig.eigenvalues()(1) > 1e-12))
-          return Eigen::Vector3f::Zero().eval();
-        const Eigen::Vector3d normal = basis * eig.eigenvectors().col(0);
-        return normal.allFinite() ? normal.normalized().cast<float>().eval()
-                                  : Eigen::Vector3f::Zero().eval();
-      });
+  const auto own = [&](std::size_t i) { return tree.point(static_cast<std::uint32_t>(i)); };
+  return unitNormals(tree, tree.size(), own, k, num_threads, InPlaneNormal(tree, plane_normal));
+}
+
+std::vector<Eigen::Vector3f>
+estimateUnitNormalsAt(const KdTreeIndex& tree,
+                      const float* queries,
+                      std::size_t count,
+                      std::size_t stride,
+                      std::size_t k,
+                      unsigned num_threads,
+                      const Eigen::Vector3f* plane_normal)
+{
+  const auto at = [&](std::size_t i) { return queries + i * stride; };
+  if (plane_normal)
+    return unitNormals(tree, count, at, k, num_threads, InPlaneNormal(tree, *plane_normal));
+  return unitNormals(tree, count, at, k, num_threads, SpatialNormal{tree});
 }
 
 bool

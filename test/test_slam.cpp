@@ -1453,6 +1453,53 @@ TEST(LocalMap, VoxelCapCropAndCorrection)
   EXPECT_NEAR((*map.cloud())[3].y, 5.5f, 1e-6); // (5.5, .5) turned to (-.5, 5.5), moved
 }
 
+// Normals from the map: a point that joins the map alone gets the normal of the surface it
+// joins, which it cannot have from its own scan; the map's cloud and its later updates keep
+// it, and a correction turns it. In the plane (2D) the normals are those of the lines.
+TEST(LocalMap, NormalsFromTheMapAroundThePointsAdded)
+{
+  const auto point = [](float x, float y, float z) {
+    slam::MapPoint p;
+    p.x = x, p.y = y, p.z = z;
+    p.normal_x = p.normal_y = p.normal_z = std::numeric_limits<float>::quiet_NaN();
+    return p;
+  };
+  const auto expectAlong = [](const slam::MapPoint& p, const Eigen::Vector3f& axis) {
+    ASSERT_TRUE(p.getNormalVector3fMap().allFinite()) << p;
+    EXPECT_NEAR(std::abs(p.getNormalVector3fMap().dot(axis)), 1.0f, 1e-4f) << p;
+  };
+  for (const bool planar : {true, false}) {
+    SCOPED_TRACE(planar ? "in the plane" : "in space");
+    slam::LocalMap map(0.1, 50.0, 4, slam::NormalsFromMap{10, planar});
+    slam::MapCloud wall; // y = 1 (2D: a line; 3D: a plane x-z)
+    for (int i = -20; i <= 20; ++i)
+      for (int k = 0; k < (planar ? 1 : 9); ++k)
+        wall.push_back(point(0.05f * i, 1.0f, planar ? 0.0f : 0.05f * k));
+    map.update(wall, Eigen::Vector3d::Zero(), 1);
+    const std::size_t kept = map.cloud()->size();
+    for (const slam::MapPoint& p : *map.cloud())
+      expectAlong(p, Eigen::Vector3f::UnitY());
+    slam::MapCloud alone;
+    alone.push_back(point(2.5f, 1.0f, 0.0f)); // beyond the wall's end, on its line
+    map.update(alone, Eigen::Vector3d::Zero(), 2);
+    const slam::MapCloud& cloud = *map.cloud();
+    ASSERT_EQ(cloud.size(), kept + 1);
+    expectAlong(cloud.back(), Eigen::Vector3f::UnitY());
+    EXPECT_EQ(map.scans().back(), 2u);
+    map.transform(makePose(90 * kDeg, 0.0, 0.0)); // the wall's normal turns to x
+    for (const slam::MapPoint& p : *map.cloud())
+      expectAlong(p, Eigen::Vector3f::UnitX());
+  }
+  // The points' own normals where the map estimates none.
+  slam::LocalMap own(0.1, 50.0, 4);
+  slam::MapCloud one;
+  one.push_back(point(0.0f, 1.0f, 0.0f));
+  one.back().normal_z = 1.0f;
+  own.update(one, Eigen::Vector3d::Zero(), 1);
+  EXPECT_EQ((*own.cloud())[0].normal_z, 1.0f);
+  EXPECT_TRUE(std::isnan((*own.cloud())[0].normal_x));
+}
+
 // A map of more than 10k voxels (the insert, crop and refresh then run in parallel) moving
 // along a line: the same points, order and scans for 1 and 3 threads, and exactly what one
 // point at a time gives (brute force): the voxels within reach of the last origin whose
@@ -1472,7 +1519,7 @@ TEST(LocalMap, ParallelInsertCropAndRefreshSameAsSerial)
   scans[3][17].x = std::numeric_limits<float>::quiet_NaN(); // skipped, not a voxel
   std::vector<std::unique_ptr<slam::LocalMap>> maps;
   for (const unsigned threads : {1u, 3u}) {
-    maps.emplace_back(new slam::LocalMap(0.5, 15.0, 2, 0.0, threads)); // refreshed each time
+    maps.emplace_back(new slam::LocalMap(0.5, 15.0, 2, {}, threads));
     for (std::size_t k = 0; k < scans.size(); ++k)
       maps.back()->update(
           scans[k], Eigen::Vector3d(2.0 * k, 0, 0), static_cast<std::uint32_t>(k));
@@ -1545,7 +1592,7 @@ TEST(LocalMap, IndexAnswersAsATreeOverTheMapNow)
   std::uniform_real_distribution<float> u(-12.0f, 12.0f);
   std::vector<slam::LocalMap> maps;
   for (const unsigned threads : {1u, 3u})
-    maps.emplace_back(0.5, 15.0, 2, 0.0, threads);
+    maps.emplace_back(0.5, 15.0, 2, slam::NormalsFromMap{}, threads);
   std::set<std::size_t> parts_seen;
   const auto expectCurrent = [&](slam::LocalMap& map) {
     const auto index = map.index();

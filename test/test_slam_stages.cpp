@@ -485,7 +485,7 @@ expectMatch(slam::MatchTarget target)
   slam::ScanRecord record;
   record.pose = *matched;
   record.report.gate = matcher.gate();
-  matcher.measure(record, source, Pose::Identity());
+  matcher.measure(record, source);
   EXPECT_GT(record.information_pairs, 0.5 * source->size());
   EXPECT_GT(record.information.ldlt().vectorD().minCoeff(), 0.0); // all six constrained
   // Two samplings of the same surfaces: pairs about a voxel apart, not a wall's width.
@@ -502,12 +502,10 @@ TEST(Matcher, RecoversAStepToTheLocalMap)
   expectMatch(slam::MatchTarget::kLocalMap);
 }
 
-// A scanner entering unseen space: the map's tree is rebuilt only once new points reach a
-// tenth of it, so a step whose scans the tree lacks has no map pairs. Its information
-// comes from the previous scan, so that no step enters the pose graph without one.
 /** A room kept, then a corner of another room 6 m away (floor and two walls: all six
  *  degrees constrained) with under a tenth of the map's points; `source` sees the corner
- *  alone after `step`. With normals from the map, the map's tree keeps the room alone. */
+ *  alone after `step`. `normals_from_map`: the map's points get their normals from the
+ *  map around them, else they keep the scans' own. */
 struct CornerAfterRoom {
   explicit CornerAfterRoom(bool normals_from_map)
       : p(withMapNormals(roomParameters(slam::MatchTarget::kLocalMap), normals_from_map))
@@ -543,33 +541,28 @@ struct CornerAfterRoom {
   Cloud::Ptr source;
 };
 
-// The map's tree holds the scan kept just before: a scan that sees only what the last one
-// saw is matched to it (the hand-held scanner turning into a new room).
+// The map holds the scan kept just before, with normals: a scan that sees only what the
+// last one saw is matched to it (the hand-held scanner turning into a new room), also
+// where the normals come from the map (a sparse scanner's, a 2D scanner's).
 TEST(Matcher, MatchesAgainstTheScanKeptJustBefore)
 {
-  CornerAfterRoom s(false);
-  ASSERT_LT(s.corner_points, s.room_points / 10); // the old rule's 10 % did not rebuild
-  const std::optional<Pose> matched = s.matcher.match(s.source, s.at, s.at, s.at);
-  ASSERT_TRUE(matched);
-  const Pose error = (s.at * s.step).inverse() * *matched;
-  EXPECT_LT((error.topRightCorner<3, 1>().norm()), 0.01);
-  EXPECT_LT(Eigen::AngleAxisd(Eigen::Matrix3d(error.topLeftCorner<3, 3>())).angle(),
-            0.5 * kDeg);
-}
-
-TEST(Matcher, MeasuresAStepTheMapTreeLacksAgainstThePreviousScan)
-{
-  CornerAfterRoom s(true);
-  ASSERT_LT(s.corner_points, s.room_points / 10);
-  const Pose truth = s.at * s.step;
-  EXPECT_FALSE(s.matcher.match(s.source, truth, truth, s.at)); // no map pairs there
-  slam::ScanRecord record;
-  record.pose = truth;
-  record.report.gate = s.matcher.gate();
-  s.matcher.measure(record, s.source, s.at);
-  EXPECT_EQ(record.pose, truth); // the pose stays the map match's
-  EXPECT_GT(record.information_pairs, 0.5 * s.source->size());
-  EXPECT_GT(record.information.ldlt().vectorD().minCoeff(), 0.0); // all six constrained
+  for (const bool normals_from_map : {false, true}) {
+    SCOPED_TRACE(normals_from_map ? "normals from the map" : "the scans' normals");
+    CornerAfterRoom s(normals_from_map);
+    ASSERT_LT(s.corner_points, s.room_points / 10); // a rebuild at 10 % new points lags
+    const std::optional<Pose> matched = s.matcher.match(s.source, s.at, s.at, s.at);
+    ASSERT_TRUE(matched);
+    const Pose error = (s.at * s.step).inverse() * *matched;
+    EXPECT_LT((error.topRightCorner<3, 1>().norm()), 0.01);
+    EXPECT_LT(Eigen::AngleAxisd(Eigen::Matrix3d(error.topLeftCorner<3, 3>())).angle(),
+              0.5 * kDeg);
+    slam::ScanRecord record;
+    record.pose = *matched;
+    record.report.gate = s.matcher.gate();
+    s.matcher.measure(record, s.source);
+    EXPECT_GT(record.information_pairs, 0.5 * s.source->size());
+    EXPECT_GT(record.information.ldlt().vectorD().minCoeff(), 0.0); // all six constrained
+  }
 }
 
 /** The second view of the room turned by `yaw` and moved, guessed without odometry from

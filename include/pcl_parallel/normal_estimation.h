@@ -50,6 +50,18 @@ estimateUnitNormals(const KdTreeIndex& tree,
                     unsigned num_threads,
                     const Eigen::Vector3f& plane_normal);
 
+/** The normals estimateUnitNormals gives (within the plane normal to *plane_normal where
+ *  given, else in space), at \a count query points (xyz, \a stride floats apart) over
+ *  the tree's points: e.g. a scan's new points over the map they join. */
+std::vector<Eigen::Vector3f>
+estimateUnitNormalsAt(const KdTreeIndex& tree,
+                      const float* queries,
+                      std::size_t count,
+                      std::size_t stride,
+                      std::size_t k,
+                      unsigned num_threads,
+                      const Eigen::Vector3f* plane_normal = nullptr);
+
 /**
  * \brief PCA of one neighbourhood, the step every normal estimate here shares: the
  * covariance of the \a count tree points at positions \a pos about their mean (summed in

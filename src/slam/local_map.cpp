@@ -3,12 +3,14 @@
  * SPDX-License-Identifier: BSD-3-Clause
  */
 #include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/normal_estimation.h>
 #include <pcl_parallel/parallel.h>
 #include <pcl_parallel/slam/local_map.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <stdexcept>
 
 namespace pcl_parallel {
@@ -17,12 +19,12 @@ namespace slam {
 LocalMap::LocalMap(double voxel_size,
                    double max_distance,
                    int max_points_per_voxel,
-                   double refresh_fraction,
+                   NormalsFromMap normals,
                    unsigned num_threads)
     : voxel_size_(voxel_size)
     , max_distance_(max_distance)
     , max_points_(static_cast<std::size_t>(std::max(1, max_points_per_voxel)))
-    , refresh_fraction_(std::max(0.0, refresh_fraction))
+    , normals_(normals)
     , num_threads_(resolveNumberOfThreads(num_threads))
 {
   if (!(voxel_size > 0.0) || !(max_distance > 0.0))
@@ -83,10 +85,8 @@ LocalMap::insert(const MapCloud& points, const ScanOf& scan_of)
   // Each shard fills its voxels as one pass over all points would; a new voxel is noted at
   // its first point, so that order_ gets the new voxels in input order.
   std::vector<Voxels::value_type*> created(points.size(), nullptr);
-  std::vector<std::size_t> added_to(kShards, 0);
   parallelFor(kShards, threads, 1, [&](std::size_t s0, std::size_t s1) {
     for (std::size_t s = s0; s < s1; ++s) {
-      std::size_t added_here = 0; // counted locally: neighbouring shards share a line
       for (std::uint32_t b = begin[s]; b < begin[s + 1]; ++b) {
         const std::uint32_t i = by_shard[b];
         auto [it, is_new] = shards_[s].try_emplace(keys[i]);
@@ -96,19 +96,13 @@ LocalMap::insert(const MapCloud& points, const ScanOf& scan_of)
         if (voxel.points.size() < max_points_) {
           voxel.points.push_back(points[i]);
           voxel.scans.push_back(scan_of(i));
-          ++added_here;
         }
       }
-      added_to[s] = added_here;
     }
   });
-  std::size_t added = 0;
-  for (const std::size_t a : added_to)
-    added += a;
   for (Voxels::value_type* v : created)
     if (v)
       order_.push_back(v);
-  added_ += added;
 }
 
 void
@@ -144,8 +138,41 @@ LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin, std::uin
       order_[kept++] = order_[v];
   }
   order_.resize(kept);
-  if (!cloud_ || static_cast<double>(added_) > refresh_fraction_ * cloud_->size())
-    refresh();
+  std::vector<std::pair<Voxel*, std::uint32_t>> fresh; // voxels given points, from which
+  if (normals_.k > 0)
+    for (auto* v : order_)
+      if (v->second.in_cloud < v->second.points.size())
+        fresh.emplace_back(&v->second, v->second.in_cloud);
+  refresh();
+  if (!fresh.empty())
+    estimateNormals(fresh);
+}
+
+void
+LocalMap::estimateNormals(const std::vector<std::pair<Voxel*, std::uint32_t>>& fresh)
+{
+  std::vector<float> xyz;
+  for (const auto& [voxel, from] : fresh)
+    for (std::size_t j = from; j < voxel->points.size(); ++j)
+      xyz.insert(xyz.end(), voxel->points[j].data, voxel->points[j].data + 3);
+  const Eigen::Vector3f up = Eigen::Vector3f::UnitZ();
+  const std::vector<Eigen::Vector3f> normals =
+      estimateUnitNormalsAt(*index(),
+                            xyz.data(),
+                            xyz.size() / 3,
+                            3,
+                            normals_.k,
+                            num_threads_,
+                            normals_.planar ? &up : nullptr);
+  const Eigen::Vector3f none =
+      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN());
+  std::size_t i = 0;
+  for (const auto& [voxel, from] : fresh)
+    for (std::uint32_t j = from; j < voxel->points.size(); ++j, ++i) {
+      const Eigen::Vector3f n = normals[i].isZero() ? none : normals[i]; // NaN: no plane
+      voxel->points[j].getNormalVector3fMap() = n;
+      (*cloud_)[voxel->cloud_at + j].getNormalVector3fMap() = n;
+    }
 }
 
 void
@@ -176,7 +203,6 @@ LocalMap::clear()
   order_.clear();
   cloud_.reset();
   cloud_scans_.clear();
-  added_ = 0;
   base_index_.reset();
   index_.reset();
   renamed_.clear();
@@ -227,7 +253,6 @@ LocalMap::refresh()
           }
         });
   }
-  added_ = 0;
   index_.reset();
   if (base_index_)
     trackIndex();

@@ -182,10 +182,7 @@ Matcher::Matcher(const Parameters& resolved)
     , map_(params_.map_voxel_size,
            params_.map_distance,
            params_.map_points_per_voxel,
-           // The tree holds every scan kept: a scan turning into what only the last few
-           // saw has nothing else to match (docs/design.md, "Local map"). Normals from
-           // the map are estimated over all of it at each rebuild, so those wait.
-           params_.normals_from_map ? LocalMap::kRefreshFraction : 0.0,
+           NormalsFromMap{params_.normals_from_map ? Icp::kDefaultNormalK : 0u, planar_},
            num_threads_)
     , previous_tree_(new search::KdTree<MapPoint>)
     , map_tree_(new search::KdTree<MapPoint>)
@@ -199,9 +196,11 @@ Matcher::Matcher(const Parameters& resolved)
     icp->setMaximumIterations(params.max_iterations);
     icp->setTransformationEpsilon(params.transformation_epsilon);
     icp->setUsePointToPlane(params.point_to_plane);
-    icp->setUseTargetNormalFields(!params.normals_from_map);
     icp->setPlanar(resolved.planar);
   }
+  // The map's points carry normals, their own or the map's (LocalMap::NormalsFromMap); the
+  // previous scan's own are too few where the map's are wanted, so ICP estimates those.
+  icp_->to_previous.setUseTargetNormalFields(!params.normals_from_map);
   if (params.adaptive_threshold) // KISS-ICP: min motion 0.1 m at 1 m voxels, max range
     icp_->threshold.reset(
         new registration::AdaptiveThreshold(params.max_correspondence_distance,
@@ -385,15 +384,13 @@ Matcher::fitPath(SweepPath& path,
 }
 
 void
-Matcher::measure(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at)
+Matcher::measure(ScanRecord& r, const Cloud::ConstPtr& source)
 {
   const bool to_map = params_.target == MatchTarget::kLocalMap;
   Icp& icp = to_map ? icp_->icp : icp_->to_previous;
   ScanReport& report = r.report;
   report.fitness = icp.getFitnessScore(report.gate * report.gate); // squared, as PCL's
   takeInformation(r, icp);
-  if (to_map && r.information.isZero() && !previous_.empty())
-    measureByPrevious(r, source, at);
   // map_.scans() holds the scans of the points of the map's tree.
   if (const search::KdTree<MapPoint>* tree = to_map ? mapTree() : nullptr)
     report.map_scans = effectiveScans(*source,
@@ -409,26 +406,12 @@ Matcher::measure(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at)
 }
 
 void
-Matcher::measureByPrevious(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at)
-{
-  // From the map match's pose, within the final gate, without a motion prior: the
-  // information is the scans', and the pose stays the map match's.
-  const Pose to_previous = at.inverse() * r.pose;
-  usePrevious(source);
-  Icp& icp = icp_->to_previous;
-  if (align(icp, to_previous, finalGate(), 0.0, false, to_previous, std::nullopt))
-    takeInformation(r, icp);
-}
-
-void
 Matcher::useMap()
 {
   Icp& icp = icp_->icp;
   target_ = map_.cloud();
-  if (!params_.normals_from_map) { // the map keeps its tree; ICP estimates no normals
-    map_tree_->setInputCloudAndIndex(target_, map_.index());
-    icp.setSearchMethodTarget(map_tree_, true);
-  }
+  map_tree_->setInputCloudAndIndex(target_, map_.index()); // ICP builds no tree of its own
+  icp.setSearchMethodTarget(map_tree_, true);
   icp.setInputTarget(target_);
 }
 

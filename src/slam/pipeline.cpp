@@ -230,7 +230,7 @@ Pipeline::match(ScanRecord& r,
   // Constant velocity compounds rounding, and odometry read from text carries its digits'
   // error: the pose is kept a rotation.
   r.pose = orthonormalized(*matched);
-  s.matcher.measure(r, source, at);
+  s.matcher.measure(r, source);
 }
 
 Pose

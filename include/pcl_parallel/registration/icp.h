@@ -154,6 +154,8 @@ public:
   using PointCloudTargetConstPtr = typename Base::PointCloudTargetConstPtr;
   /** Transform matrix type. */
   using Matrix4 = typename Base::Matrix4;
+  /** Neighbours per estimated target normal unless setNormalEstimationK() says. */
+  static constexpr unsigned kDefaultNormalK = 10;
   /** The target tree type (pcl_parallel's k-d tree). */
   using TargetTree = pcl_parallel::search::KdTree<PointTarget>;
   /** The parallel correspondence estimation used by default. */
@@ -244,7 +246,7 @@ public:
   {
     return use_normal_fields_;
   }
-  /** Neighbours per estimated normal (default 10; at least 3). */
+  /** Neighbours per estimated normal (default kDefaultNormalK; at least 3). */
   void
   setNormalEstimationK(unsigned k)
   {
@@ -455,7 +457,7 @@ private:
   bool point_to_plane_ = false;
   bool planar_ = false;
   bool use_normal_fields_ = true;
-  unsigned normal_k_ = 10;
+  unsigned normal_k_ = kDefaultNormalK;
   RobustKernel kernel_;
   std::vector<float> target_normals_; ///< 3 per target tree position
   bool normals_valid_ = false;

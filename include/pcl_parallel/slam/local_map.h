@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <memory>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 namespace pcl_parallel {
@@ -19,6 +20,12 @@ class KdTreeIndex;
 namespace pcl_parallel {
 namespace slam {
 
+/** LocalMap's normals for the points an update() adds: estimated from the map. */
+struct NormalsFromMap {
+  unsigned k = 0;      ///< neighbours per normal (the point included); 0: the points' own
+  bool planar = false; ///< within the x-y plane (2D scans: point-to-line)
+};
+
 /**
  * \brief The local map a scan is matched against: the recent scans' points in world
  * coordinates, thinned to at most `max_points_per_voxel` per voxel and cropped to
@@ -27,21 +34,20 @@ namespace slam {
  *
  * A voxel keeps the first points that reach it, so the map is a deterministic function
  * of the scans added, in order. cloud() is the map as one point cloud for the
- * registration's k-d tree. It is refreshed once the points added since its last refresh
- * exceed `refresh_fraction` of it: with 0 (default) after every update, so that the next
- * scan is matched against every scan kept; with more where a refresh costs more than a
- * lag of a few scans (Matcher: normals estimated on the whole map at each).
+ * registration's k-d tree, refreshed after every update, so that the next scan is matched
+ * against every scan kept.
  *
  * index() is a k-d tree over cloud(), kept current without a build over the whole map at
  * each refresh: the last tree built is merged with one over the points added since,
  * leaving out those cropped since (KdTreeIndex::merge), until the points added and
  * cropped exceed `kIndexRebuildFraction` of it (docs/design.md, "Local map").
+ *
+ * The points keep the normals they come with, or (NormalsFromMap) get them from the map
+ * when they join it: from their nearest map points, the new scan's included. A sparse
+ * scan (a 2D scanner's, a Livox's) has too few neighbours of its own for a normal.
  */
 class LocalMap {
 public:
-  /** Share of new points since the last refresh after which cloud() is rebuilt, where a
-   *  rebuild costs more than a scan's match (the map's normals estimated with it). */
-  static constexpr double kRefreshFraction = 0.1;
   /** Share of the last built index's points added or cropped since, after which index()
    *  is built over the whole map again rather than merged. */
   static constexpr double kIndexRebuildFraction = 0.25;
@@ -51,7 +57,7 @@ public:
   LocalMap(double voxel_size,
            double max_distance,
            int max_points_per_voxel,
-           double refresh_fraction = 0.0,
+           NormalsFromMap normals = {},
            unsigned num_threads = 0);
   // Moves keep the voxels' nodes, and order_ points into them; a copy would not.
   /** Moves the map. */
@@ -64,7 +70,8 @@ public:
   operator=(const LocalMap&) = delete;
 
   /** Adds points (world frame) of scan number `scan`, then drops the voxels farther than
-   *  max_distance from `origin` (the scanner's position). */
+   *  max_distance from `origin` (the scanner's position); with NormalsFromMap, the added
+   *  points' normals are estimated. */
   void
   update(const MapCloud& points, const Eigen::Vector3d& origin, std::uint32_t scan = 0);
 
@@ -83,12 +90,12 @@ public:
     return order_.empty();
   }
 
-  /** The map's points as of the last refresh; the same object until the next refresh. */
+  /** The map's points; the same object until the next update() or transform(). */
   MapCloud::ConstPtr
   cloud() const;
 
   /** A k-d tree over cloud() (ids: its indices), current with it; the same object until
-   *  the next refresh. Built or merged here, at the first call after a refresh. */
+   *  the next update() or transform(). Built or merged here, at the first call after one. */
   std::shared_ptr<const KdTreeIndex>
   index();
 
@@ -130,9 +137,8 @@ private:
   double voxel_size_;
   double max_distance_;
   std::size_t max_points_;
-  double refresh_fraction_;
+  NormalsFromMap normals_;
   unsigned num_threads_;
-  std::size_t added_ = 0; ///< points added since cloud_ was built
   struct Voxel {
     std::vector<MapPoint> points;
     std::vector<std::uint32_t> scans; ///< per point: the scan it came from
@@ -141,6 +147,9 @@ private:
     std::uint32_t indexed = 0;        ///< leading points in base_index_ ...
     std::uint32_t indexed_at = 0;     ///< ... where cloud_ had them at its build
   };
+  /** Normals from the map (normals_) for each voxel's points from its slot `from` on. */
+  void
+  estimateNormals(const std::vector<std::pair<Voxel*, std::uint32_t>>& fresh);
   using Voxels = std::unordered_map<Key, Voxel, KeyHash>;
   /** The voxels by key hash modulo their number, fixed: a scan's points go into all
    *  shards at once, each shard's in input order (docs/design.md, "Serial work per scan"). */

@@ -125,13 +125,9 @@ public:
           const SweepPathPrior& prior);
 
   /** The last match's figures into `r` (fitness, information, the scans behind a map
-   *  match) and how far it moved the scan from the prediction into the threshold; `at`:
-   *  the previous scan's pose. Where a map match has too few pairs for an information
-   *  (space the map's tree does not hold yet), the information is the previous scan's
-   *  match's from r.pose (measureByPrevious), so that no step enters the pose graph
-   *  without one. */
+   *  match) and how far it moved the scan from the prediction into the threshold. */
   void
-  measure(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at);
+  measure(ScanRecord& r, const Cloud::ConstPtr& source);
 
   /** Puts a described scan into the local map at `pose` as scan `id` (1 for the first),
    *  and keeps it as the previous scan where that is matched. */
@@ -153,10 +149,6 @@ public:
 
 private:
   struct Registration;
-  /** r's information from the previous scan (at `at`) matched to `source` from r.pose
-   *  within the final gate (measure). */
-  void
-  measureByPrevious(ScanRecord& r, const Cloud::ConstPtr& source, const Pose& at);
   /** The local map's tree where the last map match built it over the map as it is now;
    *  null before one, or once keep() has changed the map. */
   const search::KdTree<MapPoint>*
