@@ -196,6 +196,10 @@ printSummary(const Options& o,
               in.size() - 1,
               r.lum_iterations,
               r.lum_iterations == 1 ? "" : "s");
+  if (r.revisit_links > 0)
+    std::printf("pLUM: %zu of the loop links where revisits disagreed after the run; "
+                "report.json: lum revisit_links\n",
+                r.revisit_links);
   for (const auto& f : pcl_parallel::slam::findings(r, in.numbers)) // about the input: stderr
     std::fprintf(f.input_suspect ? stderr : stdout,
                  f.input_suspect ? "pcl_pslam: warning: %s\n" : "%s\n",

@@ -205,7 +205,8 @@ inputHash(const slam::Parameters& p,
   h.add(l.relax_each_loop), h.add(l.lum_iterations_per_loop), h.add(l.lum_distance);
   h.add(l.lum_final_distance), h.add(l.lum_iterations), h.add(l.lum_epsilon);
   h.add(l.lum_link_iterations), h.add(l.lum_point_to_plane), h.add(l.lum_queries_per_scan);
-  h.add(l.sequence_constraints), h.add(l.sequence_cauchy_scale), h.add(p.median_range);
+  h.add(l.sequence_constraints), h.add(l.sequence_cauchy_scale), h.add(l.revisit_rounds);
+  h.add(p.median_range);
   h.add(static_cast<std::uint64_t>(num_scans)), h.add(static_cast<std::uint64_t>(segment_size));
   h.add(static_cast<std::uint64_t>(overlap));
   return h.value;

@@ -154,6 +154,7 @@ fields()
       PCL_PARALLEL_FIELD(loops, LoopClosureParameters, lum_queries_per_scan),
       PCL_PARALLEL_FIELD(loops, LoopClosureParameters, sequence_constraints),
       PCL_PARALLEL_FIELD(loops, LoopClosureParameters, sequence_cauchy_scale),
+      PCL_PARALLEL_FIELD(loops, LoopClosureParameters, revisit_rounds),
   };
   return all;
 }

@@ -16,6 +16,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
+#include <utility>
 
 namespace pcl_parallel {
 namespace slam {
@@ -34,6 +36,7 @@ LoopCloser::LoopCloser(const Parameters& resolved)
     , source_voxel_size_(resolved.reduction.source_voxel_size)
     , planar_up_(resolved.planar ? std::optional<Eigen::Vector3d>(resolved.guess.up)
                                  : std::nullopt)
+    , up_(resolved.guess.up)
     , num_threads_(resolved.num_threads)
     , impl_(new Impl)
 {
@@ -217,14 +220,22 @@ LoopCloser::firstLook(const std::vector<std::uint32_t>& candidates)
 }
 
 std::vector<double>
-LoopCloser::matchPair(std::uint32_t i)
+LoopCloser::matchPair(std::uint32_t i, std::size_t j, bool if_conflicting)
 {
-  const std::size_t j = scans_.size() - 1;
+  if (j == kNewest)
+    j = scans_.size() - 1;
   share(i, owner(j));
   std::vector<double> result(19, 0.0);
-  if (owns(j)) {
-    const Cloud::ConstPtr target =
-        scans_[i] ? scans_[i] : Cloud::ConstPtr(impl_->lum.getPointCloud(i));
+  const Cloud::ConstPtr target = !owns(j)    ? nullptr
+                                 : scans_[i] ? scans_[i]
+                                             : Cloud::ConstPtr(impl_->lum.getPointCloud(i));
+  const bool agrees = target && if_conflicting &&
+                      mutualConflicts(*target,
+                                      *scans_[j],
+                                      Pose(poses_[i].inverse() * poses_[j]),
+                                      up_,
+                                      params_.overlap_distance) <= kMaxLoopConflicts;
+  if (target && !agrees) {
     auto& icp = impl_->icp;
     // Centroids of the front end's source voxel: the match only decides whether the link
     // is kept, pLUM then pairs all points.
@@ -284,16 +295,7 @@ LoopCloser::detect()
   if (match[0] != 0.0) {
     measured = Pose::Map(&match[1]);
     c.overlap = match[17];
-    c.error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j],
-                                               median_range_);
-    double path = 0.0; // what the front end travelled from i to j
-    for (std::size_t k = i + 1; k <= j; ++k)
-      path +=
-          registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k], median_range_);
-    c.accepted =
-        c.overlap >= params_.min_overlap &&
-        c.error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path) &&
-        match[18] <= kMaxLoopConflicts;
+    c.accepted = accepts(i, j, match, c.error);
   }
   if (c.accepted) {
     c.distributed = params_.distribute_error && c.error > params_.overlap_distance;
@@ -308,6 +310,53 @@ LoopCloser::detect()
     release(i);
   tried.push_back(c);
   return tried;
+}
+
+bool
+LoopCloser::accepts(std::uint32_t i,
+                    std::size_t j,
+                    const std::vector<double>& match,
+                    double& error) const
+{
+  if (match[0] == 0.0)
+    return false;
+  const Pose measured = Pose::Map(&match[1]);
+  error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j],
+                                           median_range_);
+  double path = 0.0; // what the front end travelled from i to j
+  for (std::size_t k = i + 1; k <= j; ++k)
+    path +=
+        registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k], median_range_);
+  return match[17] >= params_.min_overlap &&
+         error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path) &&
+         match[18] <= kMaxLoopConflicts;
+}
+
+std::size_t
+LoopCloser::linkRevisits()
+{
+  std::set<std::pair<std::uint32_t, std::uint32_t>> linked; // (target, source)
+  for (const Link& l : links_)
+    if (l.loop)
+      linked.emplace(l.target, l.source);
+  std::size_t added = 0;
+  for (std::size_t j = 0; j < scans_.size(); ++j) {
+    const auto near =
+        loopCandidates(poses_, j, params_.distance, params_.min_separation, median_range_);
+    if (near.empty() || linked.count({near.front(), static_cast<std::uint32_t>(j)}))
+      continue;
+    const std::uint32_t i = near.front();
+    double error = 0.0;
+    if (!accepts(i, j, matchPair(i, j, true), error)) {
+      release(i);
+      continue;
+    }
+    links_.push_back({i, static_cast<std::uint32_t>(j), true});
+    impl_->lum.addLink(j, i);
+    borrow(i, owner(j)); // matchPair brought it where j is kept
+    ++added;
+  }
+  return added;
 }
 
 int

@@ -92,6 +92,7 @@ collectResult(const Pipeline& pipeline, bool odometry)
   result.times = pipeline.times();
   result.reports = pipeline.reports();
   result.relaxations = pipeline.relaxations();
+  result.revisit_links = pipeline.revisitLinks();
   result.bytes_per_scan = pipeline.bytesPerScan();
   result.parameters = pipeline.resolvedParameters();
   result.consistency = pipeline.consistency();

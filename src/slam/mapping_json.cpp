@@ -42,6 +42,7 @@ parametersJson(const Parameters& p)
           {"lum_iterations_per_loop", l.lum_iterations_per_loop},
           {"lum_epsilon", l.lum_epsilon},
           {"lum_sequence_constraints", l.sequence_constraints},
+          {"lum_revisit_rounds", l.revisit_rounds},
           {"elch", l.distribute_error},
           {"scan_to_scan", m.target == MatchTarget::kPreviousScan},
           {"deskew", p.deskew.enabled},
@@ -153,7 +154,8 @@ toJson(const MappingResult& r,
                 {"conflicting", r.consistency_icp.conflicting}}}}},
             {"lum",
              {{"iterations", r.lum_iterations},
-              {"iteration_cap", r.parameters.loops.lum_iterations}}}};
+              {"iteration_cap", r.parameters.loops.lum_iterations},
+              {"revisit_links", r.revisit_links}}}};
   for (std::size_t i = 0; i < r.reports.size(); ++i)
     j["scans"].push_back(scanJson(r.reports[i], scans, i));
   for (const auto& [a, b] : loopLinks(r))

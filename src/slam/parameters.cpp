@@ -21,6 +21,8 @@ constexpr double kSourceVoxels = 3.0;
  *  corridor's median range is a metre or two, the drift around a floor's loop more). */
 constexpr double kPlanarSourceVoxels = 1.5;
 constexpr double kPlanarLoopRanges = 4.0;
+/** 2D scans: rounds of linking the revisits that conflict after the last relaxation. */
+constexpr int kPlanarRevisitRounds = 3;
 
 /** A length: the user's if set (> 0), else `automatic`. */
 double
@@ -71,6 +73,8 @@ resolve(const Parameters& p, double median_range)
   l.lum_distance = orAuto(l.lum_distance, 10.0 * voxel);
   l.lum_final_distance = std::min(l.lum_distance, orAuto(l.lum_final_distance, 2.0 * voxel));
   l.lum_epsilon = orAuto(l.lum_epsilon, 0.01 * voxel); // updates far below the sampling
+  if (l.revisit_rounds < 0)
+    l.revisit_rounds = p.planar ? kPlanarRevisitRounds : 0;
   return q;
 }
 
@@ -84,7 +88,7 @@ isResolved(const Parameters& p)
          m.map_distance > 0.0 && m.max_correspondence_distance > 0.0 &&
          m.final_correspondence_distance > 0.0 && l.distance > 0.0 &&
          l.overlap_distance > 0.0 && l.icp_distance > 0.0 && l.icp_iterations > 0 &&
-         l.lum_distance > 0.0 && l.lum_final_distance > 0.0;
+         l.lum_distance > 0.0 && l.lum_final_distance > 0.0 && l.revisit_rounds >= 0;
 }
 
 } // namespace slam

@@ -603,17 +603,31 @@ Pipeline::finish()
     return;
   const bool any_loop = std::any_of(
       loops_->links().begin(), loops_->links().end(), [](const Link& l) { return l.loop; });
-  if (any_loop) {
+  if (any_loop)
+    relaxAtEnd();
+  for (int round = 0; round < resolved_.loops.revisit_rounds; ++round) {
     const pcl::StopWatch stage;
-    const int iterations = loops_->relax();
-    ++relaxations_;
-    if (!reports_.empty())
-      reports_.back().lum_iterations += iterations;
-    times_.loop_closing += stage.getTimeSeconds();
+    const std::size_t linked = loops_->linkRevisits();
+    times_.loop_detection += stage.getTimeSeconds();
+    revisit_links_ += linked;
+    if (linked == 0)
+      break;
+    relaxAtEnd();
   }
   const std::vector<double> chi2 = loops_->sequenceChi2();
   for (std::size_t i = 0; i < reports_.size() && i < chi2.size(); ++i)
     reports_[i].sequence_chi2 = chi2[i];
+}
+
+void
+Pipeline::relaxAtEnd()
+{
+  const pcl::StopWatch stage;
+  const int iterations = loops_->relax();
+  ++relaxations_;
+  if (!reports_.empty())
+    reports_.back().lum_iterations += iterations;
+  times_.loop_closing += stage.getTimeSeconds();
 }
 
 const Poses&

@@ -127,6 +127,14 @@ public:
   std::vector<LoopCandidate>
   detect();
 
+  /** Links the loops the run's poses hid (LoopClosureParameters::revisit_rounds): each
+   *  scan j paired with its nearest loopCandidates scan i, where the pair has no loop link
+   *  and conflicts at the current poses (mutualConflicts above kMaxLoopConflicts, as
+   *  revisitConsistency counts it), is matched again from those poses and linked where
+   *  detect() would accept the match. Returns the links added; relax() then. */
+  std::size_t
+  linkRevisits();
+
   /** pLUM over the whole graph from the current poses, at most max_iterations (<= 0:
    *  lum_iterations) iterations; returns the iterations run. */
   int
@@ -183,10 +191,20 @@ private:
    *  where the candidate is kept. */
   std::vector<double>
   firstLook(const std::vector<std::uint32_t>& candidates);
-  /** pICP of the newest scan against scan i where the newest is kept: converged (0/1),
-   *  the measured pose of the newest in i's frame (16) and the overlap, on every process. */
+  /** pICP of scan j (default: the newest) against scan i where j is kept: converged
+   *  (0/1), the measured pose of j in i's frame (16), the overlap and (2D) the conflicts,
+   *  on every process. `if_conflicting`: only where the pair conflicts at the current
+   *  poses (else not converged). */
   std::vector<double>
-  matchPair(std::uint32_t i);
+  matchPair(std::uint32_t i, std::size_t j = kNewest, bool if_conflicting = false);
+  static constexpr std::size_t kNewest = ~std::size_t{0};
+  /** Whether a match (matchPair's) of scan j to scan i is kept as a loop link: overlap,
+   *  a correction the drift explains, (2D) no conflicts; `error`: the correction. */
+  bool
+  accepts(std::uint32_t i,
+          std::size_t j,
+          const std::vector<double>& match,
+          double& error) const;
   /** Puts a kept scan's points, normals and tree into pLUM's vertex v. */
   void
   setScan(std::size_t v,
@@ -210,6 +228,7 @@ private:
   /** 2D scans (Parameters::planar): a loop match must also agree with the space each
    *  scan saw through (FreeSpace), about this vertical. */
   std::optional<Eigen::Vector3d> planar_up_;
+  Eigen::Vector3d up_; ///< the vertical, for the conflicts of a revisit (linkRevisits)
   unsigned num_threads_;
   std::unique_ptr<Impl> impl_;
   std::shared_ptr<ScanExchange> exchange_;

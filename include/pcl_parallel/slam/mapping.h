@@ -90,6 +90,7 @@ struct MappingResult {
   StageTimes times;
   std::vector<ScanReport> reports; ///< per scan
   int relaxations = 0;             ///< pLUM runs
+  std::size_t revisit_links = 0;   ///< Pipeline::revisitLinks()
   /** With odometry: odometryDisagreement (none: too few steps, or too short). */
   std::optional<double> odometry_disagreement;
   /** Where the scanner came back: revisitConsistency of the final poses, and of the front

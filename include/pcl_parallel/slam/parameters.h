@@ -132,6 +132,12 @@ struct LoopClosureParameters {
   /** > 0: a Cauchy kernel of this chi2 scale on each sequence constraint (e.g.
    *  kChi2Quantile99SixDof), so that a match the scans contradict yields. */
   double sequence_cauchy_scale = 0.0;
+  /** After the last relaxation: where the scanner came back and the scans conflict at the
+   *  relaxed poses without a link between them, the pair is matched again from those
+   *  poses, linked where accepted, and the graph relaxed again (LoopCloser::linkRevisits),
+   *  up to this many rounds: the loops a long drift hid during the run. < 0: auto, 3 for
+   *  2D scans (a slice's match has a narrow basin), else 0. */
+  int revisit_rounds = -1;
 };
 
 /** The pipeline's parameters, a struct per stage. */

@@ -220,6 +220,13 @@ public:
   {
     return resolved_;
   }
+  /** Loop links finish() added where revisits conflicted after the run
+   *  (LoopClosureParameters::revisit_rounds). */
+  std::size_t
+  revisitLinks() const
+  {
+    return revisit_links_;
+  }
   /** Number of pLUM relaxations run. */
   int
   relaxations() const
@@ -351,6 +358,9 @@ private:
   /** The records track() returns for `r`: see track(). */
   std::vector<ScanRecord>
   release(ScanRecord r);
+  /** finish()'s pLUM over the whole graph, its iterations reported with the last scan. */
+  void
+  relaxAtEnd();
   /** Moves the front end (last pose and map) to `pose` for its last scan (loop closing). */
   void
   correctFrontEnd(const Pose& pose);
@@ -378,6 +388,7 @@ private:
   std::vector<ScanReport> reports_;
   StageTimes times_;
   int relaxations_ = 0;
+  std::size_t revisit_links_ = 0; ///< revisitLinks()
   std::size_t last_loop_scan_ = 0;
   bool has_odometry_ = false;
   std::optional<double> last_stamp_; ///< the previous scan's, if stamps are given
