@@ -138,18 +138,14 @@ LocalMap::update(const MapCloud& points, const Eigen::Vector3d& origin, std::uin
       order_[kept++] = order_[v];
   }
   order_.resize(kept);
-  std::vector<std::pair<Voxel*, std::uint32_t>> fresh; // voxels given points, from which
-  if (normals_.k > 0)
-    for (auto* v : order_)
-      if (v->second.in_cloud < v->second.points.size())
-        fresh.emplace_back(&v->second, v->second.in_cloud);
-  refresh();
+  Fresh fresh;
+  refresh(normals_.k > 0 ? &fresh : nullptr);
   if (!fresh.empty())
     estimateNormals(fresh);
 }
 
 void
-LocalMap::estimateNormals(const std::vector<std::pair<Voxel*, std::uint32_t>>& fresh)
+LocalMap::estimateNormals(const Fresh& fresh)
 {
   std::vector<float> xyz;
   for (const auto& [voxel, from] : fresh)
@@ -217,12 +213,14 @@ LocalMap::parallel(std::int64_t voxels) const
 }
 
 void
-LocalMap::refresh()
+LocalMap::refresh(Fresh* fresh)
 {
   const std::int64_t voxels = static_cast<std::int64_t>(order_.size());
   std::vector<std::size_t> first(order_.size() + 1, 0);
   for (std::int64_t v = 0; v < voxels; ++v) {
     Voxel& voxel = order_[v]->second;
+    if (fresh && voxel.in_cloud < voxel.points.size())
+      fresh->emplace_back(&voxel, voxel.in_cloud);
     voxel.in_cloud = static_cast<std::uint32_t>(voxel.points.size());
     voxel.cloud_at = static_cast<std::uint32_t>(first[v]);
     first[v + 1] = first[v] + voxel.points.size();

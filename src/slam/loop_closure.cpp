@@ -34,8 +34,7 @@ LoopCloser::LoopCloser(const Parameters& resolved)
     : params_(resolved.loops)
     , median_range_(resolved.median_range)
     , source_voxel_size_(resolved.reduction.source_voxel_size)
-    , planar_up_(resolved.planar ? std::optional<Eigen::Vector3d>(resolved.guess.up)
-                                 : std::nullopt)
+    , planar_(resolved.planar)
     , up_(resolved.guess.up)
     , num_threads_(resolved.num_threads)
     , impl_(new Impl)
@@ -248,9 +247,9 @@ LoopCloser::matchPair(std::uint32_t i, std::size_t j, bool if_conflicting)
       result[0] = 1.0;
       Pose::Map(&result[1]) = measured;
       result[17] = overlap(*scans_[j], measured, *impl_->trees[i], params_.overlap_distance);
-      if (planar_up_) // either scan's points in the space the other saw through
-        result[18] = mutualConflicts(
-            *target, *scans_[j], measured, *planar_up_, params_.overlap_distance);
+      if (planar_) // either scan's points in the space the other saw through
+        result[18] =
+            mutualConflicts(*target, *scans_[j], measured, up_, params_.overlap_distance);
     }
   }
   if (exchange_)

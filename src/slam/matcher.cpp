@@ -416,12 +416,9 @@ Matcher::useMap()
 }
 
 const search::KdTree<MapPoint>*
-Matcher::mapTree()
+Matcher::mapTree() const
 {
-  Icp& icp = icp_->icp;
-  const auto* tree =
-      dynamic_cast<const search::KdTree<MapPoint>*>(icp.getSearchMethodTarget().get());
-  return tree && icp.getInputTarget() == map_.cloud() ? tree : nullptr;
+  return target_ && target_ == map_.cloud() ? map_tree_.get() : nullptr; // useMap's
 }
 
 void

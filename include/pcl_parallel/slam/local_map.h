@@ -125,8 +125,6 @@ private:
   template <typename ScanOf>
   void
   insert(const MapCloud& points, const ScanOf& scan_of);
-  void
-  refresh();
   /** renamed_, unindexed_ and index_changes_ for cloud_ as refreshed. */
   void
   trackIndex();
@@ -147,9 +145,14 @@ private:
     std::uint32_t indexed = 0;        ///< leading points in base_index_ ...
     std::uint32_t indexed_at = 0;     ///< ... where cloud_ had them at its build
   };
+  /** A voxel and the first of its points added since the last refresh. */
+  using Fresh = std::vector<std::pair<Voxel*, std::uint32_t>>;
+  /** cloud_ from the voxels; with `fresh`, the voxels given points since the last one. */
+  void
+  refresh(Fresh* fresh = nullptr);
   /** Normals from the map (normals_) for each voxel's points from its slot `from` on. */
   void
-  estimateNormals(const std::vector<std::pair<Voxel*, std::uint32_t>>& fresh);
+  estimateNormals(const Fresh& fresh);
   using Voxels = std::unordered_map<Key, Voxel, KeyHash>;
   /** The voxels by key hash modulo their number, fixed: a scan's points go into all
    *  shards at once, each shard's in input order (docs/design.md, "Serial work per scan"). */

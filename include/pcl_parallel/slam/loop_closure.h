@@ -8,7 +8,6 @@
 #include <pcl_parallel/slam/types.h>
 
 #include <memory>
-#include <optional>
 #include <vector>
 
 namespace pcl_parallel {
@@ -226,9 +225,9 @@ private:
   double median_range_;      ///< converts a rotation error to a displacement
   double source_voxel_size_; ///< the newer scan's sample when a loop pair is matched
   /** 2D scans (Parameters::planar): a loop match must also agree with the space each
-   *  scan saw through (FreeSpace), about this vertical. */
-  std::optional<Eigen::Vector3d> planar_up_;
-  Eigen::Vector3d up_; ///< the vertical, for the conflicts of a revisit (linkRevisits)
+   *  scan saw through (FreeSpace). */
+  bool planar_;
+  Eigen::Vector3d up_; ///< the vertical the free space is seen about (mutualConflicts)
   unsigned num_threads_;
   std::unique_ptr<Impl> impl_;
   std::shared_ptr<ScanExchange> exchange_;

@@ -149,12 +149,12 @@ public:
 
 private:
   struct Registration;
-  /** The local map's tree where the last map match built it over the map as it is now;
-   *  null before one, or once keep() has changed the map. */
+  /** The map pICP's tree where the last map match used the map as it is now; null before
+   *  one, or once keep() has changed the map. */
   const search::KdTree<MapPoint>*
-  mapTree();
-  /** The map pICP's target made the local map as it is now; its tree is the map's own
-   *  index (LocalMap::index) unless normals are estimated on the map. */
+  mapTree() const;
+  /** The map pICP's target made the local map as it is now, searched by the map's own
+   *  index (LocalMap::index) and paired by its points' normal fields. */
   void
   useMap();
   /** The motion prior's standard deviations where pICP takes one (adaptive threshold and
