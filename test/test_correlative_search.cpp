@@ -11,10 +11,13 @@
 #include <pcl_parallel/slam/correlative_search.h>
 #include <pcl_parallel/slam/overlap.h>
 
+#include <pcl/common/transforms.h>
+
 #include <Eigen/Geometry>
 
 #include <cmath>
 #include <gtest/gtest.h>
+#include <limits>
 #include <random>
 #include <stdexcept>
 
@@ -146,6 +149,41 @@ TEST(CorrelativeSearch, FindsTheStationsPoseAboutAnyVerticalAxis)
   EXPECT_GT(nearest(wrong, ta.inverse() * tb).first, 1.0);
 }
 
+// A window about a predicted pose (loop closing): the target moved into the frame the
+// prediction gives the source, which is 1.2 m and 14 degrees off. A window of 2 m and
+// 20 degrees finds the truth (within pICP's reach); one of 5 degrees returns only
+// headings within it (a quarter step of fine search beyond), so never the truth.
+TEST(CorrelativeSearch, WindowAboutAPredictedPose)
+{
+  const Cloud world = courtyard();
+  const Pose a = station(0.2, -4.0, 1.0, 0.0), b = station(0.9, 5.0, -2.0, 0.0);
+  const Pose truth = a.inverse() * b;                               // b in a's frame
+  const Pose guess = truth * station(14.0 * kDeg, 1.0, -0.65, 0.0); // off by 1.2 m, 14 deg
+  Cloud target; // a's scan seen from where the guess puts b
+  pcl::transformPointCloud(scanFrom(world, a, 25.0), target, Eigen::Matrix4d(guess.inverse()));
+  slam::CorrelativeSearchParameters params;
+  params.cell = 0.4;
+  params.radius = 2.0;
+  params.reach = 25.0;
+  params.max_turn = 20.0 * kDeg;
+  params.num_threads = 2;
+  const Cloud source = scanFrom(world, b, 25.0);
+  const auto found = slam::correlativeSearch(source, target, Eigen::Vector3d::UnitZ(), params);
+  const auto [d, angle] = nearest(found, guess.inverse() * truth);
+  EXPECT_LT(d, 2.0 * params.cell);
+  EXPECT_LT(angle, 5.0 * kDeg);
+  params.max_turn = 5.0 * kDeg;
+  const auto narrow = slam::correlativeSearch(source, target, Eigen::Vector3d::UnitZ(), params);
+  ASSERT_FALSE(narrow.empty());
+  for (const Pose& c : narrow) {
+    EXPECT_LE(Eigen::AngleAxisd(Eigen::Matrix3d(c.topLeftCorner<3, 3>())).angle(),
+              params.max_turn + 2.5 * kDeg + 1e-9);
+    const double moved = c.topRightCorner<2, 1>().norm();
+    EXPECT_LE(moved, params.radius + 3.0 * params.cell);
+  }
+  EXPECT_GT(nearest(narrow, guess.inverse() * truth).second, 5.0 * kDeg);
+}
+
 // Headings are scored in parallel, each into its own row: any thread count, the same
 // candidates.
 TEST(CorrelativeSearch, SameCandidatesForAnyThreadCount)
@@ -185,8 +223,13 @@ TEST(CorrelativeSearch, BadSettingsThrowEmptyScansGiveNothing)
   p.headings = 0;
   EXPECT_THROW(slam::correlativeSearch(scan, scan, z, p), std::invalid_argument);
   p.headings = 72;
-  p.radius = -1.0;
-  EXPECT_THROW(slam::correlativeSearch(scan, scan, z, p), std::invalid_argument);
+  for (double* bad : {&p.radius, &p.max_turn, &p.reach})
+    for (double value : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+      const double kept = *bad;
+      *bad = value;
+      EXPECT_THROW(slam::correlativeSearch(scan, scan, z, p), std::invalid_argument) << value;
+      *bad = kept;
+    }
   p = slam::CorrelativeSearchParameters();
   p.max_points = 0; // was a division by zero
   EXPECT_THROW(slam::correlativeSearch(scan, scan, z, p), std::invalid_argument);

@@ -18,6 +18,7 @@
 #include <pcl_parallel/io/scan_directory.h>
 #include <pcl_parallel/io/scan_io.h>
 #include <pcl_parallel/kdtree.h>
+#include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/sim/presets.h>
 #include <pcl_parallel/sim/scan_set_writer.h>
@@ -324,6 +325,89 @@ TEST(LoopCloser, LinksTheRevisitsThatConflictAfterTheRun)
   for (std::size_t k = 0; k < links[0].size(); ++k)
     EXPECT_EQ(std::tie(links[0][k].target, links[0][k].source),
               std::tie(links[1][k].target, links[1][k].source));
+}
+
+// 2D: after a lap of the office (150 scans at the truth, no loops closed), a scan taken
+// again near the fourth, whose pose is 0.8 m and 10 degrees off (beyond a slice's pICP
+// basin, within what the drift along the lap explains), is found by the window search and
+// linked: the loop error spread puts it within half an overlap distance and 3 degrees of
+// the truth, pLUM then within 5 cm and 0.5 degrees. Off by more than the drift explains
+// (a fifth of the lap), it is not linked.
+TEST(LoopCloser, SearchesA2DLoopBeyondPicpsBasin)
+{
+  const sim::SimulatedScanSet set = presetScans("office2d", 150);
+  slam::Parameters p;
+  p.planar = true;
+  p.num_threads = 2;
+  const slam::Parameters r = slam::resolve(p, slam::medianRange(*set.scans.front()));
+  const Pose again = set.truth[3] * makePose(0.0, 0.1, 0.0);
+  const slam::Cloud::Ptr scan = sim::simulateScan(set.world, set.scanner, again, 99, 2);
+  const double lap =
+      slam::loopPath(set.truth, {}, 0, set.truth.size() - 1, r.median_range, 0.0);
+  for (const double off : {0.8, 0.2 * lap}) {
+    SCOPED_TRACE("off by " + std::to_string(off) + " m");
+    slam::LoopCloser closer(r);
+    for (std::size_t k = 0; k < set.scans.size(); ++k)
+      closer.addScan(set.scans[k], set.truth[k]);
+    closer.addScan(scan, again * makePose(10.0 * kDeg, off, 0.0));
+    bool linked = false;
+    for (const auto& c : closer.detect())
+      linked = linked || c.accepted;
+    if (off > 0.8) {
+      EXPECT_FALSE(linked);
+      continue;
+    }
+    ASSERT_TRUE(linked);
+    const evaluation::PoseError e = evaluation::poseError(closer.poses().back(), again);
+    EXPECT_LT(e.distance, 0.5 * r.loops.overlap_distance); // in pLUM's basin
+    EXPECT_LT(e.angle, 3.0 * kDeg);
+    closer.relax();
+    const evaluation::PoseError f = evaluation::poseError(closer.poses().back(), again);
+    EXPECT_LT(f.distance, 0.05);
+    EXPECT_LT(f.angle, 0.5 * kDeg);
+  }
+}
+
+// loopPath is the shortest path through the graph: against Floyd-Warshall over the same
+// steps and links, on a random walk with random loop links.
+TEST(LoopCloser, LoopPathIsTheShortestThroughTheGraph)
+{
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Poses poses{Pose::Identity()};
+  for (int k = 1; k < 40; ++k)
+    poses.push_back(poses.back() * makePose(0.3 * u(rng), 1.0 + u(rng), 0.5 * u(rng)));
+  std::vector<slam::Link> links;
+  for (std::uint32_t k = 1; k < 40; ++k)
+    links.push_back({k - 1, k, false});
+  for (int k = 0; k < 8; ++k) {
+    const auto a = static_cast<std::uint32_t>(std::uniform_int_distribution<int>(0, 39)(rng));
+    const auto b = static_cast<std::uint32_t>(std::uniform_int_distribution<int>(0, 39)(rng));
+    if (a != b)
+      links.push_back({std::min(a, b), std::max(a, b), true});
+  }
+  const double range = 5.0, jump = 2.5;
+  const std::size_t n = poses.size();
+  std::vector<std::vector<double>> d(n, std::vector<double>(n, 1e300));
+  for (std::size_t k = 0; k < n; ++k)
+    d[k][k] = 0.0;
+  for (const slam::Link& l : links) {
+    const double w = l.loop ? jump
+                            : registration::motionDisplacement(
+                                  poses[l.target].inverse() * poses[l.source], range);
+    d[l.target][l.source] = d[l.source][l.target] = std::min(d[l.target][l.source], w);
+  }
+  for (std::size_t m = 0; m < n; ++m)
+    for (std::size_t a = 0; a < n; ++a)
+      for (std::size_t b = 0; b < n; ++b)
+        d[a][b] = std::min(d[a][b], d[a][m] + d[m][b]);
+  // To the last scan (the path may pass any scan; loopPath leaves out scans after the
+  // later of the two), either way round.
+  for (std::size_t i = 0; i < n; ++i) {
+    EXPECT_NEAR(slam::loopPath(poses, links, i, n - 1, range, jump), d[i][n - 1], 1e-9) << i;
+    EXPECT_NEAR(slam::loopPath(poses, links, n - 1, i, range, jump), d[i][n - 1], 1e-9) << i;
+  }
+  EXPECT_THROW(slam::loopPath(poses, links, 0, n, range, jump), std::out_of_range);
 }
 
 TEST(Segments, SplitSequenceCoversItWithOverlap)

@@ -252,44 +252,58 @@ thin(std::vector<Eigen::Vector3d>& points, std::size_t max_points)
   points.swap(every);
 }
 
-/** Coarse: every heading, every translation in coarse cells within the radius (the
- *  heights as they are: the coarse cells' dilation takes a step up or down); the best
- *  distinct peaks. */
+/** The coarse headings searched, in steps of 2 pi / headings: the whole circle, or those
+ *  within max_turn (> 0) either side of zero. */
+std::vector<double>
+coarseHeadings(int headings, double max_turn)
+{
+  const double step = 2.0 * M_PI / headings;
+  std::vector<double> out;
+  if (max_turn > 0.0 && max_turn < M_PI) {
+    const int n = std::min(static_cast<int>(std::floor(max_turn / step)), (headings - 1) / 2);
+    for (int h = -n; h <= n; ++h)
+      out.push_back(h * step);
+  }
+  else
+    for (int h = 0; h < headings; ++h)
+      out.push_back(h * step);
+  return out;
+}
+
+/** Coarse: every heading given, every translation in coarse cells within the radius
+ *  (the heights as they are: the coarse cells' dilation takes a step up or down); the
+ *  best distinct peaks; `step` the headings' spacing. */
 std::vector<Peak>
 coarsePeaks(const std::vector<Eigen::Vector3d>& points,
             const LikelihoodField& coarse,
             double coarse_cell,
             double radius,
-            int headings,
+            const std::vector<double>& headings,
+            double step,
             unsigned threads)
 {
   const int n = std::min(kMaxCoarseSteps, static_cast<int>(std::ceil(radius / coarse_cell)));
   const int side = 2 * n + 1;
-  const double step = 2.0 * M_PI / headings;
-  std::vector<std::vector<Peak>> best(static_cast<std::size_t>(headings));
-  parallelFor(
-      static_cast<std::size_t>(headings),
-      threads,
-      1,
-      [&, n, side, step](std::size_t h0, std::size_t h1) {
-        for (int h = static_cast<int>(h0); h < static_cast<int>(h1); ++h) {
-          std::vector<int> s(static_cast<std::size_t>(side) * side, 0);
-          for (const auto& q : turned(points, h * step)) {
-            const int i = coarse.index(q.x()), j = coarse.index(q.y()), k = coarse.layer(q.z());
-            if (i < 0 || j < 0 || k < 0)
-              continue;
-            coarse.addWindow(i, j, k, n, s.data());
-          }
-          // This heading's best distinct peaks (memory: a few per heading, not every cell).
-          std::vector<Peak> peaks;
-          for (int a = -n; a <= n; ++a)
-            for (int b = -n; b <= n; ++b)
-              if (const int v = s[static_cast<std::size_t>(a + n) * side + b + n];
-                  v > 0 && a * a + b * b <= n * n)
-                peaks.push_back({v, h * step, Eigen::Vector3d(a, b, 0.0) * coarse_cell});
-          best[h] = distinctPeaks(std::move(peaks), coarse_cell, 0.0, kCoarsePeaks);
-        }
-      });
+  std::vector<std::vector<Peak>> best(headings.size());
+  parallelFor(headings.size(), threads, 1, [&, n, side](std::size_t h0, std::size_t h1) {
+    for (std::size_t h = h0; h < h1; ++h) {
+      std::vector<int> s(static_cast<std::size_t>(side) * side, 0);
+      for (const auto& q : turned(points, headings[h])) {
+        const int i = coarse.index(q.x()), j = coarse.index(q.y()), k = coarse.layer(q.z());
+        if (i < 0 || j < 0 || k < 0)
+          continue;
+        coarse.addWindow(i, j, k, n, s.data());
+      }
+      // This heading's best distinct peaks (memory: a few per heading, not every cell).
+      std::vector<Peak> peaks;
+      for (int a = -n; a <= n; ++a)
+        for (int b = -n; b <= n; ++b)
+          if (const int v = s[static_cast<std::size_t>(a + n) * side + b + n];
+              v > 0 && a * a + b * b <= n * n)
+            peaks.push_back({v, headings[h], Eigen::Vector3d(a, b, 0.0) * coarse_cell});
+      best[h] = distinctPeaks(std::move(peaks), coarse_cell, 0.0, kCoarsePeaks);
+    }
+  });
   std::vector<Peak> peaks;
   for (const auto& b : best) // in heading order: ties keep it
     peaks.insert(peaks.end(), b.begin(), b.end());
@@ -348,20 +362,23 @@ correlativeSearch(const Cloud& source,
                   const Eigen::Vector3d& up,
                   const CorrelativeSearchParameters& params)
 {
+  const auto finite = [](double x) { return x >= 0.0 && std::isfinite(x); };
   if (!(params.cell > 0.0) || !std::isfinite(params.cell) || params.headings < 1 ||
-      !(params.radius >= 0.0) || !std::isfinite(params.radius) || params.max_points < 1 ||
-      !(up.norm() > 0.0))
-    throw std::invalid_argument("correlativeSearch: cell > 0, radius >= 0, headings >= 1, "
-                                "max_points >= 1 and a non-zero up axis needed");
+      !finite(params.radius) || !finite(params.max_turn) || !finite(params.reach) ||
+      params.max_points < 1 || !(up.norm() > 0.0))
+    throw std::invalid_argument("correlativeSearch: cell > 0, radius, max_turn and reach "
+                                ">= 0, headings >= 1, max_points >= 1 and a non-zero up "
+                                "axis needed");
   const Frame frame(up);
   const double radius =
       params.radius == 0.0 ? targetReach(target, frame, params.cell) : params.radius;
   if (radius == 0.0)
     return {};
-  // Points of either scan within twice the radius can meet; the grids reach as far.
   const double coarse_cell = kCoarseCells * params.cell;
   const int half_fine =
-      std::min(kMaxHalfCells, static_cast<int>(std::ceil(2.0 * radius / params.cell)));
+      std::min(kMaxHalfCells,
+               static_cast<int>(std::ceil((params.reach > 0.0 ? params.reach : 2.0 * radius) /
+                                          params.cell)));
   const double reach = half_fine * params.cell;
   const std::vector<Eigen::Vector3d> target_points = within(target, frame, reach);
   std::vector<Eigen::Vector3d> points = within(source, frame, reach);
@@ -373,8 +390,13 @@ correlativeSearch(const Cloud& source,
       target_points, coarse_cell, (half_fine + kCoarseCells - 1) / kCoarseCells);
   const unsigned threads = resolveNumberOfThreads(params.num_threads);
   const double step = 2.0 * M_PI / params.headings;
-  const std::vector<Peak> peaks =
-      coarsePeaks(points, coarse, coarse_cell, radius, params.headings, threads);
+  const std::vector<Peak> peaks = coarsePeaks(points,
+                                              coarse,
+                                              coarse_cell,
+                                              radius,
+                                              coarseHeadings(params.headings, params.max_turn),
+                                              step,
+                                              threads);
   std::vector<Pose> out;
   for (const Peak& p : distinctPeaks(finePeaks(points, fine, peaks, params.cell, step, threads),
                                      2.0 * params.cell,

@@ -8,15 +8,23 @@
 #include <pcl_parallel/registration/adaptive_threshold.h>
 #include <pcl_parallel/registration/icp.h>
 #include <pcl_parallel/registration/lum.h>
+#include <pcl_parallel/slam/correlative_search.h>
 #include <pcl_parallel/slam/loop_closure.h>
 #include <pcl_parallel/slam/overlap.h>
 #include <pcl_parallel/slam/preprocess.h>
+
+#include <pcl/common/transforms.h>
 
 #include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <limits>
+#include <queue>
 #include <set>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace pcl_parallel {
@@ -219,42 +227,97 @@ LoopCloser::firstLook(const std::vector<std::uint32_t>& candidates)
 }
 
 std::vector<double>
-LoopCloser::matchPair(std::uint32_t i, std::size_t j, bool if_conflicting)
+LoopCloser::matchPair(std::uint32_t i, std::size_t j, bool if_conflicting, bool search)
 {
   if (j == kNewest)
     j = scans_.size() - 1;
   share(i, owner(j));
-  std::vector<double> result(19, 0.0);
+  std::vector<double> result(kMatchSize, 0.0);
   const Cloud::ConstPtr target = !owns(j)    ? nullptr
                                  : scans_[i] ? scans_[i]
                                              : Cloud::ConstPtr(impl_->lum.getPointCloud(i));
-  const bool agrees = target && if_conflicting &&
-                      mutualConflicts(*target,
-                                      *scans_[j],
-                                      Pose(poses_[i].inverse() * poses_[j]),
-                                      up_,
-                                      params_.overlap_distance) <= kMaxLoopConflicts;
+  const Pose guess = poses_[i].inverse() * poses_[j];
+  const bool agrees =
+      target && if_conflicting &&
+      mutualConflicts(*target, *scans_[j], guess, up_, params_.overlap_distance) <=
+          kMaxLoopConflicts;
   if (target && !agrees) {
-    auto& icp = impl_->icp;
     // Centroids of the front end's source voxel: the match only decides whether the link
     // is kept, pLUM then pairs all points.
-    icp.setInputSource(filters::voxelCentroid(*scans_[j], source_voxel_size_, num_threads_));
-    icp.setInputTarget(target);
-    Cloud aligned;
-    icp.align(aligned, Pose(poses_[i].inverse() * poses_[j]));
-    if (icp.hasConverged()) {
-      const Pose measured = icp.getFinalTransformation();
-      result[0] = 1.0;
-      Pose::Map(&result[1]) = measured;
-      result[17] = overlap(*scans_[j], measured, *impl_->trees[i], params_.overlap_distance);
-      if (planar_) // either scan's points in the space the other saw through
-        result[18] =
-            mutualConflicts(*target, *scans_[j], measured, up_, params_.overlap_distance);
-    }
+    const Cloud::Ptr sample =
+        filters::voxelCentroid(*scans_[j], source_voxel_size_, num_threads_);
+    result = alignPair(i, j, sample, target, guess);
+    double error = 0.0;
+    if (search && planar_ && !accepts(i, j, result, error))
+      result = searchPair(i, j, sample, target, guess);
   }
   if (exchange_)
     exchange_->broadcast(owner(j), result);
   return result;
+}
+
+std::vector<double>
+LoopCloser::alignPair(std::uint32_t i,
+                      std::size_t j,
+                      const Cloud::ConstPtr& sample,
+                      const Cloud::ConstPtr& target,
+                      const Pose& start)
+{
+  std::vector<double> result(kMatchSize, 0.0);
+  auto& icp = impl_->icp;
+  icp.setInputSource(sample);
+  icp.setInputTarget(target);
+  Cloud aligned;
+  icp.align(aligned, start);
+  if (!icp.hasConverged())
+    return result;
+  const Pose measured = icp.getFinalTransformation();
+  result[0] = 1.0;
+  Pose::Map(&result[1]) = measured;
+  result[17] = overlap(*scans_[j], measured, *impl_->trees[i], params_.overlap_distance);
+  if (planar_) // either scan's points in the space the other saw through
+    result[18] = mutualConflicts(*target, *scans_[j], measured, up_, params_.overlap_distance);
+  return result;
+}
+
+std::vector<double>
+LoopCloser::searchPair(std::uint32_t i,
+                       std::size_t j,
+                       const Cloud::ConstPtr& sample,
+                       const Cloud::ConstPtr& target,
+                       const Pose& guess)
+{
+  std::vector<double> none(kMatchSize, 0.0);
+  // The window: the correction accepts() allows, at most a loop's distance.
+  const double window = std::min(params_.distance, params_.max_drift * graphPath(i, j));
+  if (!(window > 2.0 * params_.overlap_distance))
+    return none;
+  CorrelativeSearchParameters search;
+  search.cell = params_.overlap_distance;
+  search.radius = window;
+  search.max_turn = std::min(kMaxLoopSearchTurn, window / median_range_);
+  search.reach = 2.0 * params_.distance;
+  search.candidates = kLoopSearchCandidates;
+  search.num_threads = num_threads_;
+  // Searched in j's predicted frame: the window is about where the poses put j.
+  Cloud moved;
+  pcl::transformPointCloud(*target, moved, Eigen::Matrix4d(guess.inverse()));
+  std::vector<std::vector<double>> accepted;
+  for (const Pose& found : correlativeSearch(*sample, moved, up_, search)) {
+    std::vector<double> match = alignPair(i, j, sample, target, Pose(guess * found));
+    double error = 0.0;
+    if (!accepts(i, j, match, error))
+      continue;
+    const Pose measured = Pose::Map(&match[1]);
+    const bool known = std::any_of(accepted.begin(), accepted.end(), [&](const auto& a) {
+      return registration::motionDisplacement(Pose(Pose::Map(&a[1]).inverse() * measured),
+                                              median_range_) <= 2.0 * params_.overlap_distance;
+    });
+    if (!known)
+      accepted.push_back(std::move(match));
+  }
+  // Two distinct poses that both fit (a corridor's repeats): neither is trusted.
+  return accepted.size() == 1 ? accepted.front() : none;
 }
 
 std::vector<LoopCandidate>
@@ -285,11 +348,16 @@ LoopCloser::detect()
   c.link = {best_i, static_cast<std::uint32_t>(j), true};
   c.overlap = best;
   if (best < 0.5 * params_.min_overlap) {
-    tried.push_back(c);
-    return tried;
+    if (!planar_) {
+      tried.push_back(c);
+      return tried;
+    }
+    // 2D: the poses may have drifted beyond pICP's basin; the nearest is searched.
+    best_i = candidates.front();
+    c.link.target = best_i;
   }
   const std::uint32_t i = best_i;
-  const std::vector<double> match = matchPair(i);
+  const std::vector<double> match = matchPair(i, kNewest, false, planar_);
   Pose measured = Pose::Identity();
   if (match[0] != 0.0) {
     measured = Pose::Map(&match[1]);
@@ -322,13 +390,21 @@ LoopCloser::accepts(std::uint32_t i,
   const Pose measured = Pose::Map(&match[1]);
   error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j],
                                            median_range_);
-  double path = 0.0; // what the front end travelled from i to j
-  for (std::size_t k = i + 1; k <= j; ++k)
-    path +=
-        registration::motionDisplacement(poses_[k - 1].inverse() * poses_[k], median_range_);
   return match[17] >= params_.min_overlap &&
-         error <= std::max(2.0 * params_.overlap_distance, params_.max_drift * path) &&
+         error <=
+             std::max(2.0 * params_.overlap_distance, params_.max_drift * graphPath(i, j)) &&
          match[18] <= kMaxLoopConflicts;
+}
+
+double
+LoopCloser::graphPath(std::size_t i, std::size_t j) const
+{
+  return loopPath(poses_,
+                  links_,
+                  i,
+                  j,
+                  median_range_,
+                  params_.lum_distance / std::max(params_.max_drift, 1e-9));
 }
 
 std::size_t
@@ -346,7 +422,7 @@ LoopCloser::linkRevisits()
       continue;
     const std::uint32_t i = near.front();
     double error = 0.0;
-    if (!accepts(i, j, matchPair(i, j, true), error)) {
+    if (!accepts(i, j, matchPair(i, j, true, planar_), error)) {
       release(i);
       continue;
     }
@@ -434,6 +510,51 @@ loopCandidates(
   for (const auto& n : near)
     out.push_back(n.second);
   return out;
+}
+
+double
+loopPath(const Poses& poses,
+         const std::vector<Link>& links,
+         std::size_t i,
+         std::size_t j,
+         double range,
+         double link_length)
+{
+  // Dijkstra from j over the scans up to the later of the two.
+  const std::size_t n = std::max(i, j) + 1;
+  if (n > poses.size())
+    throw std::out_of_range("loopPath: scan " + std::to_string(n - 1) + " of " +
+                            std::to_string(poses.size()));
+  std::vector<std::vector<std::uint32_t>> jumps(n);
+  for (const Link& l : links)
+    if (l.loop && l.source < n && l.target < n) {
+      jumps[l.source].push_back(l.target);
+      jumps[l.target].push_back(l.source);
+    }
+  std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+  using Entry = std::pair<double, std::size_t>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+  dist[j] = 0.0;
+  open.emplace(0.0, j);
+  while (!open.empty()) {
+    const auto [d, k] = open.top();
+    open.pop();
+    if (k == i)
+      break;
+    if (d > dist[k])
+      continue;
+    const auto reach = [&, d = d](std::size_t m, double w) {
+      if (d + w < dist[m])
+        open.emplace(dist[m] = d + w, m);
+    };
+    if (k > 0)
+      reach(k - 1, registration::motionDisplacement(poses[k - 1].inverse() * poses[k], range));
+    if (k + 1 < n)
+      reach(k + 1, registration::motionDisplacement(poses[k].inverse() * poses[k + 1], range));
+    for (const std::uint32_t m : jumps[k])
+      reach(m, link_length);
+  }
+  return dist[i];
 }
 
 RevisitConsistency

@@ -20,7 +20,13 @@ struct CorrelativeSearchParameters {
   /** Translations are searched this far from the target's origin (at most 256 cells);
    *  0: as far as the target's points reach (their 90th percentile horizontal range). */
   double radius = 0.0;
-  int headings = 72;            ///< headings of the coarse search (5 degrees)
+  int headings = 72; ///< headings of the coarse search (5 degrees)
+  /** > 0: only headings within this many radians either side of the source's own (a
+   *  window about a predicted pose); 0: the whole circle. */
+  double max_turn = 0.0;
+  /** Points of either scan this far from the origin horizontally are scored; 0: twice the
+   *  radius (two scans whose origins lie within the radius meet within it). */
+  double reach = 0.0;
   std::size_t max_points = 500; ///< the source's points scored, at most (every k-th)
   std::size_t candidates = 3;   ///< distinct poses returned, at most
   /** Threads (0: all cores). */
@@ -39,8 +45,10 @@ struct CorrelativeSearchParameters {
  * predicts (a stop-and-go scanner without initial poses): the candidates start pICP,
  * which also takes what the search leaves (tilt: the scanners are assumed level). Same
  * result for any thread count. Empty if either scan has no points within reach.
- * Throws std::invalid_argument for cell <= 0 or not finite, headings < 1, a negative or
- * non-finite radius, max_points 0, or a zero `up`.
+ * With max_turn, a window about the source's pose as given (loop closing: the target
+ * moved into the source's predicted frame). Throws std::invalid_argument for cell <= 0
+ * or not finite, headings < 1, a negative or non-finite radius, max_turn or reach,
+ * max_points 0, or a zero `up`.
  */
 std::vector<Pose>
 correlativeSearch(const Cloud& source,

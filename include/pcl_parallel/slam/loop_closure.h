@@ -7,6 +7,7 @@
 #include <pcl_parallel/slam/parameters.h>
 #include <pcl_parallel/slam/types.h>
 
+#include <cmath>
 #include <memory>
 #include <vector>
 
@@ -25,6 +26,11 @@ constexpr double kChi2Quantile99SixDof = 16.812;
  *  shifted along a corridor or into the next room of one size, or a doubled wall, puts
  *  walls there. 2D loop links are kept only below it. */
 constexpr double kMaxLoopConflicts = 0.05;
+
+/** 2D loop search (LoopCloser::searchPair): headings within this of the poses' (30 deg),
+ *  and the distinct candidates refined. */
+constexpr double kMaxLoopSearchTurn = M_PI / 6.0;
+constexpr std::size_t kLoopSearchCandidates = 4;
 
 /** A loop link that was tried, and what became of it. */
 struct LoopCandidate {
@@ -85,7 +91,8 @@ public:
  * as the front end matches them (each linked to its predecessor); detect() links the
  * newest scan to one earlier candidate (loopCandidates), keeping the link only if the
  * pair, matched with pICP, overlaps by `min_overlap` and the correction is explainable
- * by drift (`max_drift`), and only one per `min_separation / 2` scans (so a scanner that
+ * by drift along the graph (`max_drift`, loopPath), and only one per
+ * `min_separation / 2` scans (so a scanner that
  * lingers makes a graph linear in the scans, not quadratic); relax() runs pLUM over the
  * whole graph. Keeps each scan's reduced points with a k-d tree (bytesPerScan()).
  */
@@ -122,15 +129,18 @@ public:
 
   /** Looks for loop links of the newest scan; adds the accepted ones to the graph and,
    *  with distribute_error and an error above overlap_distance, moves the poses since
-   *  the loop's start to close it. Returns every pair tried. */
+   *  the loop's start to close it. 2D scans: where no candidate overlaps at the poses,
+   *  the nearest is matched, and a match pICP does not find from the poses is searched
+   *  for (searchPair). Returns every pair tried. */
   std::vector<LoopCandidate>
   detect();
 
   /** Links the loops the run's poses hid (LoopClosureParameters::revisit_rounds): each
    *  scan j paired with its nearest loopCandidates scan i, where the pair has no loop link
    *  and conflicts at the current poses (mutualConflicts above kMaxLoopConflicts, as
-   *  revisitConsistency counts it), is matched again from those poses and linked where
-   *  detect() would accept the match. Returns the links added; relax() then. */
+   *  revisitConsistency counts it), is matched again from those poses (2D: searched as in
+   *  detect()) and linked where detect() would accept the match. Returns the links
+   *  added; relax() then. */
   std::size_t
   linkRevisits();
 
@@ -195,8 +205,33 @@ private:
    *  on every process. `if_conflicting`: only where the pair conflicts at the current
    *  poses (else not converged). */
   std::vector<double>
-  matchPair(std::uint32_t i, std::size_t j = kNewest, bool if_conflicting = false);
+  matchPair(std::uint32_t i,
+            std::size_t j = kNewest,
+            bool if_conflicting = false,
+            bool search = false);
   static constexpr std::size_t kNewest = ~std::size_t{0};
+  static constexpr std::size_t kMatchSize = 19;
+  /** pICP of `sample` (of scan j) against scan i's `target` from `start`: matchPair's
+   *  result, here. */
+  std::vector<double>
+  alignPair(std::uint32_t i,
+            std::size_t j,
+            const Cloud::ConstPtr& sample,
+            const Cloud::ConstPtr& target,
+            const Pose& start);
+  /** 2D, where pICP from the poses' `guess` is not accepted: a correlative search about
+   *  it (window: the correction accepts() allows, at most the loop distance), each
+   *  candidate matched by pICP; the match if exactly one distinct pose is accepted. */
+  std::vector<double>
+  searchPair(std::uint32_t i,
+             std::size_t j,
+             const Cloud::ConstPtr& sample,
+             const Cloud::ConstPtr& target,
+             const Pose& guess);
+  /** loopPath between scans i and j at the current poses, a loop link as long as the
+   *  drift that misplaces a scan by pLUM's first gate (lum_distance / max_drift). */
+  double
+  graphPath(std::size_t i, std::size_t j) const;
   /** Whether a match (matchPair's) of scan j to scan i is kept as a loop link: overlap,
    *  a correction the drift explains, (2D) no conflicts; `error`: the correction. */
   bool
@@ -248,6 +283,19 @@ private:
 std::vector<std::uint32_t>
 loopCandidates(
     const Poses& poses, std::size_t j, double distance, int min_separation, double range);
+
+/** How far the poses can have drifted between scans i and j: the shortest path between
+ *  them through the graph, a step between consecutive scans as long as the motion
+ *  (registration::motionDisplacement at `range`), a loop link `link_length`. A loop
+ *  closed since puts two scans nearer than the path the scanner took between them.
+ *  Throws std::out_of_range for a scan beyond the poses. */
+double
+loopPath(const Poses& poses,
+         const std::vector<Link>& links,
+         std::size_t i,
+         std::size_t j,
+         double range,
+         double link_length);
 
 /** How well a map agrees with itself where the scanner came back: each scan j paired with
  *  its nearest loopCandidates scan i (as loop closing seeks them, at the poses given),

@@ -104,8 +104,10 @@ struct LoopClosureParameters {
   int icp_iterations = 0;        ///< loop pICP; auto the matcher's, at least 50
   double icp_epsilon = 0.0;      ///< loop pICP stop; auto the matcher's
   /** A loop's error must be explainable by the front end's drift: at most this fraction of
-   *  the path between the scans (translation plus rotation times r), or 2 overlap
-   *  distances; a larger correction is a false match and is rejected. */
+   *  the path between the scans through the graph (translation plus rotation times r; a
+   *  loop closed since shortens it, slam::loopPath), or 2 overlap distances; a larger
+   *  correction is a false match and is rejected. 2D scans search a window this wide
+   *  (at most the loop distance) where pICP from the poses falls short. */
   double max_drift = 0.05;
   /** [-L] ELCH: a loop's error larger than overlap_distance is spread along it before
    *  pLUM. */
