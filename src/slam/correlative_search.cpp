@@ -252,6 +252,15 @@ thin(std::vector<Eigen::Vector3d>& points, std::size_t max_points)
   points.swap(every);
 }
 
+/** Whether the points' heights span less than a cell. */
+bool
+isFlat(const std::vector<Eigen::Vector3d>& points, double cell)
+{
+  const auto [low, high] = std::minmax_element(
+      points.begin(), points.end(), [](const auto& a, const auto& b) { return a.z() < b.z(); });
+  return points.empty() || high->z() - low->z() < cell;
+}
+
 /** The coarse headings searched, in steps of 2 pi / headings: the whole circle, or those
  *  within max_turn (> 0) either side of zero. */
 std::vector<double>
@@ -310,14 +319,15 @@ coarsePeaks(const std::vector<Eigen::Vector3d>& points,
   return distinctPeaks(std::move(peaks), coarse_cell, step, kCoarsePeaks);
 }
 
-/** Fine: around each coarse peak, heights too, by direct lookup; `step` the coarse
- *  headings' spacing. */
+/** Fine: around each coarse peak, `heights` cells up and down too, by direct lookup;
+ *  `step` the coarse headings' spacing. */
 std::vector<Peak>
 finePeaks(const std::vector<Eigen::Vector3d>& points,
           const LikelihoodField& fine,
           const std::vector<Peak>& peaks,
           double cell,
           double step,
+          int heights,
           unsigned threads)
 {
   std::vector<Peak> refined(peaks.size());
@@ -330,7 +340,7 @@ finePeaks(const std::vector<Eigen::Vector3d>& points,
         const std::vector<Eigen::Vector3d> turned_points = turned(points, heading);
         for (int a = -kFineCells; a <= kFineCells; ++a)
           for (int b = -kFineCells; b <= kFineCells; ++b)
-            for (int c = -kFineCells; c <= kFineCells; ++c) {
+            for (int c = -heights; c <= heights; ++c) {
               const Eigen::Vector3d t = centre + Eigen::Vector3d(a, b, c) * cell;
               const int s = score(turned_points, fine, t);
               if (s > best.score)
@@ -398,10 +408,14 @@ correlativeSearch(const Cloud& source,
                                               step,
                                               threads);
   std::vector<Pose> out;
-  for (const Peak& p : distinctPeaks(finePeaks(points, fine, peaks, params.cell, step, threads),
-                                     2.0 * params.cell,
-                                     step / 2.0,
-                                     params.candidates))
+  // Two flat scans (a 2D scanner's) are not moved up or down: only their own layer scores.
+  const int heights =
+      isFlat(points, params.cell) && isFlat(target_points, params.cell) ? 0 : kFineCells;
+  for (const Peak& p :
+       distinctPeaks(finePeaks(points, fine, peaks, params.cell, step, heights, threads),
+                     2.0 * params.cell,
+                     step / 2.0,
+                     params.candidates))
     out.push_back(toPose(p, frame));
   return out;
 }
