@@ -248,8 +248,10 @@ LoopCloser::matchPair(std::uint32_t i, std::size_t j, bool if_conflicting, bool 
         filters::voxelCentroid(*scans_[j], source_voxel_size_, num_threads_);
     result = alignPair(i, j, sample, target, guess);
     double error = 0.0;
-    if (search && planar_ && !accepts(i, j, result, error))
+    if (search && planar_ && !accepts(i, j, result, error)) {
       result = searchPair(i, j, sample, target, guess);
+      result[19] = result[0];
+    }
   }
   if (exchange_)
     exchange_->broadcast(owner(j), result);
@@ -363,6 +365,7 @@ LoopCloser::detect()
     measured = Pose::Map(&match[1]);
     c.overlap = match[17];
     c.accepted = accepts(i, j, match, c.error);
+    c.searched = match[19] != 0.0;
   }
   if (c.accepted) {
     c.distributed = params_.distribute_error && c.error > params_.overlap_distance;

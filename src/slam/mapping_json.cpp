@@ -63,7 +63,8 @@ scanJson(const ScanReport& rep, const io::ScanDirectory& scans, std::size_t i)
     tried.push_back({{"target", c.link.target},
                      {"overlap", c.overlap},
                      {"error", c.error},
-                     {"accepted", c.accepted}});
+                     {"accepted", c.accepted},
+                     {"searched", c.searched}});
   json s = {{"index", i},
             {"number", scans.numbers.at(i)},
             {"stamp", scans.stamps.at(i)},

@@ -43,6 +43,8 @@ struct LoopCandidate {
    *  the rotation's displacement at the scans' median range (KISS-ICP's model error). */
   double error = 0.0;
   bool distributed = false; ///< the error was spread along the loop (the poses moved)
+  /** 2D: the match came from the window search (pICP from the poses fell short). */
+  bool searched = false;
 };
 
 /** A reduced scan as the loop closer keeps it: points (scanner frame) and their normals
@@ -201,16 +203,16 @@ private:
   std::vector<double>
   firstLook(const std::vector<std::uint32_t>& candidates);
   /** pICP of scan j (default: the newest) against scan i where j is kept: converged
-   *  (0/1), the measured pose of j in i's frame (16), the overlap and (2D) the conflicts,
-   *  on every process. `if_conflicting`: only where the pair conflicts at the current
-   *  poses (else not converged). */
+   *  (0/1), the measured pose of j in i's frame (16), the overlap, (2D) the conflicts and
+   *  whether it was searched (0/1), on every process. `if_conflicting`: only where the pair
+   * conflicts at the current poses (else not converged). */
   std::vector<double>
   matchPair(std::uint32_t i,
             std::size_t j = kNewest,
             bool if_conflicting = false,
             bool search = false);
   static constexpr std::size_t kNewest = ~std::size_t{0};
-  static constexpr std::size_t kMatchSize = 19;
+  static constexpr std::size_t kMatchSize = 20;
   /** pICP of `sample` (of scan j) against scan i's `target` from `start`: matchPair's
    *  result, here. */
   std::vector<double>
