@@ -372,10 +372,10 @@ correlativeSearch(const Cloud& source,
                   const Eigen::Vector3d& up,
                   const CorrelativeSearchParameters& params)
 {
-  const auto finite = [](double x) { return x >= 0.0 && std::isfinite(x); };
+  const auto non_negative = [](double x) { return x >= 0.0 && std::isfinite(x); };
   if (!(params.cell > 0.0) || !std::isfinite(params.cell) || params.headings < 1 ||
-      !finite(params.radius) || !finite(params.max_turn) || !finite(params.reach) ||
-      params.max_points < 1 || !(up.norm() > 0.0))
+      !non_negative(params.radius) || !non_negative(params.max_turn) ||
+      !non_negative(params.reach) || params.max_points < 1 || !(up.norm() > 0.0))
     throw std::invalid_argument("correlativeSearch: cell > 0, radius, max_turn and reach "
                                 ">= 0, headings >= 1, max_points >= 1 and a non-zero up "
                                 "axis needed");

@@ -227,7 +227,7 @@ LoopCloser::firstLook(const std::vector<std::uint32_t>& candidates)
 }
 
 std::vector<double>
-LoopCloser::matchPair(std::uint32_t i, std::size_t j, bool if_conflicting, bool search)
+LoopCloser::matchPair(std::uint32_t i, std::size_t j, bool if_conflicting, double search_within)
 {
   if (j == kNewest)
     j = scans_.size() - 1;
@@ -248,10 +248,8 @@ LoopCloser::matchPair(std::uint32_t i, std::size_t j, bool if_conflicting, bool 
         filters::voxelCentroid(*scans_[j], source_voxel_size_, num_threads_);
     result = alignPair(i, j, sample, target, guess);
     double error = 0.0;
-    if (search && planar_ && !accepts(i, j, result, error)) {
-      result = searchPair(i, j, sample, target, guess);
-      result[19] = result[0];
-    }
+    if (search_within > 0.0 && !accepts(i, j, result, search_within, error))
+      result = searchPair(i, j, sample, target, guess, search_within);
   }
   if (exchange_)
     exchange_->broadcast(owner(j), result);
@@ -287,11 +285,12 @@ LoopCloser::searchPair(std::uint32_t i,
                        std::size_t j,
                        const Cloud::ConstPtr& sample,
                        const Cloud::ConstPtr& target,
-                       const Pose& guess)
+                       const Pose& guess,
+                       double allowed)
 {
   std::vector<double> none(kMatchSize, 0.0);
   // The window: the correction accepts() allows, at most a loop's distance.
-  const double window = std::min(params_.distance, params_.max_drift * graphPath(i, j));
+  const double window = std::min(params_.distance, allowed);
   if (!(window > 2.0 * params_.overlap_distance))
     return none;
   CorrelativeSearchParameters search;
@@ -308,7 +307,7 @@ LoopCloser::searchPair(std::uint32_t i,
   for (const Pose& found : correlativeSearch(*sample, moved, up_, search)) {
     std::vector<double> match = alignPair(i, j, sample, target, Pose(guess * found));
     double error = 0.0;
-    if (!accepts(i, j, match, error))
+    if (!accepts(i, j, match, allowed, error))
       continue;
     const Pose measured = Pose::Map(&match[1]);
     const bool known = std::any_of(accepted.begin(), accepted.end(), [&](const auto& a) {
@@ -319,7 +318,10 @@ LoopCloser::searchPair(std::uint32_t i,
       accepted.push_back(std::move(match));
   }
   // Two distinct poses that both fit (a corridor's repeats): neither is trusted.
-  return accepted.size() == 1 ? accepted.front() : none;
+  if (accepted.size() != 1)
+    return none;
+  accepted.front()[19] = 1.0; // searched
+  return accepted.front();
 }
 
 std::vector<LoopCandidate>
@@ -359,12 +361,13 @@ LoopCloser::detect()
     c.link.target = best_i;
   }
   const std::uint32_t i = best_i;
-  const std::vector<double> match = matchPair(i, kNewest, false, planar_);
+  const double allowed = allowedCorrection(i, j);
+  const std::vector<double> match = matchPair(i, kNewest, false, planar_ ? allowed : 0.0);
   Pose measured = Pose::Identity();
   if (match[0] != 0.0) {
     measured = Pose::Map(&match[1]);
     c.overlap = match[17];
-    c.accepted = accepts(i, j, match, c.error);
+    c.accepted = accepts(i, j, match, allowed, c.error);
     c.searched = match[19] != 0.0;
   }
   if (c.accepted) {
@@ -386,6 +389,7 @@ bool
 LoopCloser::accepts(std::uint32_t i,
                     std::size_t j,
                     const std::vector<double>& match,
+                    double allowed,
                     double& error) const
 {
   if (match[0] == 0.0)
@@ -393,21 +397,19 @@ LoopCloser::accepts(std::uint32_t i,
   const Pose measured = Pose::Map(&match[1]);
   error = registration::motionDisplacement((poses_[i] * measured).inverse() * poses_[j],
                                            median_range_);
-  return match[17] >= params_.min_overlap &&
-         error <=
-             std::max(2.0 * params_.overlap_distance, params_.max_drift * graphPath(i, j)) &&
-         match[18] <= kMaxLoopConflicts;
+  return match[17] >= params_.min_overlap && error <= allowed && match[18] <= kMaxLoopConflicts;
 }
 
 double
-LoopCloser::graphPath(std::size_t i, std::size_t j) const
+LoopCloser::allowedCorrection(std::size_t i, std::size_t j) const
 {
-  return loopPath(poses_,
-                  links_,
-                  i,
-                  j,
-                  median_range_,
-                  params_.lum_distance / std::max(params_.max_drift, 1e-9));
+  const double path = loopPath(poses_,
+                               links_,
+                               i,
+                               j,
+                               median_range_,
+                               params_.lum_distance / std::max(params_.max_drift, 1e-9));
+  return std::max(2.0 * params_.overlap_distance, params_.max_drift * path);
 }
 
 std::size_t
@@ -424,8 +426,9 @@ LoopCloser::linkRevisits()
     if (near.empty() || linked.count({near.front(), static_cast<std::uint32_t>(j)}))
       continue;
     const std::uint32_t i = near.front();
+    const double allowed = allowedCorrection(i, j);
     double error = 0.0;
-    if (!accepts(i, j, matchPair(i, j, true, planar_), error)) {
+    if (!accepts(i, j, matchPair(i, j, true, planar_ ? allowed : 0.0), allowed, error)) {
       release(i);
       continue;
     }

@@ -205,12 +205,13 @@ private:
   /** pICP of scan j (default: the newest) against scan i where j is kept: converged
    *  (0/1), the measured pose of j in i's frame (16), the overlap, (2D) the conflicts and
    *  whether it was searched (0/1), on every process. `if_conflicting`: only where the pair
-   * conflicts at the current poses (else not converged). */
+   *  conflicts at the current poses (else not converged). `search_within` > 0 (2D, the
+   *  pair's allowedCorrection): where pICP from the poses is not accepted, searchPair. */
   std::vector<double>
   matchPair(std::uint32_t i,
             std::size_t j = kNewest,
             bool if_conflicting = false,
-            bool search = false);
+            double search_within = 0.0);
   static constexpr std::size_t kNewest = ~std::size_t{0};
   static constexpr std::size_t kMatchSize = 20;
   /** pICP of `sample` (of scan j) against scan i's `target` from `start`: matchPair's
@@ -221,25 +222,30 @@ private:
             const Cloud::ConstPtr& sample,
             const Cloud::ConstPtr& target,
             const Pose& start);
-  /** 2D, where pICP from the poses' `guess` is not accepted: a correlative search about
-   *  it (window: the correction accepts() allows, at most the loop distance), each
-   *  candidate matched by pICP; the match if exactly one distinct pose is accepted. */
+  /** A correlative search about the poses' `guess` (window: the `allowed` correction, at
+   *  most the loop distance), each candidate matched by pICP; the match if exactly one
+   *  distinct pose is accepted. */
   std::vector<double>
   searchPair(std::uint32_t i,
              std::size_t j,
              const Cloud::ConstPtr& sample,
              const Cloud::ConstPtr& target,
-             const Pose& guess);
-  /** loopPath between scans i and j at the current poses, a loop link as long as the
-   *  drift that misplaces a scan by pLUM's first gate (lum_distance / max_drift). */
+             const Pose& guess,
+             double allowed);
+  /** The largest correction of a loop between scans i and j that drift explains, at the
+   *  current poses and links: max_drift times their loopPath (a loop link as long as the
+   *  drift that misplaces a scan by pLUM's first gate, lum_distance / max_drift), at
+   *  least 2 overlap distances. One per pair: a search's candidates share it. */
   double
-  graphPath(std::size_t i, std::size_t j) const;
+  allowedCorrection(std::size_t i, std::size_t j) const;
   /** Whether a match (matchPair's) of scan j to scan i is kept as a loop link: overlap,
-   *  a correction the drift explains, (2D) no conflicts; `error`: the correction. */
+   *  a correction within `allowed` (allowedCorrection), (2D) no conflicts; `error`: the
+   *  correction. */
   bool
   accepts(std::uint32_t i,
           std::size_t j,
           const std::vector<double>& match,
+          double allowed,
           double& error) const;
   /** Puts a kept scan's points, normals and tree into pLUM's vertex v. */
   void
